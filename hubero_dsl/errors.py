@@ -1,0 +1,58 @@
+"""The one exception tree of hubero.
+
+Every error a user can cause is a `HuberoError`. The CLI maps them to exit statuses:
+`InputError` (unreadable files, bad maps, usage) -> 2, `CompileError` (a scenario that does not
+check) -> 1. Anything else escaping the library is a bug.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from hubero_dsl.diagnostics import Diagnostic, Span
+
+
+class HuberoError(Exception):
+    """Base of every error hubero raises on purpose."""
+
+    exit_status = 2
+
+    def __init__(self, message: str, span: Span | None = None, hint: str | None = None) -> None:
+        super().__init__(message)
+        self.message = message
+        self.span = span
+        self.hint = hint
+
+    def __str__(self) -> str:
+        where = f"{self.span}: " if self.span else ""
+        return f"{where}{self.message}"
+
+
+class InputError(HuberoError):
+    """Input that cannot be read at all: a missing file, bad bytes, a directory, a usage error."""
+
+
+class MapError(InputError):
+    """A map that cannot be loaded: missing or unreadable YAML or image, bad fields."""
+
+
+class CompileError(HuberoError):
+    """A scenario with errors; carries every diagnostic found, not just the first."""
+
+    exit_status = 1
+
+    def __init__(self, diagnostics: Sequence[Diagnostic]) -> None:
+        self.diagnostics = tuple(diagnostics)
+        first = next((d for d in self.diagnostics if d.is_error), None)
+        super().__init__(first.message if first else "scenario has errors",
+                         first.span if first else None)
+
+
+class SimulationError(HuberoError):
+    """A run that cannot go on: an impossible request made through the Python API."""
+
+    exit_status = 1
+
+
+class LogError(InputError):
+    """A log file that cannot be written or read back."""

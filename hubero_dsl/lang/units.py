@@ -1,0 +1,50 @@
+"""Units and dimensions of the language. Every quantity is stored in SI: m, s, m/s, rad."""
+
+from __future__ import annotations
+
+import math
+from enum import StrEnum
+
+
+class Dimension(StrEnum):
+    LENGTH = "length"
+    TIME = "time"
+    SPEED = "speed"
+    ANGLE = "angle"
+    NUMBER = "number"
+
+
+# unit -> (dimension, factor to SI)
+UNITS: dict[str, tuple[Dimension, float]] = {
+    "m": (Dimension.LENGTH, 1.0),
+    "cm": (Dimension.LENGTH, 0.01),
+    "mm": (Dimension.LENGTH, 0.001),
+    "s": (Dimension.TIME, 1.0),
+    "ms": (Dimension.TIME, 0.001),
+    "min": (Dimension.TIME, 60.0),
+    "m/s": (Dimension.SPEED, 1.0),
+    "km/h": (Dimension.SPEED, 1000.0 / 3600.0),
+    "deg": (Dimension.ANGLE, math.pi / 180.0),
+    "rad": (Dimension.ANGLE, 1.0),
+}
+
+# How each dimension reads in a message, with a unit to suggest.
+EXAMPLE_UNIT: dict[Dimension, str] = {
+    Dimension.LENGTH: "m",
+    Dimension.TIME: "s",
+    Dimension.SPEED: "m/s",
+    Dimension.ANGLE: "deg",
+    Dimension.NUMBER: "",
+}
+
+
+def units_of(dimension: Dimension) -> list[str]:
+    return [unit for unit, (dim, _) in UNITS.items() if dim is dimension]
+
+
+def describe(dimension: Dimension) -> str:
+    """'a length (m, cm, mm)' — for messages that say what was expected."""
+    if dimension is Dimension.NUMBER:
+        return "a plain number"
+    article = "an" if dimension is Dimension.ANGLE else "a"
+    return f"{article} {dimension.value} ({', '.join(units_of(dimension))})"

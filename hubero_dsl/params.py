@@ -1,0 +1,65 @@
+"""The human parameters of the language: their names, dimensions, defaults and valid ranges.
+
+This table is shared by the checker (which validates what a scenario writes) and by the engine
+(which resolves the values a run uses). Planner-specific parameters (`social_force.A`) are
+declared by each planner's own pydantic model, not here.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import StrEnum
+
+from hubero_dsl.lang.units import Dimension
+from hubero_dsl.world.shapes import Circle, Shape
+
+
+class ParamKind(StrEnum):
+    QUANTITY = "quantity"   # a number with a unit (or a distribution of them)
+    SHAPE = "shape"         # a personal-space shape
+    PLANNER = "planner"     # the name of a registered planner
+
+
+@dataclass(frozen=True, slots=True)
+class ParamSpec:
+    name: str
+    kind: ParamKind
+    doc: str
+    dimension: Dimension = Dimension.NUMBER
+    default: float | str | Shape = 0.0
+    positive: bool = True          # must be > 0 (quantities)
+    maximum: float = math.inf      # inclusive upper bound, SI
+
+
+def _q(name: str, dim: Dimension, default: float, doc: str, *, maximum: float = math.inf,
+       positive: bool = True) -> ParamSpec:
+    return ParamSpec(name, ParamKind.QUANTITY, doc, dim, default, positive, maximum)
+
+
+HUMAN_PARAMS: dict[str, ParamSpec] = {spec.name: spec for spec in (
+    _q("speed", Dimension.SPEED, 1.29, "desired walking speed (Moussaid et al. 2009)"),
+    _q("max_speed", Dimension.SPEED, 1.8, "speed never exceeded while walking"),
+    _q("run_speed", Dimension.SPEED, 3.0, "desired speed of run_to"),
+    _q("radius", Dimension.LENGTH, 0.2, "body radius: the part that collides", maximum=2.0),
+    ParamSpec("personal_space", ParamKind.SHAPE, "personal-space shape, aligned with the heading",
+              default=Circle(0.5)),
+    _q("relaxation_time", Dimension.TIME, 0.54, "how fast velocity adapts (Helbing 1995)"),
+    _q("goal_tolerance", Dimension.LENGTH, 0.2, "how close counts as arrived"),
+    _q("goal_strength", Dimension.NUMBER, 1.0, "motivation to reach the goal (gain)"),
+    _q("avoidance_strength", Dimension.NUMBER, 1.0, "desire to avoid other people (gain)",
+       positive=False),
+    _q("obstacle_strength", Dimension.NUMBER, 1.0, "repulsion from walls and furniture (gain)",
+       positive=False),
+    _q("interaction_range", Dimension.LENGTH, 3.0, "people further away are ignored"),
+    _q("field_of_view", Dimension.ANGLE, math.radians(200.0), "angle people are seen within",
+       maximum=2 * math.pi),
+    _q("follow_replan", Dimension.TIME, 1.0, "how often follow re-plans its path"),
+    ParamSpec("global_planner", ParamKind.PLANNER, "global planner plugin", default="navfn"),
+    ParamSpec("local_planner", ParamKind.PLANNER, "local planner plugin", default="social_force"),
+)}
+
+ROBOT_PARAMS: dict[str, ParamSpec] = {spec.name: spec for spec in (
+    _q("radius", Dimension.LENGTH, 0.3, "robot body radius", maximum=5.0),
+    _q("speed", Dimension.SPEED, 0.5, "speed along the scripted path"),
+)}
