@@ -10,13 +10,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cache
-from importlib.metadata import entry_points
+from importlib.metadata import EntryPoint, entry_points
 from typing import TYPE_CHECKING, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 import numpy.typing as npt
 from pydantic import BaseModel, ConfigDict
 
+from hubero_dsl.errors import InputError
 from hubero_dsl.world.shapes import ShapeArrays
 
 if TYPE_CHECKING:
@@ -128,24 +129,43 @@ class LocalPlanner(Protocol):
 
 
 @cache
-def _registry(group: str) -> dict[str, type]:
-    found: dict[str, type] = {}
-    for entry in sorted(entry_points(group=group), key=lambda e: e.name):
-        found[entry.name] = entry.load()
-    return found
+def _entry_points(group: str) -> dict[str, EntryPoint]:
+    return {entry.name: entry for entry in sorted(entry_points(group=group), key=lambda e: e.name)}
 
 
-def global_planners() -> dict[str, type[GlobalPlanner]]:
-    """Every installed global planner by name."""
-    return dict(_registry(GLOBAL_GROUP))
+@cache
+def _load(group: str, name: str) -> type:
+    try:
+        loaded = _entry_points(group)[name].load()
+    except Exception as exc:  # a broken third-party plugin must not take hubero down
+        raise InputError(f"planner plugin '{name}' cannot be loaded: {exc}") from None
+    if not isinstance(loaded, type):
+        raise InputError(f"planner plugin '{name}' is not a class")
+    return loaded
 
 
-def local_planners() -> dict[str, type[LocalPlanner]]:
-    """Every installed local planner by name."""
-    return dict(_registry(LOCAL_GROUP))
+def global_planner_names() -> list[str]:
+    """Installed global planners, without importing them."""
+    return sorted(_entry_points(GLOBAL_GROUP))
+
+
+def local_planner_names() -> list[str]:
+    """Installed local planners, without importing them."""
+    return sorted(_entry_points(LOCAL_GROUP))
+
+
+def global_planner(name: str) -> type[GlobalPlanner]:
+    return _load(GLOBAL_GROUP, name)
+
+
+def local_planner(name: str) -> type[LocalPlanner]:
+    return _load(LOCAL_GROUP, name)
 
 
 def planner_params(name: str) -> type[PlannerParams] | None:
     """The parameter model of a planner of either kind, or None when no such planner exists."""
-    planner = global_planners().get(name) or local_planners().get(name)
-    return planner.Params if planner is not None else None
+    if name in _entry_points(GLOBAL_GROUP):
+        return global_planner(name).Params
+    if name in _entry_points(LOCAL_GROUP):
+        return local_planner(name).Params
+    return None

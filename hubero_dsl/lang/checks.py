@@ -1,0 +1,504 @@
+"""Semantic checks over the AST: structure, names, parameters, tasks and conditions.
+
+`Checker.run()` walks a parsed module once, collecting every diagnostic (never stopping at the
+first) and the resolved facts the program is built from. Checks that need the map live in
+`placement.py`; checks that need the activity graph live in `hubero_dsl.graph.analysis`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from hubero_dsl.diagnostics import Diagnostic, Related, Span, error, warning
+from hubero_dsl.lang import ast
+from hubero_dsl.lang.program import (
+    Distribution,
+    ParamLayer,
+    ParamValue,
+    Pose,
+    RobotSpec,
+    area_polygon,
+    coordinate,
+)
+from hubero_dsl.lang.symbols import NameKind, SymbolTable
+from hubero_dsl.lang.units import Dimension
+from hubero_dsl.lang.values import ValueReader, did_you_mean
+from hubero_dsl.params import HUMAN_PARAMS, ROBOT_PARAMS
+from hubero_dsl.planners.base import global_planner_names, local_planner_names
+
+BODIES = (NameKind.HUMAN, NameKind.ROBOT)
+TARGETS = (NameKind.PLACE, NameKind.HUMAN, NameKind.ROBOT)
+
+# task kind -> {option keyword: what its value is}
+TASK_OPTIONS: dict[str, dict[str, str]] = {
+    "stand": {"facing": "target", "for": "time"},
+    "move_to": {"heading": "angle", "speed": "speed"},
+    "run_to": {"heading": "angle"},
+    "move_around": {"in": "area", "for": "time", "times": "count"},
+    "follow": {"at": "length", "for": "time"},
+    "talk": {"to": "target", "for": "time"},
+    "sit_down": {"at": "target", "for": "time", "heading": "angle"},
+    "lie_down": {"at": "target", "for": "time", "heading": "angle"},
+    "teleop": {"for": "time"},
+}
+NEEDS_TARGET = {"move_to", "run_to", "follow"}
+
+
+@dataclass
+class Facts:
+    """What the checker resolved, for building the program."""
+
+    title: str = ""
+    map: ast.String | None = None
+    settings: dict[str, object] = field(default_factory=dict)
+    places: dict[str, Pose] = field(default_factory=dict)
+    defaults: ParamLayer = field(default_factory=ParamLayer)
+    human_layers: dict[str, ParamLayer] = field(default_factory=dict)
+    human_starts: dict[str, Pose] = field(default_factory=dict)
+    robots: list[RobotSpec] = field(default_factory=list)
+    variants: list[tuple[str, ParamLayer]] = field(default_factory=list)
+    sweeps: list[tuple[str, list[tuple[str, ParamLayer]]]] = field(default_factory=list)
+    # every fixed point written in the file, with what it is, for the map checks
+    positions: list[tuple[str, tuple[float, float], Span]] = field(default_factory=list)
+
+
+class Checker:
+    def __init__(self, module: ast.Module) -> None:
+        self.module = module
+        self.diagnostics: list[Diagnostic] = []
+        self.values = ValueReader(self.diagnostics)
+        self.symbols = SymbolTable(self.diagnostics)
+        self.facts = Facts()
+        self.planners = sorted(set(global_planner_names()) | set(local_planner_names()))
+
+    def report(self, code: str, message: str, span: Span | None, hint: str | None = None,
+               related: tuple[Related, ...] = ()) -> None:
+        self.diagnostics.append(error(code, message, span, hint, related))
+
+    def run(self) -> Facts:
+        self._structure()
+        self._define_names()
+        for statement in self.module.statements:
+            self._statement(statement)
+        self._unused()
+        return self.facts
+
+    # ---- structure and names ---------------------------------------------------------------
+
+    def _structure(self) -> None:
+        statements = self.module.statements
+        path = self.module.source.path
+        if not statements:
+            self.report("E404", "the file is empty", Span.whole_file(path),
+                        'a scenario starts with `scenario "TITLE"` and names a `map "FILE.yaml"`')
+            return
+        if not isinstance(statements[0], ast.ScenarioDecl):
+            self.report("E404", 'a scenario file must start with `scenario "TITLE"`',
+                        statements[0].span)
+        seen: dict[str, Span] = {}
+        for statement in statements:
+            keyword = _singleton_keyword(statement)
+            if keyword is None:
+                continue
+            if keyword in seen:
+                self.report("E102", f"'{keyword}' is given twice", statement.span, None,
+                            (Related("first given here", seen[keyword]),))
+            seen.setdefault(keyword, statement.span)
+        if "map" not in seen:
+            self.report("E404", "the scenario names no map", statements[0].span,
+                        'add `map "maps/NAME.yaml"` (a ROS map_server YAML file)')
+
+    def _define_names(self) -> None:
+        kinds = {ast.PlaceDecl: NameKind.PLACE, ast.AreaDecl: NameKind.AREA,
+                 ast.HumanDecl: NameKind.HUMAN, ast.RobotDecl: NameKind.ROBOT,
+                 ast.VariantDecl: NameKind.VARIANT}
+        for statement in self.module.statements:
+            kind = kinds.get(type(statement))
+            if kind is not None:
+                self.symbols.define(statement.name, kind)  # type: ignore[union-attr]
+            elif isinstance(statement, ast.ActivityDecl):
+                if statement.name is not None:
+                    self.symbols.define(statement.name, NameKind.ACTIVITY)
+                for step in ast.walk_steps(statement.steps):
+                    if step.label is not None:
+                        self.symbols.define(step.label, NameKind.LABEL)
+
+    def _unused(self) -> None:
+        for symbol in self.symbols.symbols.values():
+            if symbol.kind in (NameKind.PLACE, NameKind.AREA) and symbol.name not in self.symbols.used:
+                self.diagnostics.append(warning(
+                    "W501", f"{symbol.kind.value} '{symbol.name}' is never used", symbol.span,
+                    "remove it, or use it in a task or condition"))
+
+    # ---- statements ------------------------------------------------------------------------
+
+    def _statement(self, statement: ast.Statement) -> None:  # noqa: PLR0912 - a dispatch table
+        match statement:
+            case ast.ScenarioDecl(title=title):
+                self.facts.title = title.value
+            case ast.MapDecl(path=path):
+                self.facts.map = path
+            case ast.SettingDecl():
+                self._setting(statement)
+            case ast.PlaceDecl():
+                self._place(statement)
+            case ast.AreaDecl(area=area):
+                self._area(area, f"area '{statement.name.name}'")
+            case ast.DefaultsDecl(params=params):
+                self.facts.defaults = self._layer(params, per_human_allowed=False)
+            case ast.HumanDecl():
+                self._human(statement)
+            case ast.RobotDecl():
+                self._robot(statement)
+            case ast.VariantDecl(name=name, params=params):
+                self.facts.variants.append((name.name, self._layer(params,
+                                                                   per_human_allowed=True)))
+            case ast.SweepDecl():
+                self._sweep(statement)
+            case ast.ActivityDecl(steps=steps):
+                for step in ast.walk_steps(steps):
+                    self._step(step)
+            case ast.ExpectDecl():
+                self._condition(statement.condition)
+                if statement.deadline is not None:
+                    self.values.quantity(statement.deadline, Dimension.TIME, "'within'",
+                                         positive=True)
+
+    def _setting(self, setting: ast.SettingDecl) -> None:
+        keyword, value = setting.keyword, setting.value
+        settings = self.facts.settings
+        if keyword == "seed":
+            assert isinstance(value, ast.Number)
+            settings["seed"] = self.values.integer(value, "the seed")
+        elif keyword in ("step", "time_limit"):
+            what = "the time step" if keyword == "step" else "the time limit"
+            settings[keyword] = self.values.quantity(
+                value, Dimension.TIME, what, positive=True,
+                maximum=1.0 if keyword == "step" else math.inf)  # type: ignore[arg-type]
+        elif keyword == "on_failure":
+            assert isinstance(value, ast.NameRef)
+            if value.name not in ("stop", "continue"):
+                self.report("E201", f"on_failure is `stop` or `continue`, not '{value.name}'",
+                            value.span, did_you_mean(value.name, ("stop", "continue")))
+            settings["on_failure"] = value.name
+        elif keyword == "bounds":
+            assert not isinstance(value, ast.Number | ast.Quantity | ast.String)
+            settings["bounds"] = self._area(value, "the bounds")  # type: ignore[arg-type]
+
+    def _place(self, place: ast.PlaceDecl) -> None:
+        xy = self._fixed_point(place.point, f"place '{place.name.name}'")
+        heading = self._heading(place.heading)
+        if xy is not None:
+            self.facts.places[place.name.name] = Pose(xy[0], xy[1], heading)
+
+    def _human(self, human: ast.HumanDecl) -> None:
+        xy = self._fixed_point(human.start, f"the start of '{human.name.name}'")
+        heading = self._heading(human.heading)
+        self.facts.human_starts[human.name.name] = Pose(*(xy or (0.0, 0.0)), heading or 0.0)
+        self.facts.human_layers[human.name.name] = self._layer(human.params,
+                                                               per_human_allowed=False)
+
+    def _robot(self, robot: ast.RobotDecl) -> None:
+        name = robot.name.name
+        start = self._fixed_point(robot.start, f"the start of robot '{name}'") or (0.0, 0.0)
+        heading = self._heading(robot.heading) or 0.0
+        values: dict[str, float] = {n: float(s.default) for n, s in ROBOT_PARAMS.items()
+                                    if isinstance(s.default, float)}
+        for param in self._unique_params(robot.params):
+            spec = ROBOT_PARAMS.get(param.dotted)
+            if spec is None:
+                self.report("E105", f"robots have no parameter '{param.dotted}'", param.name_span,
+                            did_you_mean(param.dotted, [*ROBOT_PARAMS, "path", "controller"]))
+                continue
+            number = self.values.quantity(param.value, spec.dimension, f"'{spec.name}'",
+                                          positive=True, maximum=spec.maximum)
+            if number is not None:
+                values[spec.name] = number
+        for extra in robot.extra_items:
+            self.report("E106", "a robot has one path and one controller", extra.span)
+        if robot.path is not None and robot.controller is not None:
+            self.report("E106", "a robot follows a `path` or a `controller`, not both",
+                        robot.controller.span)
+        path = tuple(self._fixed_point(p, f"the path of robot '{name}'") or start
+                     for p in (robot.path.waypoints if robot.path else ()))
+        controller = robot.controller.target.value if robot.controller else None
+        if controller is not None and ":" not in controller:
+            self.report("E201", f"controller \"{controller}\" is not of the form \"module:Class\"",
+                        robot.controller.span if robot.controller else robot.span)
+        self.facts.robots.append(RobotSpec(
+            name, Pose(start[0], start[1], heading), values["radius"], values["speed"], path,
+            bool(robot.path and robot.path.loop), controller, robot.span))
+
+    def _sweep(self, sweep: ast.SweepDecl) -> None:
+        options: list[tuple[str, ParamLayer]] = []
+        for value in sweep.values:
+            param = ast.Param(sweep.param.path, value, value.span, sweep.param.name_span)
+            layer = self._layer((param,), per_human_allowed=True)
+            text = self.module.source.text
+            options.append((f"{param.dotted}={_source_text(text, value.span)}", layer))
+        names = [name for name, _ in options]
+        for index, name in enumerate(names):
+            if name in names[:index]:
+                self.report("E102", f"the sweep lists '{name}' twice", sweep.values[index].span)
+        self.facts.sweeps.append((sweep.param.dotted, options))
+
+    # ---- parameters ------------------------------------------------------------------------
+
+    def _unique_params(self, params: tuple[ast.Param, ...]) -> list[ast.Param]:
+        seen: dict[str, ast.Param] = {}
+        for param in params:
+            if param.dotted in seen:
+                self.report("E106", f"'{param.dotted}' is set twice in one block", param.name_span,
+                            None, (Related("first set here", seen[param.dotted].name_span),))
+            else:
+                seen[param.dotted] = param
+        return list(seen.values())
+
+    def _layer(self, params: tuple[ast.Param, ...], *, per_human_allowed: bool) -> ParamLayer:
+        values: dict[str, ParamValue] = {}
+        per_human: dict[str, dict[str, ParamValue]] = {}
+        for param in self._unique_params(params):
+            path = param.path
+            target = values
+            if len(path) > 1 and self.symbols.kind_of(path[0]) is NameKind.HUMAN:
+                if not per_human_allowed:
+                    self.report("E105", f"'{param.dotted}': per-human settings belong in a "
+                                "variant", param.name_span,
+                                f"set it in human {path[0]}'s own block as `{'.'.join(path[1:])}`")
+                    continue
+                self.symbols.used.add(path[0])
+                target = per_human.setdefault(path[0], {})
+                path = path[1:]
+            result = self._param(param, path)
+            if result is not None:
+                target[".".join(path)] = result
+        return ParamLayer(values, per_human)
+
+    def _param(self, param: ast.Param, path: tuple[str, ...]) -> ParamValue | None:
+        if len(path) == 1:
+            spec = HUMAN_PARAMS.get(path[0])
+            if spec is None:
+                hint = did_you_mean(path[0], HUMAN_PARAMS) or did_you_mean(
+                    path[0], self.symbols.names_of(NameKind.HUMAN))
+                self.report("E105", f"unknown parameter '{path[0]}'", param.name_span,
+                            hint or "parameters: " + ", ".join(sorted(HUMAN_PARAMS)))
+                return None
+            return self.values.param(spec, param.value, self.planners)
+        if len(path) == 2:
+            return self._planner_param(param, path[0], path[1])
+        self.report("E105", f"unknown parameter '{'.'.join(path)}'", param.name_span,
+                    "write PARAM, PLANNER.PARAM, or (in a variant) HUMAN.PARAM")
+        return None
+
+    def _planner_param(self, param: ast.Param, planner: str, name: str) -> ParamValue | None:
+        from hubero_dsl.errors import InputError
+        from hubero_dsl.planners.base import planner_params
+
+        try:
+            model = planner_params(planner)
+        except InputError as exc:
+            self.report("E105", exc.message, param.name_span)
+            return None
+        if model is None:
+            hint = did_you_mean(planner, [*self.planners, *self.symbols.names_of(NameKind.HUMAN)])
+            self.report("E105", f"'{planner}' is neither a planner nor a human", param.name_span,
+                        hint or "planners: " + ", ".join(self.planners))
+            return None
+        fields = {f.alias or n: n for n, f in model.model_fields.items()}
+        if name not in fields:
+            hint = did_you_mean(name, fields) or f"{planner} takes " + ", ".join(sorted(fields))
+            self.report("E105", f"planner '{planner}' has no parameter '{name}'",
+                        param.name_span, hint)
+            return None
+        value = param.value
+        number: float | None
+        if isinstance(value, ast.Quantity) and value.known_unit:
+            number = value.si
+        elif isinstance(value, ast.Number):
+            number = value.value
+        else:
+            self.report("E201", f"'{planner}.{name}' takes a number", value.span)
+            return None
+        return self._validate_planner_value(model, name, number, value.span)
+
+    def _validate_planner_value(self, model: type, name: str, number: float,
+                                span: Span) -> float | None:
+        from pydantic import ValidationError
+
+        try:
+            model.model_validate({name: number})  # type: ignore[attr-defined]
+        except ValidationError as exc:
+            problem = exc.errors()[0]
+            self.report("E203", f"{name}: {problem['msg'].lower()}", span)
+            return None
+        return number
+
+    # ---- places, points, areas -------------------------------------------------------------
+
+    def _heading(self, value: ast.Value | None) -> float | None:
+        if value is None:
+            return None
+        return self.values.quantity(value, Dimension.ANGLE, "a heading")
+
+    def _fixed_point(self, value: ast.PointValue, what: str) -> tuple[float, float] | None:
+        """A literal point or a place: checked, converted and remembered for the map checks."""
+        if isinstance(value, ast.NameRef):
+            symbol = self.symbols.resolve(value, NameKind.PLACE, role=what)
+            pose = self.facts.places.get(value.name) if symbol else None
+            return pose.xy if pose else None
+        x = self._coordinate(value.x)
+        y = self._coordinate(value.y)
+        if x is None or y is None:
+            return None
+        self.facts.positions.append((what, (x, y), value.span))
+        return (x, y)
+
+    def _coordinate(self, value: ast.Coordinate) -> float | None:
+        if isinstance(value, ast.Number):
+            return coordinate(value)
+        return self.values.quantity(value, Dimension.LENGTH, "a coordinate")
+
+    def _target(self, value: ast.Value, role: str) -> None:
+        """A task target: a point, a place, or a human/robot (its position at the time)."""
+        if isinstance(value, ast.NameRef):
+            self.symbols.resolve(value, *TARGETS, role=role)
+        elif isinstance(value, ast.Point):
+            self._fixed_point(value, role)
+        else:
+            self.report("E201", f"{role} is a point, a place, a human or a robot", value.span)
+
+    def _area(self, value: ast.AreaValue, what: str) -> object:
+        if isinstance(value, ast.NameRef):
+            self.symbols.resolve(value, NameKind.AREA, role=what)
+            return None
+        corners = (value.corner_a, value.corner_b) if isinstance(value, ast.RectArea) \
+            else value.vertices
+        points = [self._fixed_point(c, what) for c in corners]
+        if any(p is None for p in points):
+            return None
+        polygon = area_polygon(value, self.facts.places)
+        if polygon.area <= 0 or not polygon.is_valid:
+            self.report("E203", f"{what} has no area (its corners coincide, lie on a line, or "
+                        "its edges cross)", value.span)
+            return None
+        return polygon
+
+    # ---- activities ------------------------------------------------------------------------
+
+    def _step(self, step: ast.Step) -> None:
+        if isinstance(step, ast.TaskStep):
+            self._task_step(step)
+        elif isinstance(step, ast.WaitStep):
+            self.values.quantity(step.duration, Dimension.TIME, "a wait", positive=True)
+        elif isinstance(step, ast.WaitUntilStep):
+            self._condition(step.condition)
+
+    def _task_step(self, step: ast.TaskStep) -> None:
+        task = step.task
+        human = self.symbols.resolve(step.human, NameKind.HUMAN,
+                                     role=f"the subject of {task.kind}")
+        if task.kind in NEEDS_TARGET and task.target is None:
+            self.report("E205", f"{task.kind} needs a target", task.kind_span,
+                        f"write `{step.human.name} {task.kind} PLACE` or a point `(x, y)`")
+        if task.target is not None:
+            if task.kind not in NEEDS_TARGET:
+                keyword = {"stand": "facing", "talk": "to"}.get(task.kind, "at")
+                self.report("E205", f"{task.kind} takes no bare target",
+                            task.target.span, f"write `{task.kind} {keyword} ...`")
+            else:
+                self._target(task.target, f"the target of {task.kind}")
+                self._not_self(step, task.target)
+        self._task_options(step)
+        if step.until is not None:
+            self._condition(step.until)
+        if step.within is not None:
+            self.values.quantity(step.within, Dimension.TIME, "'within'", positive=True)
+        if human is not None and task.kind == "follow" and isinstance(task.target, ast.NameRef) \
+                and self.symbols.kind_of(task.target.name) is NameKind.PLACE:
+            self.report("E103", f"'{task.target.name}' is a place; follow needs a human or robot",
+                        task.target.span)
+
+    def _not_self(self, step: ast.TaskStep, target: ast.Value, keyword: str = "") -> None:
+        if isinstance(target, ast.NameRef) and target.name == step.human.name:
+            words = " ".join(w for w in (step.task.kind, keyword, "itself") if w)
+            self.report("E203", f"{step.human.name} cannot {words}", target.span)
+
+    def _task_options(self, step: ast.TaskStep) -> None:
+        task = step.task
+        allowed = TASK_OPTIONS[task.kind]
+        seen: dict[str, ast.TaskOption] = {}
+        for option in task.options:
+            kind = allowed.get(option.keyword)
+            if kind is None:
+                takes = ", ".join(f"`{k}`" for k in allowed) or "no options"
+                self.report("E107", f"{task.kind} takes no `{option.keyword}`", option.span,
+                            f"{task.kind} takes {takes}")
+                continue
+            if option.keyword in seen:
+                self.report("E106", f"`{option.keyword}` is given twice", option.span, None,
+                            (Related("first given here", seen[option.keyword].span),))
+                continue
+            seen[option.keyword] = option
+            self._option_value(step, option, kind)
+        if "for" in seen and "times" in seen:
+            self.report("E106", "move_around takes `for` or `times`, not both", seen["times"].span)
+
+    def _option_value(self, step: ast.TaskStep, option: ast.TaskOption, kind: str) -> None:
+        value = option.value
+        role = f"`{option.keyword}` of {step.task.kind}"
+        if kind == "target":
+            self._target(value, role)  # type: ignore[arg-type]
+            self._not_self(step, value, option.keyword)  # type: ignore[arg-type]
+        elif kind == "area":
+            self._area(value, role)  # type: ignore[arg-type]
+        elif kind == "count":
+            self.values.integer(value, role, minimum=1)  # type: ignore[arg-type]
+        else:
+            dimension = {"time": Dimension.TIME, "length": Dimension.LENGTH,
+                         "speed": Dimension.SPEED, "angle": Dimension.ANGLE}[kind]
+            self.values.quantity(value, dimension, role,
+                                 positive=kind in ("time", "length", "speed"))
+
+    # ---- conditions ------------------------------------------------------------------------
+
+    def _condition(self, condition: ast.Condition) -> None:
+        for part in ast.walk_conditions(condition):
+            match part:
+                case ast.LabelCondition(label=label):
+                    self.symbols.resolve(label, NameKind.LABEL, role=f"`{part.event.value}`")
+                case ast.ReachesCondition(subject=subject, target=target):
+                    self.symbols.resolve(subject, *BODIES, role="`reaches`")
+                    self._target(target, "the target of `reaches`")
+                case ast.DistanceCondition(subject=subject, target=target):
+                    self.symbols.resolve(subject, *BODIES, role="distance(...)")
+                    self._target(target, "distance(...)")
+                    self.values.quantity(part.threshold, Dimension.LENGTH, "a distance",
+                                         non_negative=True)
+                case ast.InsideCondition(subject=subject, area=area):
+                    self.symbols.resolve(subject, *BODIES, role="`in`")
+                    self._area(area, "`in`")
+                case ast.TimeCondition(threshold=threshold):
+                    self.values.quantity(threshold, Dimension.TIME, "a time", non_negative=True)
+
+
+def _singleton_keyword(statement: ast.Statement) -> str | None:
+    if isinstance(statement, ast.ScenarioDecl):
+        return "scenario"
+    if isinstance(statement, ast.MapDecl):
+        return "map"
+    if isinstance(statement, ast.SettingDecl):
+        return statement.keyword
+    if isinstance(statement, ast.DefaultsDecl):
+        return "defaults"
+    return None
+
+
+def _source_text(text: str, span: Span) -> str:
+    lines = text.splitlines()
+    if span.line != span.end_line or span.line > len(lines):
+        return "?"
+    return lines[span.line - 1][span.column - 1: span.end_column - 1].strip()
+
+
+__all__ = ["Checker", "Distribution", "Facts"]

@@ -1,0 +1,182 @@
+"""The checked program: what a scenario means, resolved to SI values, ready to simulate.
+
+`Program` is what the compiler hands downstream. Names are resolved (places to poses, areas to
+shapely polygons), quantities are SI floats, parameters are layered (built-in defaults <
+`defaults` < human block < variant) and the activity graph is built. Distributions stay
+unresolved (`Distribution`) until a run draws them from its seed.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal
+
+from shapely.geometry import Polygon
+
+from hubero_dsl.lang import ast
+from hubero_dsl.params import HUMAN_PARAMS
+from hubero_dsl.world.shapes import Shape
+
+if TYPE_CHECKING:
+    import networkx as nx
+
+    from hubero_dsl.world.grid import OccupancyGrid
+
+
+@dataclass(frozen=True, slots=True)
+class Distribution:
+    """A parameter each human draws once per run: normal(mean, sd) or uniform(low, high)."""
+
+    kind: Literal["normal", "uniform"]
+    first: float
+    second: float
+
+    def describe(self) -> str:
+        return f"{self.kind}({self.first:g}, {self.second:g})"
+
+
+ParamValue = float | str | Shape | Distribution
+
+
+@dataclass(frozen=True, slots=True)
+class Pose:
+    x: float
+    y: float
+    heading: float | None = None
+
+    @property
+    def xy(self) -> tuple[float, float]:
+        return (self.x, self.y)
+
+
+@dataclass(frozen=True, slots=True)
+class ParamLayer:
+    """One layer of the parameter precedence.
+
+    `values` maps a parameter (`speed`, or a planner's `social_force.A`) to its value for every
+    human the layer applies to; `per_human` holds a variant's `actor1.speed`-style settings.
+    """
+
+    values: Mapping[str, ParamValue] = field(default_factory=dict)
+    per_human: Mapping[str, Mapping[str, ParamValue]] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, slots=True)
+class HumanSpec:
+    name: str
+    start: Pose
+    params: ParamLayer
+    span: Any
+
+
+@dataclass(frozen=True, slots=True)
+class RobotSpec:
+    name: str
+    start: Pose
+    radius: float
+    speed: float
+    path: tuple[tuple[float, float], ...]
+    loop: bool
+    controller: str | None
+    span: Any
+
+
+@dataclass(frozen=True, slots=True)
+class Variant:
+    name: str
+    layers: tuple[ParamLayer, ...]  # applied in order, later wins
+
+
+@dataclass(frozen=True, eq=False)
+class Program:
+    """A checked scenario. Read-only; a run never changes it."""
+
+    source: ast.SourceFile
+    module: ast.Module
+    title: str
+    map_path: Path
+    grid: OccupancyGrid
+    seed: int
+    step: float
+    time_limit: float
+    on_failure: Literal["stop", "continue"]
+    bounds: Polygon | None
+    places: Mapping[str, Pose]
+    areas: Mapping[str, Polygon]
+    defaults: ParamLayer
+    humans: tuple[HumanSpec, ...]
+    robots: tuple[RobotSpec, ...]
+    variants: Mapping[str, Variant]
+    activities: tuple[ast.ActivityDecl, ...]
+    expectations: tuple[ast.ExpectDecl, ...]
+    graph: nx.DiGraph
+
+    @property
+    def human_names(self) -> list[str]:
+        return [h.name for h in self.humans]
+
+    def human(self, name: str) -> HumanSpec:
+        return next(h for h in self.humans if h.name == name)
+
+    def resolved_params(self, variant: str | None = None) -> dict[str, dict[str, ParamValue]]:
+        """Every human's parameters, by name, with the precedence of the language applied."""
+        layers = list(self.variants[variant].layers) if variant else []
+        resolved: dict[str, dict[str, ParamValue]] = {}
+        for human in self.humans:
+            values: dict[str, ParamValue] = {n: s.default for n, s in HUMAN_PARAMS.items()}
+            for layer in (self.defaults, human.params, *layers):
+                values.update(layer.values)
+                values.update(layer.per_human.get(human.name, {}))
+            resolved[human.name] = values
+        return resolved
+
+    # ---- name resolution for the engine -------------------------------------------------
+
+    def point(self, value: ast.PointValue) -> Pose | str:
+        """A fixed pose, or the name of the human/robot whose position it means at the time."""
+        if isinstance(value, ast.Point):
+            return Pose(coordinate(value.x), coordinate(value.y))
+        if value.name in self.places:
+            return self.places[value.name]
+        return value.name
+
+    def area(self, value: ast.AreaValue) -> Polygon:
+        if isinstance(value, ast.NameRef):
+            return self.areas[value.name]
+        return area_polygon(value, self.places)
+
+
+def coordinate(value: ast.Coordinate) -> float:
+    return value.value if isinstance(value, ast.Number) else value.si
+
+
+def fixed_point(value: ast.PointValue, places: Mapping[str, Pose]) -> tuple[float, float] | None:
+    """The coordinates of a literal point or a place; None for bodies and unknown names."""
+    if isinstance(value, ast.Point):
+        return (coordinate(value.x), coordinate(value.y))
+    pose = places.get(value.name)
+    return pose.xy if pose else None
+
+
+def area_polygon(value: ast.RectArea | ast.PolygonArea, places: Mapping[str, Pose]) -> Polygon:
+    """The polygon of a literal area (names inside must be places; checked before)."""
+    if isinstance(value, ast.RectArea):
+        a = fixed_point(value.corner_a, places) or (0.0, 0.0)
+        b = fixed_point(value.corner_b, places) or (0.0, 0.0)
+        (x0, x1), (y0, y1) = sorted((a[0], b[0])), sorted((a[1], b[1]))
+        return Polygon([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
+    vertices = [fixed_point(v, places) or (0.0, 0.0) for v in value.vertices]
+    return Polygon(vertices)
+
+
+def sweep_products(sweeps: list[tuple[str, list[tuple[str, ParamLayer]]]]
+                   ) -> list[tuple[str, tuple[ParamLayer, ...]]]:
+    """Variants of several sweeps multiplied: names `a=1 m/s,b=2` with one layer per sweep."""
+    if not sweeps:
+        return []
+    combos = itertools.product(*(options for _, options in sweeps))
+    return [(",".join(name for name, _ in combo), tuple(layer for _, layer in combo))
+            for combo in combos]

@@ -1,0 +1,98 @@
+"""The scenario's one namespace: every defined name, its kind and where it was defined.
+
+Places, areas, humans, robots, variants, activities and step labels share one namespace
+(LANGUAGE.md). Building the table reports duplicates and reserved words; lookups report unknown
+names (with a "did you mean") and names of the wrong kind.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from enum import StrEnum
+from functools import cache
+
+from hubero_dsl.diagnostics import Diagnostic, Related, Span, error
+from hubero_dsl.lang import ast
+from hubero_dsl.lang.values import did_you_mean
+
+
+class NameKind(StrEnum):
+    PLACE = "place"
+    AREA = "area"
+    HUMAN = "human"
+    ROBOT = "robot"
+    VARIANT = "variant"
+    ACTIVITY = "activity"
+    LABEL = "label"
+
+
+@dataclass(frozen=True, slots=True)
+class Symbol:
+    name: str
+    kind: NameKind
+    span: Span
+
+
+@cache
+def reserved_words() -> frozenset[str]:
+    """Every keyword of the grammar that looks like a name.
+
+    Shape and distribution kinds (`circle`, `normal`, ...) are only keywords right before `(`,
+    so they stay free for names: `variant circle { ... }` is fine.
+    """
+    from hubero_dsl.lang.parse import grammar_text
+
+    words = set(re.findall(r'"([A-Za-z_][A-Za-z0-9_]*)"', grammar_text()))
+    return frozenset(words - VALUE_KEYWORDS)
+
+
+VALUE_KEYWORDS = frozenset({"circle", "ellipse", "rectangle", "square", "normal", "uniform"})
+
+
+class SymbolTable:
+    def __init__(self, diagnostics: list[Diagnostic]) -> None:
+        self.diagnostics = diagnostics
+        self.symbols: dict[str, Symbol] = {}
+        self.used: set[str] = set()
+
+    def define(self, ref: ast.NameRef, kind: NameKind) -> None:
+        if ref.name in reserved_words():
+            self.diagnostics.append(error(
+                "E104", f"'{ref.name}' is a keyword and cannot name a {kind.value}", ref.span,
+                f"pick another name, e.g. '{ref.name}_1'"))
+            return
+        previous = self.symbols.get(ref.name)
+        if previous is not None:
+            self.diagnostics.append(error(
+                "E102", f"'{ref.name}' is defined twice", ref.span,
+                "every name (place, area, human, robot, variant, activity, label) is defined once",
+                (Related(f"first defined here as a {previous.kind.value}", previous.span),)))
+            return
+        self.symbols[ref.name] = Symbol(ref.name, kind, ref.span)
+
+    def names_of(self, *kinds: NameKind) -> list[str]:
+        return sorted(s.name for s in self.symbols.values() if s.kind in kinds)
+
+    def kind_of(self, name: str) -> NameKind | None:
+        symbol = self.symbols.get(name)
+        return symbol.kind if symbol else None
+
+    def resolve(self, ref: ast.NameRef, *kinds: NameKind, role: str) -> Symbol | None:
+        """The symbol `ref` names if it is one of `kinds`; otherwise report and return None."""
+        symbol = self.symbols.get(ref.name)
+        wanted = " or ".join(k.value for k in kinds)
+        if symbol is None:
+            hint = did_you_mean(ref.name, self.names_of(*kinds))
+            if hint is None and (names := self.names_of(*kinds)):
+                hint = "defined: " + ", ".join(names[:8]) + (", ..." if len(names) > 8 else "")
+            self.diagnostics.append(error("E101", f"unknown {wanted} '{ref.name}' ({role})",
+                                          ref.span, hint))
+            return None
+        self.used.add(ref.name)
+        if symbol.kind not in kinds:
+            self.diagnostics.append(error(
+                "E103", f"'{ref.name}' is a {symbol.kind.value}, but {role} needs a {wanted}",
+                ref.span, None, (Related(f"'{ref.name}' is defined here", symbol.span),)))
+            return None
+        return symbol

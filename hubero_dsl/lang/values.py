@@ -1,0 +1,215 @@
+"""Checking and converting values: units and dimensions, ranges, shapes and distributions.
+
+`ValueReader` turns AST values into SI floats, shapes and distributions, appending a diagnostic
+for each problem and returning None for a value it cannot use, so the caller goes on and every
+problem of a file is reported in one pass.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Iterable
+
+from hubero_dsl.diagnostics import Diagnostic, Span, error
+from hubero_dsl.lang import ast
+from hubero_dsl.lang.program import Distribution, ParamValue
+from hubero_dsl.lang.units import EXAMPLE_UNIT, UNITS, Dimension, describe
+from hubero_dsl.params import ParamKind, ParamSpec
+from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, Shape
+
+SHAPE_ARGS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
+    # kind: (required, optional)
+    "circle": (("radius",), ()),
+    "ellipse": (("semi_major", "semi_minor"), ("offset",)),
+    "rectangle": (("length", "width"), ()),
+    "square": (("side",), ()),
+}
+
+
+def did_you_mean(word: str, candidates: Iterable[str]) -> str | None:
+    """'did you mean X?' for the closest candidate, or None when nothing is close."""
+    close = difflib.get_close_matches(word, sorted(candidates), n=1, cutoff=0.6)
+    return f"did you mean '{close[0]}'?" if close else None
+
+
+def format_si(value: float, dimension: Dimension) -> str:
+    unit = EXAMPLE_UNIT[dimension]
+    if dimension is Dimension.ANGLE:
+        return f"{math.degrees(value):g} deg"
+    return f"{value:g} {unit}".strip()
+
+
+class ValueReader:
+    """Converts values to SI while collecting diagnostics."""
+
+    def __init__(self, diagnostics: list[Diagnostic]) -> None:
+        self.diagnostics = diagnostics
+
+    def report(self, code: str, message: str, span: Span, hint: str | None = None) -> None:
+        self.diagnostics.append(error(code, message, span, hint))
+
+    # ---- quantities ----------------------------------------------------------------------
+
+    def quantity(self, value: ast.Value | ast.RectArea | ast.PolygonArea, dimension: Dimension,
+                 what: str, *, positive: bool = False, non_negative: bool = False,
+                 maximum: float = math.inf) -> float | None:
+        """The SI value of a quantity of `dimension`, or None after reporting why not."""
+        number = self._magnitude(value, dimension, what)
+        if number is None:
+            return None
+        if not math.isfinite(number):
+            self.report("E203", f"{what} must be a finite number", value.span)
+            return None
+        if positive and number <= 0:
+            self.report("E203", f"{what} must be greater than zero, not "
+                        f"{format_si(number, dimension)}", value.span)
+            return None
+        if non_negative and number < 0:
+            self.report("E203", f"{what} must not be negative", value.span)
+            return None
+        if number > maximum:
+            self.report("E203", f"{what} is {format_si(number, dimension)}; the most it may be is "
+                        f"{format_si(maximum, dimension)}", value.span)
+            return None
+        return number
+
+    def _magnitude(self, value: ast.Value | ast.RectArea | ast.PolygonArea,
+                   dimension: Dimension, what: str) -> float | None:
+        if isinstance(value, ast.Quantity):
+            if not value.known_unit:
+                hint = did_you_mean(value.unit, UNITS) or "units are " + ", ".join(UNITS)
+                self.report("E202", f"unknown unit '{value.unit}'", value.span, hint)
+                return None
+            if value.dimension is not dimension:
+                got = value.dimension.value if value.dimension else "?"
+                hint = (f"write a value like `1 {EXAMPLE_UNIT[dimension]}`"
+                        if dimension is not Dimension.NUMBER else "write a plain number")
+                self.report("E201", f"{what} takes {describe(dimension)}, but '{value.unit}' is "
+                            f"a unit of {got}", value.span, hint)
+                return None
+            return value.si
+        if isinstance(value, ast.Number):
+            if dimension is Dimension.NUMBER:
+                return value.value
+            self.report("E204", f"{what} needs a unit: {describe(dimension)}", value.span,
+                        f"write `{value.text} {EXAMPLE_UNIT[dimension]}`")
+            return None
+        self.report("E201", f"{what} takes {describe(dimension)}", value.span)
+        return None
+
+    def integer(self, value: ast.Value, what: str, *, minimum: int = 0) -> int | None:
+        if not isinstance(value, ast.Number) or not value.is_integer:
+            self.report("E207", f"{what} must be a whole number", value.span)
+            return None
+        if value.value < minimum:
+            self.report("E203", f"{what} must be at least {minimum}", value.span)
+            return None
+        return int(value.value)
+
+    # ---- parameters ------------------------------------------------------------------------
+
+    def param(self, spec: ParamSpec, value: ast.Value, planners: Iterable[str]) -> ParamValue | None:
+        """A human parameter's value, checked against its spec."""
+        what = f"'{spec.name}'"
+        if spec.kind is ParamKind.SHAPE:
+            return self.shape(value)
+        if spec.kind is ParamKind.PLANNER:
+            names = sorted(planners)
+            if not isinstance(value, ast.NameRef):
+                self.report("E201", f"{what} takes a planner name", value.span,
+                            "one of: " + ", ".join(names))
+                return None
+            if value.name not in names:
+                hint = did_you_mean(value.name, names) or "installed: " + ", ".join(names)
+                self.report("E101", f"unknown planner '{value.name}'", value.span, hint)
+                return None
+            return value.name
+        if isinstance(value, ast.Distribution):
+            return self.distribution(value, spec)
+        return self.quantity(value, spec.dimension, what, positive=spec.positive,
+                             non_negative=not spec.positive, maximum=spec.maximum)
+
+    def distribution(self, value: ast.Distribution, spec: ParamSpec) -> Distribution | None:
+        what = f"'{spec.name}'"
+        first = self.quantity(value.first, spec.dimension, f"{value.kind} of {what}")
+        second = self.quantity(value.second, spec.dimension, f"{value.kind} of {what}")
+        if first is None or second is None:
+            return None
+        if value.kind == "normal":
+            if second <= 0:
+                self.report("E206", "the standard deviation of normal(...) must be greater than "
+                            "zero", value.second.span)
+                return None
+            if spec.positive and first <= 0:
+                self.report("E203", f"the mean of {what} must be greater than zero",
+                            value.first.span)
+                return None
+            return Distribution("normal", first, second)
+        if second <= first:
+            self.report("E206", "uniform(low, high) needs low < high", value.span)
+            return None
+        if spec.positive and first <= 0:
+            self.report("E203", f"{what} must be greater than zero; uniform(...) starts at "
+                        f"{format_si(first, spec.dimension)}", value.first.span)
+            return None
+        return Distribution("uniform", first, second)
+
+    def shape(self, value: ast.Value) -> Shape | None:
+        if not isinstance(value, ast.ShapeLit):
+            self.report("E201", "a personal space is a shape", value.span,
+                        "write circle(radius: 0.5 m), ellipse(semi_major: 1.1 m, semi_minor: "
+                        "0.8 m), rectangle(length: 1 m, width: 0.6 m) or square(side: 0.5 m)")
+            return None
+        args = self._shape_args(value)
+        if args is None:
+            return None
+        if value.kind == "circle":
+            return Circle(args["radius"])
+        if value.kind == "square":
+            return Rectangle(args["side"], args["side"])
+        if value.kind == "rectangle":
+            return Rectangle(args["length"], args["width"])
+        return self._ellipse(value, args)
+
+    def _ellipse(self, value: ast.ShapeLit, args: dict[str, float]) -> Shape | None:
+        major, minor, offset = args["semi_major"], args["semi_minor"], args.get("offset", 0.0)
+        if minor > major:
+            arg = value.arg("semi_minor")
+            self.report("E203", f"semi_minor ({minor:g} m) is larger than semi_major "
+                        f"({major:g} m)", arg.span if arg else value.span,
+                        "semi_major runs along the heading and is the longer axis; swap them")
+            return None
+        if abs(offset) >= major:
+            arg = value.arg("offset")
+            self.report("E203", f"offset {offset:g} m puts the human outside its own personal "
+                        f"space (semi_major is {major:g} m)", arg.span if arg else value.span)
+            return None
+        return Ellipse(major, minor, offset)
+
+    def _shape_args(self, value: ast.ShapeLit) -> dict[str, float] | None:
+        required, optional = SHAPE_ARGS[value.kind]
+        allowed = required + optional
+        found: dict[str, float] = {}
+        ok = True
+        for arg in value.args:
+            if arg.name not in allowed:
+                hint = did_you_mean(arg.name, allowed) or f"{value.kind} takes " + ", ".join(allowed)
+                self.report("E105", f"{value.kind} has no argument '{arg.name}'", arg.name_span,
+                            hint)
+                ok = False
+            elif arg.name in found:
+                self.report("E106", f"'{arg.name}' is given twice", arg.name_span)
+                ok = False
+            else:
+                number = self.quantity(arg.value, Dimension.LENGTH, arg.name,
+                                       positive=arg.name != "offset")
+                ok = ok and number is not None
+                found[arg.name] = number if number is not None else 0.0
+        missing = [name for name in required if name not in found]
+        if missing:
+            example = ", ".join(f"{name}: 0.5 m" for name in required)
+            self.report("E205", f"{value.kind} needs {' and '.join(missing)}", value.span,
+                        f"write {value.kind}({example})")
+            ok = False
+        return found if ok else None
