@@ -1,0 +1,310 @@
+"""Cost grids and cost-to-go fields over an occupancy grid, and the caches that make re-plans cheap.
+
+A `CostGrid` turns the map's clearance into a travel cost per cell for one body size and one
+comfort radius: cells where the body does not fit are lethal (infinite cost), cells closer to a
+wall than the comfort radius cost more the closer they get (like costmap_2d's inflation), every
+other cell costs 1 per cell of travel. Its non-lethal cells are split into 8-connected components,
+so "start and goal are not connected" is answered by comparing two labels.
+
+A `CostToGo` is a field of minimum travel costs towards one goal cell, computed by Dijkstra in
+compiled code (`skimage.graph.MCP_Geometric`) on the bounding box of the goal's component. The
+search may stop as soon as the cell asked for is settled: every finite value it leaves is exact
+(Dijkstra settles cells in cost order), so a partial field answers every start it covers exactly,
+and `FieldCache` widens it to the whole component only when a start outside it asks.
+
+`segment_costs` integrates a cost grid along straight segments (exact cell traversal), which is
+how the planner checks line of sight and compares a shortcut with the path it replaces.
+All coordinates here are in cell units: a point (u, v) lies in cell (floor(u), floor(v)), so the
+centre of cell (r, c) is (r + 0.5, c + 0.5). `to_cell_units` and `goal_obstruction` are the map
+queries every global planner shares, so they all word a blocked goal the same way.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+from scipy import ndimage
+from skimage.graph import MCP_Geometric
+
+if TYPE_CHECKING:
+    from hubero_dsl.world.grid import OccupancyGrid
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
+BoolArray = npt.NDArray[np.bool_]
+
+Cell = tuple[int, int]
+
+_EIGHT_CONNECTED = np.ones((3, 3), dtype=bool)  # MCP moves diagonally, so components must too
+_KEY_DIGITS = 9                                # radii closer than a nanometre share a cache entry
+_EMPTY_INTERVAL = 1e-9                         # cell units: touching a cell corner is not entering
+
+
+@dataclass(frozen=True, slots=True)
+class CostKey:
+    """What a cost grid depends on: the lethal radius and the (effective) comfort radius."""
+
+    lethal_radius: float
+    comfort_radius: float
+
+    @staticmethod
+    def of(lethal_radius: float, comfort_radius: float) -> CostKey:
+        # A comfort radius inside the lethal zone adds nothing, so all such radii share a grid.
+        lethal = round(lethal_radius, _KEY_DIGITS)
+        return CostKey(lethal, max(lethal, round(comfort_radius, _KEY_DIGITS)))
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class CostToGo:
+    """Minimum travel cost (cell units) from each settled cell to `goal`, and the first move there.
+
+    Arrays cover the window `offset` .. `offset + cost.shape` of the map; unsettled cells hold
+    inf and step -1. `complete` says whether the whole component was settled.
+    """
+
+    goal: Cell
+    offset: Cell
+    cost: npt.NDArray[np.float32]
+    step: npt.NDArray[np.int8]       # index into `moves` of the move that led here from the goal
+    moves: npt.NDArray[np.intp]      # (8, 2) MCP offsets (row, col)
+    complete: bool
+
+    def covers(self, cell: Cell) -> bool:
+        local = self._local(cell)
+        return local is not None and bool(np.isfinite(self.cost[local]))
+
+    def value(self, cell: Cell) -> float:
+        local = self._local(cell)
+        return math.inf if local is None else float(self.cost[local])
+
+    def descend(self, cell: Cell) -> IntArray:
+        """(K, 2) cells of the cheapest path from `cell` (first) to the goal (last).
+
+        Following predecessor links is inherently sequential; it walks the path's own cells
+        (hundreds), never the grid's.
+        """
+        local = self._local(cell)
+        if local is None or not np.isfinite(self.cost[local]):
+            raise ValueError(f"cell {cell} is not covered by this field")
+        width = self.cost.shape[1]
+        backward = [int(dr) * width + int(dc) for dr, dc in self.moves]
+        steps = self.step.ravel()
+        index = local[0] * width + local[1]
+        visited = [index]
+        for _ in range(steps.size):
+            move = int(steps[index])
+            if move < 0:
+                break
+            index -= backward[move]
+            visited.append(index)
+        rows, cols = np.divmod(np.asarray(visited, dtype=np.intp), width)
+        return np.stack([rows + self.offset[0], cols + self.offset[1]], axis=1)
+
+    def _local(self, cell: Cell) -> Cell | None:
+        r, c = cell[0] - self.offset[0], cell[1] - self.offset[1]
+        rows, cols = self.cost.shape
+        return (r, c) if 0 <= r < rows and 0 <= c < cols else None
+
+
+class ComponentSearch:
+    """Dijkstra over one connected component, set up once and run for as many goals as asked."""
+
+    def __init__(self, cost: FloatArray, labels: npt.NDArray[np.int32], label: int) -> None:
+        rows, cols = np.nonzero(labels == label)
+        self.offset: Cell = (int(rows.min()), int(cols.min()))
+        window = (slice(self.offset[0], int(rows.max()) + 1),
+                  slice(self.offset[1], int(cols.max()) + 1))
+        self._mcp = MCP_Geometric(cost[window], fully_connected=True)
+        self._moves = np.asarray(self._mcp.offsets, dtype=np.intp)
+
+    def solve(self, goal: Cell, until: Cell | None = None) -> CostToGo:
+        """The cost-to-go field of `goal`; stops once `until` is settled when it is given."""
+        local_goal = (goal[0] - self.offset[0], goal[1] - self.offset[1])
+        ends = None if until is None else [(until[0] - self.offset[0], until[1] - self.offset[1])]
+        cumulative, traceback = self._mcp.find_costs([local_goal], ends=ends)
+        # The returned arrays are views of buffers the next search overwrites: copy them.
+        return CostToGo(goal=goal, offset=self.offset,
+                        cost=np.ascontiguousarray(cumulative, dtype=np.float32),
+                        step=np.ascontiguousarray(traceback, dtype=np.int8),
+                        moves=self._moves, complete=until is None)
+
+
+@dataclass(eq=False)
+class CostGrid:
+    """Travel cost per cell for one `CostKey`, its lethal mask and its components."""
+
+    key: CostKey
+    cost: FloatArray                   # (rows, cols); inf where lethal
+    lethal: BoolArray
+    labels: npt.NDArray[np.int32]      # 0 on lethal cells, 1.. per 8-connected component
+    _searches: dict[int, ComponentSearch] = field(default_factory=dict)
+
+    def search(self, label: int) -> ComponentSearch:
+        if label not in self._searches:
+            self._searches[label] = ComponentSearch(self.cost, self.labels, label)
+        return self._searches[label]
+
+
+def build_cost_grid(clearance: FloatArray, resolution: float, key: CostKey,
+                    comfort_weight: float) -> CostGrid:
+    """Cost 1 per cell, +`comfort_weight` × s² inside the comfort zone, inf where lethal.
+
+    s falls from 1 at the lethal boundary to 0 at the comfort radius; squaring it keeps the
+    cost's slope continuous where the comfort zone ends, so paths do not kink there.
+    """
+    lethal = clearance <= key.lethal_radius
+    cost = np.ones(clearance.shape, dtype=np.float64)
+    depth = key.comfort_radius - key.lethal_radius
+    if depth > resolution * 1e-6 and comfort_weight > 0.0:
+        s = np.clip((key.comfort_radius - clearance) / depth, 0.0, 1.0)
+        cost += comfort_weight * s * s
+    cost[lethal] = np.inf
+    labels, _ = ndimage.label(~lethal, structure=_EIGHT_CONNECTED)
+    return CostGrid(key=key, cost=cost, lethal=lethal, labels=labels.astype(np.int32))
+
+
+@dataclass(frozen=True, slots=True)
+class CacheStats:
+    """How often each cache answered; tests and benchmarks read these."""
+
+    grid_builds: int
+    field_builds: int
+    field_hits: int
+
+
+class FieldCache:
+    """LRU caches of cost grids per `CostKey` and of cost-to-go fields per (goal cell, key)."""
+
+    def __init__(self, clearance: FloatArray, resolution: float, comfort_weight: float, *,
+                 max_fields: int, max_grids: int) -> None:
+        self._clearance = clearance
+        self._resolution = resolution
+        self._comfort_weight = comfort_weight
+        self._max_fields = max_fields
+        self._max_grids = max_grids
+        self._grids: OrderedDict[CostKey, CostGrid] = OrderedDict()
+        self._fields: OrderedDict[tuple[Cell, CostKey], CostToGo] = OrderedDict()
+        self._grid_builds = self._field_builds = self._field_hits = 0
+
+    @property
+    def stats(self) -> CacheStats:
+        return CacheStats(self._grid_builds, self._field_builds, self._field_hits)
+
+    def cost_grid(self, key: CostKey) -> CostGrid:
+        grid = self._grids.get(key)
+        if grid is None:
+            grid = build_cost_grid(self._clearance, self._resolution, key, self._comfort_weight)
+            self._grid_builds += 1
+            self._grids[key] = grid
+            if len(self._grids) > self._max_grids:
+                self._grids.popitem(last=False)
+        self._grids.move_to_end(key)
+        return grid
+
+    def field(self, key: CostKey, goal: Cell, start: Cell | None = None) -> CostToGo:
+        """The field of `goal`, covering `start` (or the whole component when start is None).
+
+        A first request stops the search at its start; a later start outside that partial
+        field rebuilds it over the whole component, so a goal costs at most two searches.
+        """
+        entry = self._fields.get((goal, key))
+        wanted = entry is not None and (entry.complete if start is None else entry.covers(start))
+        if entry is not None and wanted:
+            self._field_hits += 1
+        else:
+            grid = self.cost_grid(key)
+            search = grid.search(int(grid.labels[goal]))
+            until = start if entry is None else None
+            entry = search.solve(goal, until)
+            self._field_builds += 1
+            self._fields[(goal, key)] = entry
+            if len(self._fields) > self._max_fields:
+                self._fields.popitem(last=False)
+        self._fields.move_to_end((goal, key))
+        return entry
+
+
+def segment_costs(cost: FloatArray, start: FloatArray, ends: FloatArray) -> FloatArray:
+    """(M,) integral of `cost` (per cell unit of length) along each segment start -> ends[i].
+
+    Every cell a segment passes through counts for the length inside it; a segment that only
+    touches a cell's corner does not enter it. Leaving the grid costs inf.
+    """
+    ends = np.atleast_2d(np.asarray(ends, dtype=np.float64))
+    delta = ends - start
+    seg, t0, t1 = _cell_intervals(start, delta)
+    inside = t1 - t0 > _EMPTY_INTERVAL
+    seg, t0, t1 = seg[inside], t0[inside], t1[inside]
+    middle = start + ((t0 + t1) / 2.0)[:, None] * delta[seg]
+    cells = np.floor(middle).astype(np.intp)
+    rows, cols = cost.shape
+    on_map = (cells[:, 0] >= 0) & (cells[:, 0] < rows) & (cells[:, 1] >= 0) & (cells[:, 1] < cols)
+    unit_cost = np.full(seg.size, np.inf)
+    unit_cost[on_map] = cost[cells[on_map, 0], cells[on_map, 1]]
+    length = (t1 - t0) * np.hypot(delta[seg, 0], delta[seg, 1])
+    return np.bincount(seg, weights=unit_cost * length, minlength=len(ends)).astype(np.float64)
+
+
+def _cell_intervals(start: FloatArray, delta: FloatArray) -> tuple[IntArray, FloatArray,
+                                                                   FloatArray]:
+    """Per segment, the parameter intervals [t0, t1] between successive grid-line crossings."""
+    count = len(delta)
+    seg_parts, t_parts = [np.arange(count), np.arange(count)], [np.zeros(count), np.ones(count)]
+    for axis in (0, 1):
+        low = np.minimum(start[axis], start[axis] + delta[:, axis])
+        high = np.maximum(start[axis], start[axis] + delta[:, axis])
+        first = np.floor(low).astype(np.intp) + 1
+        crossings = np.maximum(np.ceil(high).astype(np.intp) - first, 0)
+        seg = np.repeat(np.arange(count), crossings)
+        within = np.arange(seg.size) - np.repeat(np.cumsum(crossings) - crossings, crossings)
+        line = (first[seg] + within).astype(np.float64)
+        seg_parts.append(seg)
+        t_parts.append((line - start[axis]) / delta[seg, axis])
+    seg = np.concatenate(seg_parts)
+    t = np.concatenate(t_parts)
+    order = np.lexsort((t, seg))
+    seg, t = seg[order], t[order]
+    same = seg[1:] == seg[:-1]
+    return seg[:-1][same], t[:-1][same], t[1:][same]
+
+
+def to_cell_units(grid: OccupancyGrid, xy: tuple[float, float]) -> FloatArray:
+    """World (x, y) -> continuous (row, col) cell coordinates of `grid`."""
+    return np.array([(xy[1] - grid.origin[1]) / grid.resolution,
+                     (xy[0] - grid.origin[0]) / grid.resolution])
+
+
+def cell_at(uv: FloatArray, shape: tuple[int, int]) -> Cell | None:
+    """The cell holding a point in cell units, or None off the map."""
+    row, col = math.floor(uv[0]), math.floor(uv[1])
+    return (row, col) if 0 <= row < shape[0] and 0 <= col < shape[1] else None
+
+
+def fmt_point(xy: tuple[float, float]) -> str:
+    return f"({xy[0]:.2f}, {xy[1]:.2f})"
+
+
+def body_words(body_radius: float, margin: float = 0.0) -> str:
+    extra = f" (with a {margin:.2f} m margin)" if margin > 0.0 else ""
+    return f"a body of radius {body_radius:.2f} m{extra}"
+
+
+def goal_obstruction(grid: OccupancyGrid, goal: tuple[float, float], body_radius: float,
+                     margin: float = 0.0) -> str | None:
+    """Why the body cannot stand at `goal` (off the map, in or too near an obstacle), or None."""
+    cell = cell_at(to_cell_units(grid, goal), grid.occupied.shape)
+    if cell is None:
+        return f"goal {fmt_point(goal)} is outside the map"
+    clearance = float(grid.clearance[cell])
+    if clearance > CostKey.of(body_radius + margin, 0.0).lethal_radius:  # as the lethal mask
+        return None
+    if grid.occupied[cell]:
+        where = "is inside an obstacle"
+    else:
+        where = f"is {clearance:.2f} m from an obstacle"
+    return f"goal {fmt_point(goal)} {where}; {body_words(body_radius, margin)} does not fit"
