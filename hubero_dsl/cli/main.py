@@ -1,0 +1,148 @@
+"""The `hubero` command: argument parsing, dispatch, and the mapping of outcomes to exit statuses.
+
+Each command is one module in `hubero_dsl.cli` exposing
+
+    add_parser(subparsers) -> argparse.ArgumentParser   # registers the command and its options
+    run(args: argparse.Namespace) -> int                 # does it; returns the exit status
+
+and is listed in `COMMANDS`; adding a command is adding its module and its name there. Command
+modules import only the standard library and `hubero_dsl.cli.render` at module level and load the
+heavy parts of hubero (the checker, numpy, networkx, the simulator) inside `run`, so that
+`hubero --help` and a cold `hubero check` stay fast.
+
+This module is the only place that turns exceptions into messages: no traceback reaches the user
+unless HUBERO_DEBUG=1 asks for one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import importlib
+import os
+import sys
+import traceback
+from collections.abc import Sequence
+from typing import TextIO
+
+from hubero_dsl import __version__
+from hubero_dsl.errors import CompileError, HuberoError
+
+# Command modules in the order `hubero --help` lists them.
+COMMANDS: tuple[str, ...] = ("check", "graph")
+
+EXIT_OK = 0
+EXIT_FAILED = 1  # the input has errors, or the run or test failed
+EXIT_USAGE = 2  # bad arguments or unreadable input
+EXIT_INTERNAL = 3  # a bug in hubero
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report it
+EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, as `cmd | head` reports for other tools
+
+_EPILOG = """\
+exit status:
+  0    success
+  1    the scenario has errors (or a run or test failed)
+  2    usage error or unreadable input
+  3    internal error (a bug: please report it)
+  130  interrupted
+
+Set HUBERO_DEBUG=1 to see the traceback of an internal error."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="hubero",
+        description="Declarative human-behaviour scenarios for robot research.",
+        epilog=_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"hubero {__version__}")
+    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", title="commands")
+    subparsers.required = True
+    for name in COMMANDS:
+        module = importlib.import_module(f"hubero_dsl.cli.{name}")
+        command_parser = module.add_parser(subparsers)
+        command_parser.set_defaults(run=module.run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the exit status (the console script passes it to exit)."""
+    _tolerate_unencodable_output()
+    try:
+        status = _dispatch(argv)
+        sys.stdout.flush()
+        return status
+    except BrokenPipeError:
+        _discard_stdout()
+        return EXIT_BROKEN_PIPE
+    except KeyboardInterrupt:
+        _say("interrupted")
+        return EXIT_INTERRUPTED
+    except CompileError as exc:
+        _report_compile_error(exc)
+        return exc.exit_status
+    except HuberoError as exc:
+        _report_error(exc)
+        return exc.exit_status
+    except Exception as exc:
+        _say(f"internal error: {type(exc).__name__}: {exc} (please report)")
+        if os.environ.get("HUBERO_DEBUG") == "1":
+            _say(traceback.format_exc().rstrip("\n"))
+        else:
+            _say("set HUBERO_DEBUG=1 to see the traceback")
+        return EXIT_INTERNAL
+
+
+def _dispatch(argv: Sequence[str] | None) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help, --version and usage errors: argparse has printed already
+        return exc.code if isinstance(exc.code, int) else EXIT_USAGE if exc.code else EXIT_OK
+    status: int = args.run(args)
+    return status
+
+
+def _report_error(exc: HuberoError) -> None:
+    from hubero_dsl.cli.render import Printer, SourceLines, diagnostic_lines, input_error_lines
+    from hubero_dsl.diagnostics import error
+
+    printer = Printer.to(sys.stderr)
+    if exc.span is None and exc.hint is None:
+        printer.lines(input_error_lines(exc.message))
+    else:
+        printer.lines(diagnostic_lines(error("", exc.message, exc.span, exc.hint), SourceLines()))
+
+
+def _report_compile_error(exc: CompileError) -> None:
+    from hubero_dsl.cli.render import Printer, SourceLines, diagnostic_lines
+
+    printer = Printer.to(sys.stderr)
+    sources = SourceLines()
+    for diagnostic in exc.diagnostics:
+        printer.lines([*diagnostic_lines(diagnostic, sources), ()])
+
+
+def _say(message: str, stream: TextIO | None = None) -> None:
+    """Best effort: a message about a failure must not fail in turn."""
+    with contextlib.suppress(OSError, ValueError):
+        print(f"hubero: {message}", file=stream or sys.stderr)
+
+
+def _tolerate_unencodable_output() -> None:
+    # A source line in a script the terminal's encoding cannot show must not crash the report.
+    for stream in (sys.stdout, sys.stderr):
+        reconfigure = getattr(stream, "reconfigure", None)
+        if reconfigure is not None:
+            with contextlib.suppress(ValueError, OSError):
+                reconfigure(errors="backslashreplace")
+
+
+def _discard_stdout() -> None:
+    # The reader went away (`hubero graph x | head`): point stdout at /dev/null so the
+    # interpreter's final flush does not complain about the pipe once more.
+    with contextlib.suppress(OSError, ValueError, AttributeError):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)

@@ -1,0 +1,91 @@
+"""`python -m hubero_dsl` as users run it: a fresh interpreter, real streams, real exit codes."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from hubero_dsl import __version__
+
+Run = Callable[..., Any]
+Write = Callable[[str, "str | bytes"], Path]
+
+
+def test_version(cli_subprocess: Run) -> None:
+    outcome = cli_subprocess("--version")
+    assert (outcome.status, outcome.out) == (0, f"hubero {__version__}\n")
+
+
+def test_help(cli_subprocess: Run) -> None:
+    outcome = cli_subprocess("check", "--help")
+    assert outcome.status == 0
+    assert "--strict" in outcome.out
+
+
+def test_syntax_error_exits_1_with_a_plain_report(cli_subprocess: Run, write: Write) -> None:
+    path = write("quotes.hub", "scenario 'x'\n")
+    outcome = cli_subprocess("check", path.name, cwd=path.parent)
+    assert outcome.status == 1
+    assert outcome.out == (
+        "error[E002]: unexpected character \"'\"\n"
+        " --> quotes.hub:1:10\n"
+        "  |\n"
+        "1 | scenario 'x'\n"
+        "  |          ^\n"
+        "  |\n"
+        "  = help: strings use double quotes\n"
+        "\n"
+        "1 error, 0 warnings in 1 file\n")
+    assert "\x1b" not in outcome.out
+
+
+def test_no_color_wins_over_force_color(cli_subprocess: Run, write: Write) -> None:
+    path = write("quotes.hub", "scenario 'x'\n")
+    assert "\x1b[" in cli_subprocess("check", str(path), FORCE_COLOR="1").out
+    assert "\x1b[" not in cli_subprocess("check", str(path), NO_COLOR="1").out
+
+
+@pytest.mark.parametrize("make", ["missing", "directory", "binary"])
+def test_unreadable_input_exits_2(cli_subprocess: Run, write: Write, tmp_path: Path,
+                                  make: str) -> None:
+    target = {"missing": tmp_path / "missing.hub", "directory": tmp_path,
+              "binary": write("b.hub", b"\x00\x01\x02")}[make]
+    outcome = cli_subprocess("check", str(target))
+    assert outcome.status == 2
+    assert outcome.out.startswith("error: ")
+
+
+def test_graph_png_without_output_is_a_usage_error(cli_subprocess: Run, write: Write) -> None:
+    outcome = cli_subprocess("graph", str(write("a.hub", "scenario 'x'\n")), "--format", "png")
+    assert outcome.status == 2
+    assert "-o" in outcome.err
+
+
+def test_broken_pipe_is_quiet(write: Write) -> None:
+    files = [str(write(f"f{i}.hub", "scenario 'x'\n")) for i in range(200)]
+    environment = {k: v for k, v in os.environ.items() if k != "FORCE_COLOR"}
+    process = subprocess.Popen([sys.executable, "-m", "hubero_dsl", "check", *files],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=environment)
+    assert process.stdout is not None and process.stderr is not None
+    process.stdout.close()  # the reader goes away before anything is written, as `| head` does
+    err = process.stderr.read().decode()
+    status = process.wait(timeout=60)
+    assert "Traceback" not in err
+    assert "Exception ignored" not in err
+    assert status == 141
+
+
+def test_console_script_is_installed() -> None:
+    script = Path(sys.executable).parent / "hubero"
+    if not script.exists():
+        pytest.skip("the console script is not installed next to this interpreter")
+    completed = subprocess.run([str(script), "--version"], capture_output=True, text=True,
+                               timeout=60, check=False)
+    assert completed.returncode == 0
+    assert completed.stdout == f"hubero {__version__}\n"
