@@ -27,7 +27,8 @@ class Number:
 
     @property
     def is_integer(self) -> bool:
-        return float(self.value).is_integer() and "." not in self.text and "e" not in self.text.lower()
+        plain = "." not in self.text and "e" not in self.text.lower()
+        return float(self.value).is_integer() and plain
 
 
 @dataclass(frozen=True, slots=True)

@@ -115,8 +115,9 @@ class Checker:
                  ast.VariantDecl: NameKind.VARIANT}
         for statement in self.module.statements:
             kind = kinds.get(type(statement))
-            if kind is not None:
-                self.symbols.define(statement.name, kind)  # type: ignore[union-attr]
+            if kind is not None and isinstance(statement, ast.PlaceDecl | ast.AreaDecl
+                                               | ast.HumanDecl | ast.RobotDecl | ast.VariantDecl):
+                self.symbols.define(statement.name, kind)
             elif isinstance(statement, ast.ActivityDecl):
                 if statement.name is not None:
                     self.symbols.define(statement.name, NameKind.ACTIVITY)
@@ -126,14 +127,15 @@ class Checker:
 
     def _unused(self) -> None:
         for symbol in self.symbols.symbols.values():
-            if symbol.kind in (NameKind.PLACE, NameKind.AREA) and symbol.name not in self.symbols.used:
+            unused = symbol.name not in self.symbols.used
+            if symbol.kind in (NameKind.PLACE, NameKind.AREA) and unused:
                 self.diagnostics.append(warning(
                     "W501", f"{symbol.kind.value} '{symbol.name}' is never used", symbol.span,
                     "remove it, or use it in a task or condition"))
 
     # ---- statements ------------------------------------------------------------------------
 
-    def _statement(self, statement: ast.Statement) -> None:  # noqa: PLR0912 - a dispatch table
+    def _statement(self, statement: ast.Statement) -> None:
         match statement:
             case ast.ScenarioDecl(title=title):
                 self.facts.title = title.value
@@ -175,7 +177,7 @@ class Checker:
             what = "the time step" if keyword == "step" else "the time limit"
             settings[keyword] = self.values.quantity(
                 value, Dimension.TIME, what, positive=True,
-                maximum=1.0 if keyword == "step" else math.inf)  # type: ignore[arg-type]
+                maximum=1.0 if keyword == "step" else math.inf)
         elif keyword == "on_failure":
             assert isinstance(value, ast.NameRef)
             if value.name not in ("stop", "continue"):

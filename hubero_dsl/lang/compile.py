@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal, cast
+from typing import TYPE_CHECKING, Literal, cast
 
 from hubero_dsl.diagnostics import Diagnostic
 from hubero_dsl.errors import CompileError
@@ -18,6 +18,10 @@ from hubero_dsl.lang.checks import Checker, Facts
 from hubero_dsl.lang.parse import parse_source, read_source
 from hubero_dsl.lang.placement import check_positions, load_scenario_map, map_path
 from hubero_dsl.lang.program import HumanSpec, ParamLayer, Program, Variant, sweep_products
+
+if TYPE_CHECKING:
+    import networkx as nx
+    from shapely.geometry import Polygon
 
 
 @dataclass(frozen=True)
@@ -99,13 +103,13 @@ def _program(module: ast.Module, facts: Facts, grid: object, graph: object) -> P
         step=cast(float, settings.get("step") or 0.05),
         time_limit=cast(float, settings.get("time_limit") or 600.0),
         on_failure=cast(Literal["stop", "continue"], settings.get("on_failure") or "stop"),
-        bounds=settings.get("bounds"),  # type: ignore[arg-type]
+        bounds=cast("Polygon | None", settings.get("bounds")),
         places=dict(facts.places), areas=_areas(module, facts),
         defaults=facts.defaults, humans=humans, robots=tuple(facts.robots),
         variants=_variants(facts),
         activities=tuple(module.of_type(ast.ActivityDecl)),
         expectations=tuple(module.of_type(ast.ExpectDecl)),
-        graph=graph,  # type: ignore[arg-type]
+        graph=cast("nx.DiGraph", graph),
     )
 
 
@@ -117,9 +121,8 @@ def _areas(module: ast.Module, facts: Facts) -> dict[str, object]:
         if not isinstance(decl.area, ast.NameRef):
             areas[decl.name.name] = area_polygon(decl.area, facts.places)
     for decl in module.of_type(ast.AreaDecl):  # an area may alias another
-        if isinstance(decl.area, ast.NameRef):
-            if decl.area.name in areas:
-                areas[decl.name.name] = areas[decl.area.name]
+        if isinstance(decl.area, ast.NameRef) and decl.area.name in areas:
+            areas[decl.name.name] = areas[decl.area.name]
     return areas
 
 

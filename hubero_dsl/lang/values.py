@@ -109,7 +109,8 @@ class ValueReader:
 
     # ---- parameters ------------------------------------------------------------------------
 
-    def param(self, spec: ParamSpec, value: ast.Value, planners: Iterable[str]) -> ParamValue | None:
+    def param(self, spec: ParamSpec, value: ast.Value,
+              planners: Iterable[str]) -> ParamValue | None:
         """A human parameter's value, checked against its spec."""
         what = f"'{spec.name}'"
         if spec.kind is ParamKind.SHAPE:
@@ -194,7 +195,8 @@ class ValueReader:
         ok = True
         for arg in value.args:
             if arg.name not in allowed:
-                hint = did_you_mean(arg.name, allowed) or f"{value.kind} takes " + ", ".join(allowed)
+                takes = f"{value.kind} takes " + ", ".join(allowed)
+                hint = did_you_mean(arg.name, allowed) or takes
                 self.report("E105", f"{value.kind} has no argument '{arg.name}'", arg.name_span,
                             hint)
                 ok = False

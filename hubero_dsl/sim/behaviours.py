@@ -1,0 +1,291 @@
+"""What each task makes a human do: HuBeRo's task set as small event-driven state machines.
+
+A behaviour never runs every tick. It sets a human's drive in the arrays (walk to a goal along a
+planned path, stop, turn to a heading) and is woken only by events the engine detects with array
+operations: its timer ran out, the human arrived, finished turning, or made no progress. This is
+the paper's aa.cs FSM: each behaviour names its current `state` for the log.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from hubero_dsl.sim.status import Posture, TaskStatus
+
+if TYPE_CHECKING:
+    from shapely.geometry import Polygon
+
+    from hubero_dsl.sim.engine import Engine
+
+Target = tuple[float, float] | str
+
+FACE_REFRESH = 0.2  # s between re-aims at a moving target
+
+
+@dataclass(frozen=True, slots=True)
+class Timing:
+    """How long a task lasts: `duration` seconds, or until stopped from outside (None)."""
+
+    duration: float | None = None
+
+
+class Behaviour:
+    """Base: a task for human `index`. Subclasses override the hooks they need."""
+
+    kind = "idle"
+
+    def __init__(self, timing: Timing = Timing()) -> None:
+        self.timing = timing
+        self.index = -1
+        self.state = "pending"
+
+    def start(self, engine: Engine) -> None:
+        self.state = "active"
+        self._start_timer(engine)
+
+    def _start_timer(self, engine: Engine) -> None:
+        if self.timing.duration is not None:
+            engine.set_timer(self.index, self.timing.duration)
+
+    def on_timer(self, engine: Engine) -> None:
+        engine.finish(self.index, TaskStatus.SUCCEEDED)
+
+    def on_arrived(self, engine: Engine) -> None:
+        """The human came within its stop distance of the goal."""
+
+    def on_aligned(self, engine: Engine) -> None:
+        """The human finished turning to its heading goal."""
+
+    def on_stuck(self, engine: Engine) -> None:
+        engine.finish(self.index, TaskStatus.ABORTED,
+                      f"stuck: no progress for {engine.stuck_time:g} s")
+
+
+class Stand(Behaviour):
+    """Stand still, optionally facing a target (re-aimed while it moves)."""
+
+    kind = "stand"
+
+    def __init__(self, timing: Timing = Timing(), facing: Target | None = None) -> None:
+        super().__init__(timing)
+        self.facing = facing
+        self.deadline: int | None = None
+
+    def start(self, engine: Engine) -> None:
+        engine.halt(self.index)
+        self.state = "standing"
+        if self.timing.duration is not None:
+            self.deadline = engine.tick + engine.ticks(self.timing.duration)
+        self._aim(engine)
+
+    def _aim(self, engine: Engine) -> None:
+        if self.facing is not None:
+            where = engine.position_of(self.facing)
+            if where is None:
+                engine.finish(self.index, TaskStatus.ABORTED, f"'{self.facing}' disappeared")
+                return
+            engine.face_point(self.index, where)
+        self._next_wake(engine)
+
+    def _next_wake(self, engine: Engine) -> None:
+        refresh = engine.ticks(FACE_REFRESH) if isinstance(self.facing, str) else None
+        candidates = [t for t in (self.deadline, None if refresh is None else engine.tick
+                                  + refresh) if t is not None]
+        if candidates:
+            engine.set_timer_tick(self.index, min(candidates))
+
+    def on_timer(self, engine: Engine) -> None:
+        if self.deadline is not None and engine.tick >= self.deadline:
+            engine.finish(self.index, TaskStatus.SUCCEEDED)
+        else:
+            self._aim(engine)
+
+
+class Talk(Stand):
+    """Stand and face the person spoken to."""
+
+    kind = "talk"
+
+    def start(self, engine: Engine) -> None:
+        super().start(engine)
+        self.state = "talking"
+
+
+class MoveTo(Behaviour):
+    """Walk to a goal along a global plan; then turn to the heading, if one was asked."""
+
+    kind = "move_to"
+
+    def __init__(self, target: Target, heading: float | None = None, speed: float | None = None,
+                 running: bool = False) -> None:
+        super().__init__()
+        self.target = target
+        self.heading = heading
+        self.speed = speed
+        self.running = running
+
+    def start(self, engine: Engine) -> None:
+        goal = engine.position_of(self.target)
+        if goal is None:
+            engine.finish(self.index, TaskStatus.ABORTED, f"'{self.target}' does not exist")
+            return
+        self.state = "running" if self.running else "walking"
+        speed = self.speed or engine.walking_speed(self.index, running=self.running)
+        tolerance = engine.humans.goal_tolerance[self.index]
+        if isinstance(self.target, str):  # a body: stop beside it, not on it
+            tolerance += engine.body_radius_of(self.target) + engine.humans.radius[self.index]
+        engine.walk_to(self.index, goal, speed, float(tolerance))
+
+    def on_arrived(self, engine: Engine) -> None:
+        if self.heading is None:
+            engine.finish(self.index, TaskStatus.SUCCEEDED)
+            return
+        self.state = "aligning"
+        engine.face(self.index, self.heading)
+
+    def on_aligned(self, engine: Engine) -> None:
+        engine.finish(self.index, TaskStatus.SUCCEEDED)
+
+
+class Posed(MoveTo):
+    """sit_down / lie_down: go there (if told where), then hold the posture for the time."""
+
+    def __init__(self, posture: Posture, timing: Timing, at: Target | None,
+                 heading: float | None) -> None:
+        super().__init__(at or (0.0, 0.0), heading)
+        self.kind = "sit_down" if posture is Posture.SITTING else "lie_down"
+        self.posture = posture
+        self.timing = timing
+        self.at = at
+
+    def start(self, engine: Engine) -> None:
+        if self.at is None:
+            self.on_arrived(engine)
+        else:
+            super().start(engine)
+
+    def on_arrived(self, engine: Engine) -> None:
+        if self.heading is not None and self.state != "aligning":
+            self.state = "aligning"
+            engine.face(self.index, self.heading)
+            return
+        self._take_posture(engine)
+
+    def on_aligned(self, engine: Engine) -> None:
+        self._take_posture(engine)
+
+    def _take_posture(self, engine: Engine) -> None:
+        engine.halt(self.index)
+        engine.set_posture(self.index, self.posture)
+        self.state = "sitting" if self.posture is Posture.SITTING else "lying"
+        self._start_timer(engine)
+
+
+class MoveAround(Behaviour):
+    """Wander: random reachable goals inside an area, drawn from the run's seed."""
+
+    kind = "move_around"
+
+    def __init__(self, timing: Timing, area: Polygon | None, times: int | None) -> None:
+        super().__init__(timing)
+        self.area = area
+        self.times = times
+        self.reached = 0
+
+    def start(self, engine: Engine) -> None:
+        self._start_timer(engine)
+        self._next_goal(engine)
+
+    def _next_goal(self, engine: Engine) -> None:
+        goal = engine.random_goal(self.index, self.area)
+        if goal is None:
+            engine.finish(self.index, TaskStatus.ABORTED,
+                          "no reachable free point in the area to walk to")
+            return
+        self.state = "wandering"
+        engine.walk_to(self.index, goal, engine.walking_speed(self.index),
+                       float(engine.humans.goal_tolerance[self.index]))
+
+    def on_arrived(self, engine: Engine) -> None:
+        self.reached += 1
+        if self.times is not None and self.reached >= self.times:
+            engine.finish(self.index, TaskStatus.SUCCEEDED)
+        else:
+            self._next_goal(engine)
+
+    def on_stuck(self, engine: Engine) -> None:
+        self._next_goal(engine)  # wandering has no fixed goal: pick another one
+
+
+class Follow(Behaviour):
+    """Follow a human or robot at a distance, re-planning every `follow_replan`."""
+
+    kind = "follow"
+
+    def __init__(self, timing: Timing, target: str, distance: float) -> None:
+        super().__init__(timing)
+        self.target = target
+        self.distance = distance
+        self.deadline: int | None = None
+
+    def start(self, engine: Engine) -> None:
+        if self.timing.duration is not None:
+            self.deadline = engine.tick + engine.ticks(self.timing.duration)
+        self._replan(engine)
+
+    def _replan(self, engine: Engine) -> None:
+        where = engine.position_of(self.target)
+        if where is None:
+            engine.finish(self.index, TaskStatus.ABORTED, f"target '{self.target}' disappeared")
+            return
+        here = engine.humans.position[self.index]
+        gap = float(np.hypot(where[0] - here[0], where[1] - here[1]))
+        if gap <= self.distance + engine.humans.goal_tolerance[self.index]:
+            self.state = "waiting"      # close enough: wait, facing the target
+            engine.halt(self.index)
+            engine.face_point(self.index, where)
+        else:
+            self.state = "following"
+            reason = engine.walk_to(self.index, where, engine.walking_speed(self.index),
+                                    self.distance, abort=False)
+            if reason is not None:      # the target stands where we cannot go: wait
+                self.state = "waiting"
+                engine.halt(self.index)
+        replan = engine.ticks(float(engine.follow_replan[self.index]))
+        wake = engine.tick + max(1, replan)
+        engine.set_timer_tick(self.index, wake if self.deadline is None
+                              else min(wake, self.deadline))
+
+    def on_timer(self, engine: Engine) -> None:
+        if self.deadline is not None and engine.tick >= self.deadline:
+            engine.finish(self.index, TaskStatus.SUCCEEDED)
+        else:
+            self._replan(engine)
+
+    def on_arrived(self, engine: Engine) -> None:
+        self.state = "waiting"
+        engine.halt(self.index)
+
+    def on_stuck(self, engine: Engine) -> None:
+        self.state = "waiting"
+        engine.halt(self.index)
+
+
+class Teleop(Behaviour):
+    """Velocity comes from the Python API (`HumanHandle.set_velocity`)."""
+
+    kind = "teleop"
+
+    def start(self, engine: Engine) -> None:
+        engine.halt(self.index)
+        engine.humans.teleop[self.index] = True
+        self.state = "teleoperated"
+        self._start_timer(engine)
+
+
+def heading_towards(origin: np.ndarray, point: tuple[float, float]) -> float:
+    return math.atan2(point[1] - float(origin[1]), point[0] - float(origin[0]))

@@ -1,0 +1,126 @@
+"""The humans' state as numpy arrays, and vectorised path following.
+
+Row i of every array is human i (sorted as declared in the scenario); robots are appended after
+the humans only when a `Crowd` snapshot is built for the planners. Behaviours change these
+arrays on events (a task starts, a goal is reached); every tick the engine reads them whole.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from hubero_dsl.world.shapes import Shape, ShapeArrays
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
+BoolArray = npt.NDArray[np.bool_]
+
+NO_GOAL = np.nan
+
+
+@dataclass(eq=False)
+class HumanArrays:
+    """Kinematic state, parameters and the current drive of every human."""
+
+    names: list[str]
+    position: FloatArray          # (N, 2)
+    velocity: FloatArray          # (N, 2)
+    heading: FloatArray           # (N,)
+    posture: npt.NDArray[np.int8]
+    radius: FloatArray
+    shapes: list[Shape]
+    personal_space: ShapeArrays
+    speed: FloatArray             # desired walking speed
+    max_speed: FloatArray
+    run_speed: FloatArray
+    relaxation_time: FloatArray
+    goal_tolerance: FloatArray
+    goal_strength: FloatArray
+    avoidance_strength: FloatArray
+    obstacle_strength: FloatArray
+    interaction_range: FloatArray
+    field_of_view: FloatArray
+    # drive, set by behaviours
+    moving: BoolArray             # steered by the local planner this tick
+    desired_speed: FloatArray     # m/s while moving
+    goal: FloatArray              # (N, 2) final goal of the current walk (nan: none)
+    stop_distance: FloatArray     # arrive when this close to the goal
+    heading_goal: FloatArray      # heading to turn to (nan: none)
+    teleop_velocity: FloatArray   # (N, 2) velocity commanded through the API
+    teleop: BoolArray
+    path_length: FloatArray       # metres walked so far
+
+    @property
+    def count(self) -> int:
+        return len(self.names)
+
+
+class PathPool:
+    """Every human's global path in one array, followed waypoint by waypoint without loops.
+
+    A human's path occupies rows [cursor, end) of `points`; each tick the cursor moves past the
+    waypoints already within `lookahead`. New paths are appended; the pool is compacted when it
+    grows large, so re-planning (follow re-plans every second) does not leak memory.
+    """
+
+    def __init__(self, count: int) -> None:
+        self.points: FloatArray = np.zeros((0, 2))
+        self.cursor: IntArray = np.zeros(count, dtype=np.intp)
+        self.end: IntArray = np.zeros(count, dtype=np.intp)
+
+    def set_path(self, human: int, waypoints: FloatArray) -> None:
+        if len(self.points) > 4096 and len(self.points) > 8 * max(1, int(self.live_rows())):
+            self._compact()
+        start = len(self.points)
+        self.points = np.concatenate([self.points, np.asarray(waypoints, dtype=np.float64)])
+        self.cursor[human] = start
+        self.end[human] = start + len(waypoints)
+
+    def clear(self, human: int) -> None:
+        self.cursor[human] = self.end[human] = 0
+
+    def has_path(self) -> BoolArray:
+        return self.end > self.cursor
+
+    def live_rows(self) -> int:
+        return int(np.sum(self.end - self.cursor))
+
+    def advance(self, position: FloatArray, lookahead: float, visible: BoolArray | None = None
+                ) -> None:
+        """Move each cursor past waypoints within `lookahead` (never past the last one)."""
+        for _ in range(4):  # a few passes skip several short segments in one tick
+            active = self.end - self.cursor > 1
+            if not active.any():
+                return
+            rows = np.flatnonzero(active)
+            near = np.linalg.norm(self.points[self.cursor[rows]] - position[rows], axis=1)
+            passed = near < lookahead
+            if visible is not None:
+                passed &= visible[rows]
+            if not passed.any():
+                return
+            self.cursor[rows[passed]] += 1
+
+    def current_targets(self, rows: IntArray) -> FloatArray:
+        return self.points[self.cursor[rows]]
+
+    def remaining_length(self, human: int, position: FloatArray) -> float:
+        segment = self.points[self.cursor[human]:self.end[human]]
+        if len(segment) == 0:
+            return 0.0
+        first = float(np.linalg.norm(segment[0] - position))
+        return first + float(np.linalg.norm(np.diff(segment, axis=0), axis=1).sum())
+
+    def waypoints(self, human: int) -> FloatArray:
+        return self.points[self.cursor[human]:self.end[human]]
+
+    def _compact(self) -> None:
+        lengths = self.end - self.cursor
+        pieces = [self.points[c:e] for c, e in zip(self.cursor, self.end, strict=True)]
+        self.points = np.concatenate(pieces) if pieces else np.zeros((0, 2))
+        starts = np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(np.intp)
+        self.cursor = starts
+        self.end = starts + lengths

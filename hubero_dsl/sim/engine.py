@@ -1,0 +1,341 @@
+"""The engine: one tick of the world, and the services behaviours use to command humans.
+
+A tick is array work: robots advance, every walking human's next waypoint is found, the local
+planners turn targets into velocities (all humans of a planner at once), bodies move, are kept
+apart and out of walls, and turn. Then events (arrived, aligned, timer, stuck) are detected
+with array comparisons, and only the humans with an event wake their behaviour.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from hubero_dsl.planners.base import Crowd, Drive, NoPath
+from hubero_dsl.sim import physics
+from hubero_dsl.sim.behaviours import Behaviour
+from hubero_dsl.sim.crowd import FloatArray, HumanArrays, IntArray, PathPool
+from hubero_dsl.sim.robots import Robots
+from hubero_dsl.sim.status import Posture, TaskEvent, TaskHandle, TaskStatus
+from hubero_dsl.world.shapes import ShapeArrays, lateral_extent
+
+if TYPE_CHECKING:
+    from shapely.geometry import Polygon
+
+    from hubero_dsl.planners.base import GlobalPlanner, LocalPlanner
+    from hubero_dsl.world.grid import OccupancyGrid
+
+NEVER = np.iinfo(np.int64).max
+LOOKAHEAD = 0.6         # m: a waypoint this close counts as passed
+ALIGNED = math.radians(3.0)
+PROGRESS = 0.5          # m a walking human must make within `stuck_time`
+
+
+class Engine:
+    """Owns the arrays and advances them tick by tick. Deterministic: no clock, seeded draws."""
+
+    def __init__(self, *, grid: OccupancyGrid, humans: HumanArrays, robots: Robots, dt: float,
+                 global_planners: list[GlobalPlanner], local_planners: dict[str, LocalPlanner],
+                 local_planner_of: list[str], follow_replan: FloatArray,
+                 rng_for: Callable[[str, int], np.random.Generator],
+                 stuck_time: float = 20.0) -> None:
+        self.grid = grid
+        self.humans = humans
+        self.robots = robots
+        self.dt = dt
+        self.tick = 0
+        self.stuck_time = stuck_time
+        self.follow_replan = follow_replan
+        self._global = global_planners            # one per human (shared instances)
+        self._local = local_planners              # by name
+        self._local_rows = {name: np.array([i for i, n in enumerate(local_planner_of)
+                                            if n == name], dtype=np.intp)
+                            for name in sorted(local_planners)}
+        self._rng_for = rng_for
+        count = humans.count
+        self.paths = PathPool(count)
+        self.behaviour: list[Behaviour | None] = [None] * count
+        self.handle: list[TaskHandle | None] = [None] * count
+        self.wake_tick = np.full(count, NEVER, dtype=np.int64)
+        self.anchor = humans.position.copy()
+        self.anchor_tick = np.zeros(count, dtype=np.int64)
+        self.events: list[TaskEvent] = []
+        self.listeners: list[Callable[[TaskEvent], None]] = []
+        self._goal_cells: dict[tuple[int, float], IntArray] = {}
+        self.removed: set[str] = set()
+
+    # ---- time ----------------------------------------------------------------------------
+
+    @property
+    def time(self) -> float:
+        return self.tick * self.dt
+
+    def ticks(self, seconds: float) -> int:
+        return max(0, round(seconds / self.dt))
+
+    # ---- services for behaviours ---------------------------------------------------------
+
+    def index_of(self, name: str) -> int:
+        return self.humans.names.index(name)
+
+    def position_of(self, target: tuple[float, float] | str) -> tuple[float, float] | None:
+        if not isinstance(target, str):
+            return (float(target[0]), float(target[1]))
+        if target in self.removed:
+            return None
+        if target in self.humans.names:
+            x, y = self.humans.position[self.index_of(target)]
+            return (float(x), float(y))
+        return self.robots.position_of(target)
+
+    def body_radius_of(self, name: str) -> float:
+        if name in self.humans.names:
+            return float(self.humans.radius[self.index_of(name)])
+        return self.robots.radius_of(name)
+
+    def walking_speed(self, index: int, running: bool = False) -> float:
+        source = self.humans.run_speed if running else self.humans.speed
+        return float(source[index])
+
+    def walk_to(self, index: int, goal: tuple[float, float], speed: float, stop_distance: float,
+                *, abort: bool = True) -> str | None:
+        """Plan and start walking; on failure abort the task (or just return the reason)."""
+        humans = self.humans
+        start = (float(humans.position[index, 0]), float(humans.position[index, 1]))
+        try:
+            plan = self._global[index].plan(
+                start, goal, body_radius=float(humans.radius[index]),
+                comfort_radius=lateral_extent(humans.shapes[index]))
+        except NoPath as exc:
+            if abort:
+                self.finish(index, TaskStatus.ABORTED, exc.reason)
+            return exc.reason
+        self.paths.set_path(index, plan.waypoints)
+        humans.moving[index] = True
+        humans.teleop[index] = False
+        humans.desired_speed[index] = speed
+        humans.goal[index] = goal
+        humans.stop_distance[index] = stop_distance
+        humans.heading_goal[index] = np.nan
+        self.anchor[index] = humans.position[index]
+        self.anchor_tick[index] = self.tick
+        return None
+
+    def halt(self, index: int) -> None:
+        humans = self.humans
+        humans.moving[index] = False
+        humans.teleop[index] = False
+        humans.goal[index] = np.nan
+        self.paths.clear(index)
+
+    def face(self, index: int, heading: float) -> None:
+        self.humans.heading_goal[index] = heading
+
+    def face_point(self, index: int, point: tuple[float, float]) -> None:
+        x, y = self.humans.position[index]
+        if math.hypot(point[0] - x, point[1] - y) > 1e-6:
+            self.face(index, math.atan2(point[1] - y, point[0] - x))
+
+    def set_posture(self, index: int, posture: Posture) -> None:
+        self.humans.posture[index] = posture
+
+    def set_timer(self, index: int, seconds: float) -> None:
+        self.set_timer_tick(index, self.tick + max(1, self.ticks(seconds)))
+
+    def set_timer_tick(self, index: int, tick: int) -> None:
+        self.wake_tick[index] = tick
+
+    def rng(self, purpose: str, index: int) -> np.random.Generator:
+        return self._rng_for(purpose, index)
+
+    def random_goal(self, index: int, area: Polygon | None) -> tuple[float, float] | None:
+        """A random free point the human can reach, inside `area` (if given)."""
+        cells = self._reachable_cells(index, area)
+        if len(cells) == 0:
+            return None
+        pick = cells[int(self.rng("move_around", index).integers(len(cells)))]
+        x, y = self.grid.cell_to_world(pick)
+        return (float(x), float(y))
+
+    def _reachable_cells(self, index: int, area: Polygon | None) -> IntArray:
+        import shapely
+
+        radius = float(self.humans.radius[index]) + 0.05
+        start = (float(self.humans.position[index, 0]), float(self.humans.position[index, 1]))
+        mask = self.grid.reachable_mask(start, radius)
+        cells = np.argwhere(mask)
+        if area is not None and len(cells):
+            centres = self.grid.cell_to_world(cells)
+            cells = cells[shapely.contains_xy(area, centres[:, 0], centres[:, 1])]
+        return cells
+
+    # ---- commanding ----------------------------------------------------------------------
+
+    def command(self, index: int, behaviour: Behaviour, handle: TaskHandle) -> None:
+        """Give human `index` a new task, preempting the one it has."""
+        current = self.handle[index]
+        if current is not None and not current.done:
+            self.finish(index, TaskStatus.PREEMPTED, f"replaced by {handle.kind}")
+        if behaviour.kind not in ("sit_down", "lie_down"):
+            self.humans.posture[index] = Posture.STANDING
+        behaviour.index = index
+        self.behaviour[index] = behaviour
+        self.handle[index] = handle
+        self._set_status(handle, TaskStatus.ACTIVE, "")
+        behaviour.start(self)
+
+    def finish(self, index: int, status: TaskStatus, reason: str = "") -> None:
+        handle = self.handle[index]
+        if handle is None or handle.done:
+            return
+        self.behaviour[index] = None
+        self.handle[index] = None
+        self.halt(index)
+        self.humans.heading_goal[index] = np.nan
+        self.wake_tick[index] = NEVER
+        self._set_status(handle, status, reason)
+
+    def cancel(self, handle: TaskHandle) -> None:
+        if handle.human in self.humans.names:
+            index = self.index_of(handle.human)
+            if self.handle[index] is handle:
+                self.finish(index, TaskStatus.PREEMPTED, "cancelled")
+
+    def _set_status(self, handle: TaskHandle, status: TaskStatus, reason: str) -> None:
+        handle.status = status
+        handle.reason = reason
+        if status is TaskStatus.ACTIVE:
+            handle.started_at = self.time
+        elif status.is_final:
+            handle.ended_at = self.time
+        event = TaskEvent(self.tick, self.time, handle.task_id, handle.human, handle.kind,
+                          status, reason, handle.span)
+        self.events.append(event)
+        for listener in self.listeners:
+            listener(event)
+        handle._notify()
+
+    # ---- one tick ------------------------------------------------------------------------
+
+    def step(self) -> None:
+        dt = self.dt
+        humans = self.humans
+        self.robots.advance(dt, self.time)
+        velocity = self._velocities()
+        old = humans.position
+        moved = old + velocity * dt
+        movable = humans.posture == Posture.STANDING
+        moved[~movable] = old[~movable]
+        moved = self._separate(moved, movable)
+        moved = physics.keep_out_of_walls(self.grid, old, moved, humans.radius)
+        humans.velocity = (moved - old) / dt
+        humans.path_length += np.linalg.norm(moved - old, axis=1)
+        humans.position = moved
+        self._turn(dt)
+        self.tick += 1
+        self._dispatch_events()
+
+    def _velocities(self) -> FloatArray:
+        humans = self.humans
+        velocity = np.zeros_like(humans.velocity)
+        rows = np.flatnonzero(humans.moving)
+        if len(rows):
+            self.paths.advance(humans.position, LOOKAHEAD)
+            crowd = self.crowd()
+            for name, planner_rows in self._local_rows.items():
+                steer = np.intersect1d(planner_rows, rows)
+                if len(steer):
+                    velocity[steer] = self._local[name].velocities(crowd, self._drive(steer),
+                                                                   self.dt)
+        teleop = np.flatnonzero(humans.teleop)
+        if len(teleop):
+            velocity[teleop] = humans.teleop_velocity[teleop]
+        return velocity
+
+    def _drive(self, rows: IntArray) -> Drive:
+        h = self.humans
+        return Drive(index=rows, target=self.paths.current_targets(rows),
+                     desired_speed=h.desired_speed[rows],
+                     max_speed=np.maximum(h.max_speed[rows], h.desired_speed[rows]),
+                     relaxation_time=h.relaxation_time[rows], goal_strength=h.goal_strength[rows],
+                     avoidance_strength=h.avoidance_strength[rows],
+                     obstacle_strength=h.obstacle_strength[rows],
+                     interaction_range=h.interaction_range[rows],
+                     field_of_view=h.field_of_view[rows])
+
+    def crowd(self) -> Crowd:
+        """Every body now: humans, then robots (which planners treat as moving obstacles)."""
+        h, r = self.humans, self.robots
+        shapes = h.personal_space
+        if r.count:
+            robot_shapes = r.personal_space
+            shapes = ShapeArrays(np.concatenate([shapes.kind, robot_shapes.kind]),
+                                 np.concatenate([shapes.a, robot_shapes.a]),
+                                 np.concatenate([shapes.b, robot_shapes.b]),
+                                 np.concatenate([shapes.offset, robot_shapes.offset]))
+        return Crowd(position=np.concatenate([h.position, r.position]),
+                     velocity=np.concatenate([h.velocity, r.velocity]),
+                     heading=np.concatenate([h.heading, r.heading]),
+                     radius=np.concatenate([h.radius, r.radius]),
+                     personal_space=shapes,
+                     is_robot=np.concatenate([np.zeros(h.count, bool), np.ones(r.count, bool)]))
+
+    def _separate(self, moved: FloatArray, movable: np.ndarray) -> FloatArray:
+        r = self.robots
+        if self.humans.count + r.count < 2:
+            return moved
+        everyone = np.concatenate([moved, r.position])
+        radius = np.concatenate([self.humans.radius, r.radius])
+        can_move = np.concatenate([movable, np.zeros(r.count, bool)])
+        return physics.separate_bodies(everyone, radius, can_move)[: self.humans.count]
+
+    def _turn(self, dt: float) -> None:
+        h = self.humans
+        speed = np.linalg.norm(h.velocity, axis=1)
+        walking = (speed > 0.1) & (h.moving | h.teleop)
+        aligning = ~np.isnan(h.heading_goal) & ~walking
+        wanted = np.where(walking, np.arctan2(h.velocity[:, 1], h.velocity[:, 0]),
+                          np.nan_to_num(h.heading_goal))
+        h.heading = physics.turn_towards(h.heading, wanted, walking | aligning, dt)
+
+    # ---- events --------------------------------------------------------------------------
+
+    def _dispatch_events(self) -> None:
+        h = self.humans
+        gap = np.linalg.norm(h.position - np.nan_to_num(h.goal), axis=1)
+        arrived = h.moving & (gap <= h.stop_distance)
+        turning = ~np.isnan(h.heading_goal) & ~h.moving
+        aligned = turning & (np.abs(physics.wrap_angle(h.heading - h.heading_goal)) < ALIGNED)
+        progressed = np.linalg.norm(h.position - self.anchor, axis=1) > PROGRESS
+        self.anchor[progressed] = h.position[progressed]
+        self.anchor_tick[progressed | ~h.moving] = self.tick
+        stuck = h.moving & (self.tick - self.anchor_tick > self.ticks(self.stuck_time))
+        timer = self.wake_tick <= self.tick
+        for index in np.flatnonzero(arrived | aligned | stuck | timer):
+            self._wake(int(index), bool(arrived[index]), bool(aligned[index]),
+                       bool(stuck[index]), bool(timer[index]))
+
+    def _wake(self, index: int, arrived: bool, aligned: bool, stuck: bool, timer: bool) -> None:
+        h = self.humans
+        behaviour = self.behaviour[index]
+        if arrived:
+            h.moving[index] = False
+            self.paths.clear(index)
+        if aligned:
+            h.heading_goal[index] = np.nan
+        if timer:
+            self.wake_tick[index] = NEVER
+        if behaviour is None:
+            return
+        if stuck:
+            self.anchor_tick[index] = self.tick
+            behaviour.on_stuck(self)
+        elif arrived:
+            behaviour.on_arrived(self)
+        elif aligned:
+            behaviour.on_aligned(self)
+        if timer and self.behaviour[index] is behaviour:
+            behaviour.on_timer(self)

@@ -1,0 +1,98 @@
+"""Moving bodies for one tick: integrate velocities, keep bodies apart and out of walls, turn.
+
+All functions take and return whole arrays; nothing here loops over humans.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+from scipy.spatial import cKDTree
+
+if TYPE_CHECKING:
+    from hubero_dsl.world.grid import OccupancyGrid
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+
+TURN_RATE = 2.5          # rad/s a human turns at
+WALL_MARGIN = 0.02       # m of clearance a body centre keeps beyond "free"
+
+
+def separate_bodies(position: FloatArray, radius: FloatArray, movable: BoolArray) -> FloatArray:
+    """Push overlapping bodies apart (each movable one takes its share of the overlap).
+
+    A position correction after the social forces: forces make overlap rare, this makes it
+    impossible to persist. Neighbours come from a k-d tree, so the cost stays O(N).
+    """
+    if len(position) < 2:
+        return position
+    tree = cKDTree(position)
+    pairs = tree.query_pairs(r=2.0 * float(radius.max()), output_type="ndarray")
+    if len(pairs) == 0:
+        return position
+    i, j = pairs[:, 0], pairs[:, 1]
+    delta = position[i] - position[j]
+    distance = np.linalg.norm(delta, axis=1)
+    overlap = radius[i] + radius[j] - distance
+    hit = overlap > 0
+    if not hit.any():
+        return position
+    i, j, delta, distance, overlap = i[hit], j[hit], delta[hit], distance[hit], overlap[hit]
+    # coincident centres: separate along a fixed direction so the result is deterministic
+    direction = np.where(distance[:, None] > 1e-9, delta / np.maximum(distance, 1e-9)[:, None],
+                         np.array([1.0, 0.0]))
+    share_i = movable[i].astype(float)
+    share_j = movable[j].astype(float)
+    total = np.maximum(share_i + share_j, 1e-9)
+    corrected = position.copy()
+    np.add.at(corrected, i, direction * (overlap * share_i / total)[:, None])
+    np.add.at(corrected, j, -direction * (overlap * share_j / total)[:, None])
+    return corrected
+
+
+def keep_out_of_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
+                      radius: FloatArray) -> FloatArray:
+    """Where a move would put a body into a wall, slide along it or stay.
+
+    A body centre must keep `radius / 2` of clearance (bodies may brush furniture, centres never
+    enter occupied cells); the full move is tried, then each axis alone, then no move.
+    """
+    needed = 0.5 * radius + WALL_MARGIN
+    before = grid.clearance_at(old)
+
+    def acceptable(rows: npt.NDArray[np.intp], trial: FloatArray) -> BoolArray:
+        # enough room, or at least not closer to the wall than before (a body that starts
+        # near a wall may always move away from it); never a centre in an occupied cell
+        clear = grid.clearance_at(trial)
+        free = grid.is_free(trial)
+        return free & ((clear >= needed[rows]) | (clear >= before[rows]))
+
+    result = new.copy()
+    bad = ~acceptable(np.arange(len(new)), result)
+    if not bad.any():
+        return result
+    for axis in (0, 1):
+        rows = np.flatnonzero(bad)
+        trial = old[rows].copy()
+        trial[:, axis] = new[rows, axis]
+        fits = acceptable(rows, trial)
+        result[rows[fits]] = trial[fits]
+        bad[rows[fits]] = False
+    rows = np.flatnonzero(bad)
+    result[rows] = old[rows]
+    return result
+
+
+def wrap_angle(angle: FloatArray) -> FloatArray:
+    return (angle + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def turn_towards(heading: FloatArray, wanted: FloatArray, turning: BoolArray,
+                 dt: float) -> FloatArray:
+    """Turn the `turning` rows towards `wanted` at TURN_RATE."""
+    difference = wrap_angle(wanted - heading)
+    step = np.clip(difference, -TURN_RATE * dt, TURN_RATE * dt)
+    return np.where(turning, wrap_angle(heading + step), heading)

@@ -1,0 +1,146 @@
+"""Running a scenario to its end: the loop, the expectations, and the result.
+
+`run_program` steps a `Simulation` until its scheduler says the run is over, judging every
+`expect` on the way, and returns a `RunResult`. Observers (the MCAP writer, a progress bar) are
+called after every tick with the simulation, so everything they record is at hand.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+from hubero_dsl.lang import ast
+from hubero_dsl.lang.units import Dimension
+from hubero_dsl.sim.conditions import si
+from hubero_dsl.sim.scheduler import RunState
+from hubero_dsl.sim.simulation import Simulation
+from hubero_dsl.sim.status import TaskEvent, TaskStatus
+
+Observer = Callable[[Simulation], None]
+
+
+@dataclass
+class Expectation:
+    """One `expect`, judged as the run goes: holds / fails and when it was decided."""
+
+    decl: ast.ExpectDecl
+    text: str
+    held: bool | None = None      # None: not decided yet
+    decided_at: float | None = None
+
+    def observe(self, holds: bool, time: float) -> None:
+        if self.held is not None:
+            return
+        mode = self.decl.mode
+        if mode is ast.ExpectMode.ALWAYS and not holds:
+            self.held, self.decided_at = False, time
+        elif mode is not ast.ExpectMode.ALWAYS and holds:
+            if mode is ast.ExpectMode.WITHIN and self.deadline is not None \
+                    and time > self.deadline + 1e-9:
+                self.held, self.decided_at = False, self.deadline
+            else:
+                self.held, self.decided_at = True, time
+        elif mode is ast.ExpectMode.WITHIN and self.deadline is not None \
+                and time > self.deadline + 1e-9:
+            self.held, self.decided_at = False, self.deadline
+
+    def finish(self, time: float) -> None:
+        if self.held is None:
+            self.held = self.decl.mode is ast.ExpectMode.ALWAYS
+            self.decided_at = time
+
+    @property
+    def deadline(self) -> float | None:
+        return si(self.decl.deadline, Dimension.TIME) if self.decl.deadline is not None else None
+
+
+@dataclass
+class HumanSummary:
+    name: str
+    tasks_done: int
+    tasks_total: int
+    last_status: str
+    path_length: float
+    busy_time: float
+
+
+@dataclass
+class RunResult:
+    state: RunState
+    reason: str
+    time: float
+    ticks: int
+    variant: str | None
+    seed: int
+    events: list[TaskEvent]
+    expectations: list[Expectation] = field(default_factory=list)
+    humans: list[HumanSummary] = field(default_factory=list)
+
+    @property
+    def succeeded(self) -> bool:
+        return self.state is RunState.COMPLETED and all(e.held for e in self.expectations)
+
+    @property
+    def expectations_hold(self) -> bool:
+        return all(e.held for e in self.expectations)
+
+
+def run_program(sim: Simulation, observers: Sequence[Observer] = ()) -> RunResult:
+    """Run to the end: every activity done, the time limit, or a stopping failure."""
+    scheduler = sim.scheduler
+    assert scheduler is not None, "run_program needs a simulation with activities"
+    source = sim.program.source
+    expectations = [Expectation(e, _text(source, e)) for e in sim.program.expectations]
+    last_tick = sim.engine.ticks(sim.program.time_limit)
+    _judge(sim, expectations)
+    while True:
+        scheduler.update()
+        if scheduler.state is not RunState.RUNNING:
+            break
+        if sim.tick >= last_tick:
+            scheduler.state = RunState.TIMED_OUT
+            scheduler.reason = f"time limit of {sim.program.time_limit:g} s reached"
+            break
+        sim.engine.step()
+        scheduler.after_step()
+        _judge(sim, expectations)
+        for observer in observers:
+            observer(sim)
+    for expectation in expectations:
+        expectation.finish(sim.time)
+    return RunResult(scheduler.state, scheduler.reason, sim.time, sim.tick, sim.variant,
+                     sim.seed, list(sim.events), expectations, summarise(sim))
+
+
+def _judge(sim: Simulation, expectations: list[Expectation]) -> None:
+    assert sim.scheduler is not None
+    for expectation in expectations:
+        if expectation.held is None:
+            expectation.observe(sim.scheduler.conditions.holds(expectation.decl.condition),
+                                sim.time)
+
+
+def _text(source: ast.SourceFile, decl: ast.ExpectDecl) -> str:
+    span = decl.span
+    line = source.line(span.line)
+    end = span.end_column - 1 if span.end_line == span.line else len(line)
+    return line[span.column - 1:end].strip().removeprefix("expect").strip()
+
+
+def summarise(sim: Simulation) -> list[HumanSummary]:
+    """Per human: tasks finished, the last status, metres walked, time spent on tasks."""
+    summaries = []
+    for index, name in enumerate(sim.engine.humans.names):
+        finals = [e for e in sim.events if e.human == name and e.status.is_final]
+        starts = {e.task_id: e.time for e in sim.events
+                  if e.human == name and e.status is TaskStatus.ACTIVE}
+        busy = sum(e.time - starts.get(e.task_id, e.time) for e in finals)
+        current = sim.engine.handle[index]
+        total = len(starts)
+        done = sum(1 for e in finals if e.status is not TaskStatus.ABORTED)
+        last = current.status.value if current is not None else (
+            finals[-1].status.value if finals else "-")
+        summaries.append(HumanSummary(name, done, total, last,
+                                      float(sim.engine.humans.path_length[index]), busy))
+    return summaries

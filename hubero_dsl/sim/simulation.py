@@ -1,0 +1,220 @@
+"""`Simulation`: a checked program brought to life — humans, robots, planners and the clock.
+
+    sim = Simulation(program, variant="ellipse", seed=3)
+    task = sim.human("actor1").move_to((0.6, -2.0), heading=math.radians(-135))
+    sim.run_until(lambda: task.done)
+
+With `activities=True` (the default) the scenario's own activities are executed by the
+scheduler through the same human API; with `activities=False` the caller commands everyone.
+"""
+
+from __future__ import annotations
+
+import itertools
+import zlib
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from hubero_dsl.errors import SimulationError
+from hubero_dsl.lang.program import Distribution, ParamValue, Program
+from hubero_dsl.params import HUMAN_PARAMS, ParamKind
+from hubero_dsl.planners.base import (
+    GlobalPlanner,
+    LocalPlanner,
+    PlannerParams,
+    global_planner,
+    local_planner,
+)
+from hubero_dsl.sim.crowd import HumanArrays
+from hubero_dsl.sim.engine import Engine
+from hubero_dsl.sim.human import HumanHandle
+from hubero_dsl.sim.robots import Robots
+from hubero_dsl.sim.status import TaskEvent
+from hubero_dsl.world.shapes import Shape, ShapeArrays
+
+if TYPE_CHECKING:
+    from hubero_dsl.sim.scheduler import Scheduler
+
+
+def stable_seed(*parts: int | str) -> list[int]:
+    """Seed material that does not depend on PYTHONHASHSEED or the order of humans."""
+    return [p if isinstance(p, int) else zlib.crc32(p.encode()) for p in parts]
+
+
+def draw_params(program: Program, variant: str | None,
+                seed: int) -> dict[str, dict[str, ParamValue]]:
+    """Every human's parameters for one run: distributions drawn once per human from the seed."""
+    drawn: dict[str, dict[str, ParamValue]] = {}
+    for name, values in program.resolved_params(variant).items():
+        concrete: dict[str, ParamValue] = {}
+        for key in sorted(values):
+            value = values[key]
+            if isinstance(value, Distribution):
+                rng = np.random.default_rng(stable_seed(seed, "param", name, key))
+                value = _draw(value, rng, key)
+            concrete[key] = value
+        drawn[name] = concrete
+    return drawn
+
+
+def _draw(distribution: Distribution, rng: np.random.Generator, key: str) -> float:
+    if distribution.kind == "uniform":
+        return float(rng.uniform(distribution.first, distribution.second))
+    value = float(rng.normal(distribution.first, distribution.second))
+    spec = HUMAN_PARAMS.get(key)
+    if spec is not None and spec.positive:  # a speed of -0.1 m/s is no person: truncate
+        value = max(value, 0.1 * distribution.first)
+    return value
+
+
+class Simulation:
+    """A run of one program variant with one seed. Deterministic: same inputs, same run."""
+
+    def __init__(self, program: Program, *, variant: str | None = None, seed: int | None = None,
+                 activities: bool = True) -> None:
+        if variant is not None and variant not in program.variants:
+            known = ", ".join(program.variants) or "none"
+            raise SimulationError(f"unknown variant '{variant}' (variants: {known})")
+        self.program = program
+        self.variant = variant
+        self.seed = program.seed if seed is None else seed
+        self.params = draw_params(program, variant, self.seed)
+        self.engine = self._build_engine()
+        self._ids = itertools.count(1)
+        places = {name: pose.xy for name, pose in program.places.items()}
+        self._humans = {name: HumanHandle(self.engine, name, places, self._ids)
+                        for name in program.human_names}
+        self.scheduler: Scheduler | None = None
+        if activities:
+            from hubero_dsl.sim.scheduler import Scheduler
+
+            self.scheduler = Scheduler(self)
+
+    # ---- the API ---------------------------------------------------------------------------
+
+    @property
+    def time(self) -> float:
+        return self.engine.time
+
+    @property
+    def tick(self) -> int:
+        return self.engine.tick
+
+    @property
+    def dt(self) -> float:
+        return self.engine.dt
+
+    @property
+    def events(self) -> list[TaskEvent]:
+        """Every task status change so far, in order."""
+        return self.engine.events
+
+    def human(self, name: str) -> HumanHandle:
+        try:
+            return self._humans[name]
+        except KeyError:
+            raise SimulationError(f"no human named '{name}'") from None
+
+    @property
+    def humans(self) -> list[HumanHandle]:
+        return list(self._humans.values())
+
+    def set_robot_velocity(self, name: str, vx: float, vy: float) -> None:
+        if name not in self.engine.robots.names:
+            raise SimulationError(f"no robot named '{name}'")
+        self.engine.robots.set_velocity(name, (vx, vy))
+
+    def remove(self, name: str) -> None:
+        """Take a human or robot out of the world (targets that follow it lose it)."""
+        self.engine.removed.add(name)
+
+    def step(self) -> None:
+        """Advance one tick: the scheduler reacts to the world, then the world moves."""
+        if self.scheduler is not None:
+            self.scheduler.update()
+        self.engine.step()
+        if self.scheduler is not None:
+            self.scheduler.after_step()
+
+    def run_until(self, done: Callable[[], bool], *, time_limit: float | None = None) -> bool:
+        """Step until `done()` holds (True) or the time limit passes (False)."""
+        limit = self.program.time_limit if time_limit is None else time_limit
+        last_tick = self.engine.ticks(limit)
+        while not done():
+            if self.tick >= last_tick:
+                return False
+            self.step()
+        return True
+
+    # ---- building --------------------------------------------------------------------------
+
+    def _build_engine(self) -> Engine:
+        program, params = self.program, self.params
+        names = program.human_names
+        humans = _human_arrays(program, params)
+        planners_by_key: dict[tuple[str, tuple[tuple[str, float], ...]], GlobalPlanner] = {}
+        global_of: list[GlobalPlanner] = []
+        for name in names:
+            planner_name = str(params[name]["global_planner"])
+            own = _planner_values(params[name], planner_name)
+            key = (planner_name, tuple(sorted(own.items())))
+            if key not in planners_by_key:
+                cls = global_planner(planner_name)
+                planners_by_key[key] = cls(program.grid, cls.Params.model_validate(own))
+            global_of.append(planners_by_key[key])
+        robots = Robots(program.robots)
+        local_of = [str(params[n]["local_planner"]) for n in names]
+        local = {planner_name: _local_planner(program, params, planner_name, robots.count)
+                 for planner_name in sorted(set(local_of))}
+        follow_replan = np.array([float(params[n]["follow_replan"]) for n in names])  # type: ignore[arg-type]
+        seed = self.seed
+        return Engine(grid=program.grid, humans=humans, robots=robots, dt=program.step,
+                      global_planners=global_of, local_planners=local, local_planner_of=local_of,
+                      follow_replan=follow_replan,
+                      rng_for=lambda purpose, i: np.random.default_rng(
+                          stable_seed(seed, purpose, names[i])))
+
+
+def _planner_values(values: dict[str, ParamValue], planner: str) -> dict[str, float]:
+    prefix = planner + "."
+    return {k[len(prefix):]: float(v) for k, v in values.items()  # type: ignore[arg-type]
+            if k.startswith(prefix)}
+
+
+def _local_planner(program: Program, params: dict[str, dict[str, ParamValue]], name: str,
+                   robot_count: int) -> LocalPlanner:
+    cls = local_planner(name)
+    rows: list[PlannerParams] = [cls.Params.model_validate(_planner_values(params[h], name))
+                                 for h in program.human_names]
+    rows += [cls.Params() for _ in range(robot_count)]
+    return cls(program.grid, rows)
+
+
+def _human_arrays(program: Program, params: dict[str, dict[str, ParamValue]]) -> HumanArrays:
+    names = program.human_names
+    count = len(names)
+
+    def column(key: str) -> np.ndarray:
+        return np.array([float(params[n][key]) for n in names], dtype=np.float64)  # type: ignore[arg-type]
+
+    shapes: list[Shape] = [params[n]["personal_space"] for n in names]  # type: ignore[misc]
+    starts = [program.human(n).start for n in names]
+    quantities = {k: column(k) for k, spec in HUMAN_PARAMS.items()
+                  if spec.kind is ParamKind.QUANTITY}
+    return HumanArrays(
+        names=list(names),
+        position=np.array([s.xy for s in starts], dtype=np.float64).reshape(count, 2),
+        velocity=np.zeros((count, 2)),
+        heading=np.array([s.heading or 0.0 for s in starts], dtype=np.float64),
+        posture=np.zeros(count, dtype=np.int8),
+        shapes=shapes, personal_space=ShapeArrays.from_shapes(shapes),
+        **{k: quantities[k] for k in ("speed", "max_speed", "run_speed", "radius",
+                                      "relaxation_time", "goal_tolerance", "goal_strength",
+                                      "avoidance_strength", "obstacle_strength",
+                                      "interaction_range", "field_of_view")},
+        moving=np.zeros(count, dtype=bool), desired_speed=np.zeros(count),
+        goal=np.full((count, 2), np.nan), stop_distance=np.zeros(count),
+        heading_goal=np.full(count, np.nan), teleop_velocity=np.zeros((count, 2)),
+        teleop=np.zeros(count, dtype=bool), path_length=np.zeros(count))
