@@ -11,7 +11,7 @@ import pytest
 from pydantic import ValidationError
 
 from hubero_dsl.errors import SimulationError
-from hubero_dsl.planners.base import NoPath, PlannerParams, global_planner
+from hubero_dsl.planners.base import GlobalPlanner, NoPath, PlannerParams, global_planner
 from hubero_dsl.planners.navfn import NavfnParams, NavfnPlanner
 from hubero_dsl.world.grid import OccupancyGrid
 
@@ -52,9 +52,10 @@ def navfn(grid: OccupancyGrid, **params: object) -> NavfnPlanner:
     return NavfnPlanner(grid, NavfnParams.model_validate(params))
 
 
-def test_registered_under_its_name() -> None:
+def test_registered_under_its_name(pillar_room: OccupancyGrid) -> None:
     assert global_planner("navfn") is NavfnPlanner
     assert NavfnPlanner.Params is NavfnParams
+    assert isinstance(navfn(pillar_room), GlobalPlanner)
 
 
 def test_open_space_plan_is_the_straight_segment() -> None:
