@@ -1,0 +1,498 @@
+"""Renderings of the activity graph: Mermaid and DOT text, and a PNG drawn with matplotlib.
+
+The texts are deterministic (nodes and edges in source order), so they serve as golden files.
+Shapes follow SysML activity diagrams: a filled circle starts an activity and a bull's eye ends
+it, bars fork and join, rhombi decide and merge (repeat), rounded boxes are actions, a notched
+box is an accept event (`wait until`) and a trapezium a time event (`wait Q`). The PNG needs no
+graphviz: nodes are laid out in layers (longest path from the start) and columns (one per
+branch), then drawn as matplotlib patches.
+
+`describe_node` (and the `format_*` helpers) turn nodes back into the scenario's own words;
+the analyses use them in messages too.
+"""
+
+from __future__ import annotations
+
+import textwrap
+from functools import cache
+from pathlib import Path
+
+import networkx as nx
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.patches import Ellipse, FancyArrowPatch, FancyBboxPatch, Patch, Polygon, Rectangle
+
+from hubero_dsl.graph.build import (
+    FORK_KINDS,
+    JOIN_KINDS,
+    NodeKind,
+    activity_nodes,
+    branches_of,
+    exit_successor,
+    forward_graph,
+    successors_in_order,
+)
+from hubero_dsl.lang import ast
+
+# ---- the scenario's words ----------------------------------------------------------------
+
+
+def format_number(value: float) -> str:
+    return str(int(value)) if float(value).is_integer() else repr(float(value))
+
+
+def format_value(value: ast.Value | ast.RectArea | ast.PolygonArea) -> str:
+    match value:
+        case ast.Number():
+            return value.text
+        case ast.Quantity():
+            return f"{format_number(value.magnitude)} {value.unit}"
+        case ast.String():
+            return '"' + value.value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        case ast.NameRef():
+            return value.name
+        case ast.Point():
+            return f"({format_value(value.x)}, {format_value(value.y)})"
+        case ast.ShapeLit():
+            args = ", ".join(f"{a.name}: {format_value(a.value)}" for a in value.args)
+            return f"{value.kind}({args})"
+        case ast.Distribution():
+            return f"{value.kind}({format_value(value.first)}, {format_value(value.second)})"
+        case ast.RectArea():
+            return f"rect({format_value(value.corner_a)}, {format_value(value.corner_b)})"
+        case ast.PolygonArea():
+            return f"polygon({', '.join(format_value(v) for v in value.vertices)})"
+    raise TypeError(f"not a value: {value!r}")
+
+
+def format_condition(condition: ast.Condition) -> str:
+    match condition:
+        case ast.LabelCondition():
+            return f"{condition.label.name} {condition.event.value}"
+        case ast.ReachesCondition():
+            return f"{condition.subject.name} reaches {format_value(condition.target)}"
+        case ast.DistanceCondition():
+            return (f"distance({condition.subject.name}, {format_value(condition.target)}) "
+                    f"{condition.operator} {format_value(condition.threshold)}")
+        case ast.InsideCondition():
+            return f"{condition.subject.name} in {format_value(condition.area)}"
+        case ast.TimeCondition():
+            return f"time {condition.operator} {format_value(condition.threshold)}"
+        case ast.NotCondition():
+            return f"not {_operand(condition.operand, ast.AllOf | ast.AnyOf)}"
+        case ast.AllOf():
+            return " and ".join(_operand(c, ast.AnyOf) for c in condition.operands)
+        case ast.AnyOf():
+            return " or ".join(_operand(c, ast.AllOf) for c in condition.operands)
+    raise TypeError(f"not a condition: {condition!r}")
+
+
+def _operand(condition: ast.Condition, needs_parentheses: type | object) -> str:
+    text = format_condition(condition)
+    return f"({text})" if isinstance(condition, needs_parentheses) else text  # type: ignore[arg-type]
+
+
+def format_task_step(step: ast.TaskStep) -> str:
+    """`actor2 move_to sofa heading 75 deg until invite done`: the step without its label."""
+    words = [step.human.name, step.task.kind]
+    if step.task.target is not None:
+        words.append(format_value(step.task.target))
+    words += [f"{o.keyword} {format_value(o.value)}" for o in step.task.options]
+    if step.until is not None:
+        words.append(f"until {format_condition(step.until)}")
+    if step.within is not None:
+        words.append(f"within {format_value(step.within)}")
+    if step.forever:
+        words.append("forever")
+    return " ".join(words)
+
+
+def describe_node(graph: nx.DiGraph, node: str) -> str:
+    """A node in the scenario's words (an action reads `invite: actor2 move_to sofa`)."""
+    data = graph.nodes[node]
+    prefix = f"{data['label']}: " if data["label"] and data["kind"] in _SIMPLE_KINDS else ""
+    match data["kind"]:
+        case NodeKind.ACTION:
+            return prefix + format_task_step(data["step"])
+        case NodeKind.WAIT:
+            return f"{prefix}wait {format_value(data['duration'])}"
+        case NodeKind.ACCEPT:
+            return f"{prefix}wait until {format_condition(data['condition'])}"
+        case NodeKind.REPEAT_START:
+            return f"repeat {data['step'].count.text}"
+        case NodeKind.REPEAT_END:
+            return f"{data['step'].count.text} rounds done?"
+        case NodeKind.LABEL_BEGIN:
+            return f"begin {data['label']}"
+        case NodeKind.LABEL_END:
+            return f"end {data['label']}"
+    return _KIND_WORDS[data["kind"]]
+
+
+_SIMPLE_KINDS = frozenset({NodeKind.ACTION, NodeKind.WAIT, NodeKind.ACCEPT})
+_KIND_WORDS = {NodeKind.INITIAL: "start", NodeKind.FINAL: "end", NodeKind.FORK: "parallel",
+               NodeKind.JOIN: "all branches done", NodeKind.RACE_FORK: "race",
+               NodeKind.RACE_JOIN: "first branch done"}
+
+
+def _ordered_edges(graph: nx.DiGraph, nodes: list[str]) -> list[tuple[str, str]]:
+    return [(u, v) for u in nodes for v in successors_in_order(graph, u)]
+
+
+def _edge_caption(graph: nx.DiGraph, source: str, target: str) -> str | None:
+    """Words on the edges out of a repeat's decision; other edges need none."""
+    if graph.nodes[source]["kind"] is not NodeKind.REPEAT_END:
+        return None
+    return "next round" if graph.edges[source, target].get("loop", False) else "done"
+
+
+# ---- Mermaid -----------------------------------------------------------------------------
+
+_MERMAID_SHAPES = {
+    NodeKind.INITIAL: ("((", "))"), NodeKind.FINAL: ("(((", ")))"),
+    NodeKind.ACTION: ("(", ")"), NodeKind.WAIT: ("[/", "\\]"), NodeKind.ACCEPT: (">", "]"),
+    NodeKind.FORK: ("[", "]"), NodeKind.JOIN: ("[", "]"), NodeKind.RACE_FORK: ("[", "]"),
+    NodeKind.RACE_JOIN: ("[", "]"), NodeKind.REPEAT_START: ("{", "}"),
+    NodeKind.REPEAT_END: ("{", "}"), NodeKind.LABEL_BEGIN: ("([", "])"),
+    NodeKind.LABEL_END: ("([", "])"),
+}
+_MERMAID_CLASSES = {
+    NodeKind.INITIAL: "terminal", NodeKind.FINAL: "terminal", NodeKind.FORK: "bar",
+    NodeKind.JOIN: "bar", NodeKind.RACE_FORK: "bar", NodeKind.RACE_JOIN: "bar",
+    NodeKind.LABEL_BEGIN: "label", NodeKind.LABEL_END: "label",
+}
+_MERMAID_CLASS_STYLES = {
+    "terminal": "fill:#000,stroke:#000,color:#fff",
+    "bar": "fill:#000,stroke:#000,color:#fff,font-size:10px",
+    "label": "fill:#fff,stroke:#777,stroke-dasharray:3 3,color:#444",
+}
+
+
+def _mermaid_text(text: str) -> str:
+    """Quoted Mermaid text; characters Mermaid would read as markup become entity codes."""
+    for char in "#\"<>":
+        text = text.replace(char, f"#{ord(char)};")
+    return f'"{text}"'
+
+
+def _mermaid_caption(graph: nx.DiGraph, node: str) -> str:
+    kind = graph.nodes[node]["kind"]
+    if kind in (NodeKind.INITIAL, NodeKind.FINAL):
+        return "●"
+    if kind in (NodeKind.FORK, NodeKind.JOIN):
+        return " "
+    if kind is NodeKind.RACE_FORK:
+        return "race"
+    if kind is NodeKind.RACE_JOIN:
+        return "first done"
+    return describe_node(graph, node)
+
+
+def to_mermaid(graph: nx.DiGraph) -> str:
+    """A Mermaid `flowchart TD`, one subgraph per activity."""
+    lines = ["flowchart TD"]
+    ids: dict[str, str] = {}
+    by_class: dict[str, list[str]] = {}
+    for number, activity in enumerate(graph.graph["activities"], start=1):
+        nodes = activity_nodes(graph, activity)
+        ids.update({n: f"a{number}_{graph.nodes[n]['order']}" for n in nodes})
+        lines.append(f"    subgraph act{number} [{_mermaid_text(activity)}]")
+        for node in nodes:
+            kind = graph.nodes[node]["kind"]
+            opening, closing = _MERMAID_SHAPES[kind]
+            text = _mermaid_caption(graph, node)
+            lines.append(f"        {ids[node]}{opening}{_mermaid_text(text)}{closing}")
+            if kind in _MERMAID_CLASSES:
+                by_class.setdefault(_MERMAID_CLASSES[kind], []).append(ids[node])
+        for source, target in _ordered_edges(graph, nodes):
+            caption = _edge_caption(graph, source, target)
+            arrow = "-.->" if graph.edges[source, target].get("loop", False) else "-->"
+            words = f"|{_mermaid_text(caption)}|" if caption else ""
+            lines.append(f"        {ids[source]} {arrow}{words} {ids[target]}")
+        lines.append("    end")
+    for name in sorted(by_class):
+        lines.append(f"    classDef {name} {_MERMAID_CLASS_STYLES[name]}")
+        lines.append(f"    class {','.join(by_class[name])} {name}")
+    return "\n".join(lines) + "\n"
+
+
+# ---- DOT ---------------------------------------------------------------------------------
+
+_BAR = 'shape=box, style=filled, fillcolor=black, height=0.05, width=1.6, fixedsize=true'
+_DOT_STYLES = {
+    NodeKind.INITIAL: 'shape=circle, style=filled, fillcolor=black, width=0.25, fixedsize=true',
+    NodeKind.FINAL: 'shape=doublecircle, style=filled, fillcolor=black, width=0.2, '
+                    'fixedsize=true',
+    NodeKind.ACTION: 'shape=box, style=rounded',
+    NodeKind.WAIT: 'shape=trapezium',
+    NodeKind.ACCEPT: 'shape=cds',
+    NodeKind.FORK: _BAR, NodeKind.JOIN: _BAR,
+    NodeKind.RACE_FORK: _BAR, NodeKind.RACE_JOIN: _BAR,
+    NodeKind.REPEAT_START: 'shape=diamond', NodeKind.REPEAT_END: 'shape=diamond',
+    NodeKind.LABEL_BEGIN: 'shape=box, style="rounded,dashed", fontcolor=gray30',
+    NodeKind.LABEL_END: 'shape=box, style="rounded,dashed", fontcolor=gray30',
+}
+_DOT_NO_TEXT = frozenset({NodeKind.INITIAL, NodeKind.FINAL, NodeKind.FORK, NodeKind.JOIN})
+
+
+def _dot_quote(text: str) -> str:
+    escaped = text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
+    return f'"{escaped}"'
+
+
+def _dot_node(graph: nx.DiGraph, node: str) -> str:
+    kind = graph.nodes[node]["kind"]
+    style = _DOT_STYLES[kind]
+    if kind in (NodeKind.RACE_FORK, NodeKind.RACE_JOIN):
+        text = "" if kind in _DOT_NO_TEXT else _mermaid_caption(graph, node)
+        return f"{_dot_quote(node)} [{style}, label=\"\", xlabel={_dot_quote(text)}];"
+    text = "" if kind in _DOT_NO_TEXT else describe_node(graph, node)
+    return f"{_dot_quote(node)} [{style}, label={_dot_quote(text)}];"
+
+
+def to_dot(graph: nx.DiGraph) -> str:
+    """A graphviz digraph, one cluster per activity."""
+    lines = ["digraph activities {",
+             "    graph [rankdir=TB, fontname=Helvetica, nodesep=0.4];",
+             "    node [fontname=Helvetica, fontsize=11];",
+             "    edge [arrowsize=0.7, fontname=Helvetica, fontsize=10];"]
+    for number, activity in enumerate(graph.graph["activities"], start=1):
+        nodes = activity_nodes(graph, activity)
+        lines.append(f"    subgraph cluster_{number} {{")
+        lines.append(f"        label={_dot_quote(activity)};")
+        lines += [f"        {_dot_node(graph, node)}" for node in nodes]
+        for source, target in _ordered_edges(graph, nodes):
+            attrs = []
+            if graph.edges[source, target].get("loop", False):
+                attrs += ["style=dashed", "constraint=false"]
+            if (caption := _edge_caption(graph, source, target)) is not None:
+                attrs.append(f"label={_dot_quote(caption)}")
+            suffix = f" [{', '.join(attrs)}]" if attrs else ""
+            lines.append(f"        {_dot_quote(source)} -> {_dot_quote(target)}{suffix};")
+        lines.append("    }")
+    lines.append("}")
+    return "\n".join(lines) + "\n"
+
+
+# ---- PNG ---------------------------------------------------------------------------------
+
+COLUMN_INCHES = 2.8
+ROW_INCHES = 0.8
+FONT_SIZE = 8
+_CHAR_INCHES = 0.6 * FONT_SIZE / 72  # DejaVu Sans Mono advances 0.6 em per character
+_LINE_INCHES = 1.25 * FONT_SIZE / 72
+_WRAP = 34
+_MAX_PIXELS = 30_000
+
+
+def to_png(graph: nx.DiGraph, path: str | Path, *, dpi: int = 110) -> Path:
+    """Draw the graph into a PNG file (no graphviz needed); returns the path written."""
+    positions, extent = layout(graph)
+    width_in = max(1.0, (extent[1] - extent[0])) * COLUMN_INCHES
+    height_in = max(1.0, (extent[3] - extent[2])) * ROW_INCHES
+    figure = Figure(figsize=(width_in, height_in))
+    axes = figure.add_axes((0.0, 0.0, 1.0, 1.0))
+    axes.set_xlim(extent[0], extent[1])
+    axes.set_ylim(extent[2], extent[3])
+    axes.set_axis_off()
+    patches = {node: _draw_node(axes, graph, node, positions[node]) for node in positions}
+    for source, target in _ordered_edges(graph, list(positions)):
+        _draw_edge(axes, graph, (source, target), positions, patches)
+    for activity in graph.graph["activities"]:
+        x, y = positions[f"{activity}/0"]
+        axes.text(x, y + 0.35, activity, ha="center", va="bottom", fontsize=FONT_SIZE + 2,
+                  fontweight="bold")
+    out = Path(path)
+    safe_dpi = min(dpi, int(_MAX_PIXELS / max(width_in, height_in)))
+    figure.savefig(out, dpi=safe_dpi, facecolor="white", metadata={"Software": None})
+    return out
+
+
+def layout(graph: nx.DiGraph) -> tuple[dict[str, tuple[float, float]],
+                                       tuple[float, float, float, float]]:
+    """Node centres (x in columns, y in layers going down) and the (x0, x1, y0, y1) extent."""
+    depth: dict[str, int] = {}
+    forward = forward_graph(graph)
+    for node in nx.topological_sort(forward):
+        depth[node] = max((depth[p] + 1 for p in forward.predecessors(node)), default=0)
+    columns = _Columns(graph)
+    left = 0.0
+    for activity in graph.graph["activities"]:
+        initial = f"{activity}/0"
+        width = columns.width(columns.chain(initial, None))
+        columns.place(initial, None, left + width / 2)
+        left += width
+    positions = {n: (columns.x[n], -float(depth[n])) for n in sorted(columns.x, key=_id_key)}
+    lowest = min((y for _, y in positions.values()), default=0.0)
+    return positions, (-0.1, max(left, 1.0) + 0.1, lowest - 0.6, 0.8)
+
+
+def _id_key(node: str) -> tuple[str, int]:
+    activity, _, order = node.rpartition("/")
+    return (activity, int(order))
+
+
+class _Columns:
+    """Horizontal placement: a sequence shares one column; a fork's branches sit side by side."""
+
+    def __init__(self, graph: nx.DiGraph) -> None:
+        self.graph = graph
+        self.x: dict[str, float] = {}
+
+    def chain(self, start: str, stop: str | None) -> list[str]:
+        """The nodes from `start` up to `stop`, a fork's branches folded into the fork."""
+        nodes: list[str] = []
+        node: str | None = start
+        while node is not None and node != stop:
+            nodes.append(node)
+            data = self.graph.nodes[node]
+            node = data["join"] if data["kind"] in FORK_KINDS else exit_successor(self.graph,
+                                                                                    node)
+        return nodes
+
+    def width(self, nodes: list[str]) -> float:
+        return max((self._node_width(n) for n in nodes), default=1.0)
+
+    def _node_width(self, node: str) -> float:
+        if self.graph.nodes[node]["kind"] not in FORK_KINDS:
+            return 1.0
+        return max(1.0, sum(self._branch_widths(node)))
+
+    def _branch_widths(self, fork: str) -> list[float]:
+        join = self.graph.nodes[fork]["join"]
+        return [self.width(self.chain(b.entry, join)) if b.entry else 0.0
+                for b in branches_of(self.graph, fork)]
+
+    def place(self, start: str, stop: str | None, centre: float) -> None:
+        for node in self.chain(start, stop):
+            self.x[node] = centre
+            if self.graph.nodes[node]["kind"] not in FORK_KINDS:
+                continue
+            join = self.graph.nodes[node]["join"]
+            widths = self._branch_widths(node)
+            left = centre - sum(widths) / 2
+            for branch, width in zip(branches_of(self.graph, node), widths, strict=True):
+                if branch.entry is not None:
+                    self.place(branch.entry, join, left + width / 2)
+                left += width
+
+
+@cache
+def _wrapped(text: str) -> str:
+    return "\n".join(textwrap.wrap(text, _WRAP, break_long_words=True)) or " "
+
+
+def _box_size(text: str) -> tuple[float, float]:
+    """Width in columns and height in rows of a box around the wrapped text."""
+    lines = text.split("\n")
+    width = (max(len(line) for line in lines) * _CHAR_INCHES + 0.16) / COLUMN_INCHES
+    height = (len(lines) * _LINE_INCHES + 0.12) / ROW_INCHES
+    return width, height
+
+
+def _draw_node(axes: Axes, graph: nx.DiGraph, node: str, centre: tuple[float, float]) -> Patch:
+    kind = graph.nodes[node]["kind"]
+    x, y = centre
+    if kind in (NodeKind.INITIAL, NodeKind.FINAL):
+        return _draw_terminal(axes, kind, x, y)
+    if kind in FORK_KINDS | JOIN_KINDS:
+        return _draw_bar(axes, graph, node, x, y)
+    if kind in (NodeKind.REPEAT_START, NodeKind.REPEAT_END):
+        return _draw_diamond(axes, describe_node(graph, node), x, y)
+    text = _wrapped(describe_node(graph, node))
+    width, height = _box_size(text)
+    patch: Patch
+    if kind is NodeKind.ACCEPT:
+        notch = 0.1 / COLUMN_INCHES
+        patch = Polygon([(x - width / 2, y + height / 2), (x + width / 2, y + height / 2),
+                         (x + width / 2, y - height / 2), (x - width / 2, y - height / 2),
+                         (x - width / 2 + notch, y)], closed=True)
+    elif kind is NodeKind.WAIT:
+        slant = 0.08 / COLUMN_INCHES
+        patch = Polygon([(x - width / 2 + slant, y + height / 2),
+                         (x + width / 2 - slant, y + height / 2),
+                         (x + width / 2 + slant, y - height / 2),
+                         (x - width / 2 - slant, y - height / 2)], closed=True)
+    else:
+        patch = FancyBboxPatch((x - width / 2, y - height / 2), width, height,
+                               boxstyle="round,pad=0,rounding_size=0.04",
+                               mutation_aspect=COLUMN_INCHES / ROW_INCHES)
+    dashed = kind in (NodeKind.LABEL_BEGIN, NodeKind.LABEL_END)
+    patch.set(facecolor="#f4f7ff" if kind is NodeKind.ACTION else "white", edgecolor="#333",
+              linewidth=0.8, linestyle="--" if dashed else "-", zorder=2)
+    axes.add_patch(patch)
+    axes.text(x, y, text, ha="center", va="center", fontsize=FONT_SIZE,
+              family="DejaVu Sans Mono", color="#555" if dashed else "black", zorder=3)
+    return patch
+
+
+def _draw_terminal(axes: Axes, kind: NodeKind, x: float, y: float) -> Patch:
+    size = 0.2
+    outer = Ellipse((x, y), size / COLUMN_INCHES, size / ROW_INCHES, facecolor="black",
+                    edgecolor="black", zorder=2)
+    axes.add_patch(outer)
+    if kind is NodeKind.FINAL:
+        outer.set_facecolor("white")
+        inner = Ellipse((x, y), 0.6 * size / COLUMN_INCHES, 0.6 * size / ROW_INCHES,
+                        facecolor="black", zorder=3)
+        axes.add_patch(inner)
+    return outer
+
+
+def _draw_bar(axes: Axes, graph: nx.DiGraph, node: str, x: float, y: float) -> Patch:
+    fork = node if graph.nodes[node]["kind"] in FORK_KINDS else graph.nodes[node]["fork"]
+    branches = len(branches_of(graph, fork))
+    width = max(0.4, branches * 0.8 - 0.4) if branches > 1 else 0.4
+    height = 0.07 / ROW_INCHES
+    bar = Rectangle((x - width / 2, y - height / 2), width, height, facecolor="black", zorder=2)
+    axes.add_patch(bar)
+    kind = graph.nodes[node]["kind"]
+    if kind in (NodeKind.RACE_FORK, NodeKind.RACE_JOIN):
+        axes.text(x + width / 2 + 0.03, y, _mermaid_caption(graph, node),
+                  ha="left", va="center", fontsize=FONT_SIZE - 1, style="italic")
+    return bar
+
+
+def _draw_diamond(axes: Axes, text: str, x: float, y: float) -> Patch:
+    half_w, half_h = 0.12 / COLUMN_INCHES, 0.12 / ROW_INCHES
+    diamond = Polygon([(x, y + half_h), (x + half_w, y), (x, y - half_h), (x - half_w, y)],
+                      closed=True, facecolor="white", edgecolor="#333", zorder=2)
+    axes.add_patch(diamond)
+    axes.text(x + half_w + 0.02, y, text, ha="left", va="center",
+              fontsize=FONT_SIZE - 1, style="italic")
+    return diamond
+
+
+def _draw_edge(axes: Axes, graph: nx.DiGraph, edge: tuple[str, str],
+               positions: dict[str, tuple[float, float]], patches: dict[str, Patch]) -> None:
+    source, target = edge
+    (x0, y0), (x1, y1) = positions[source], positions[target]
+    # Arrows leave a fork bar and enter a join bar straight down, under their own branch.
+    if graph.nodes[source]["kind"] in FORK_KINDS:
+        x0 = x1
+    if graph.nodes[target]["kind"] in JOIN_KINDS:
+        x1 = x0
+    loop = graph.edges[source, target].get("loop", False)
+    rad = _loop_bend(graph, edge, positions) if loop else 0.0
+    arrow = FancyArrowPatch((x0, y0), (x1, y1), patchA=patches[source], patchB=patches[target],
+                            arrowstyle="-|>", mutation_scale=9, shrinkA=0, shrinkB=0,
+                            connectionstyle=f"arc3,rad={rad}", linewidth=0.8,
+                            color="#666" if loop else "#222",
+                            linestyle="--" if loop else "-", zorder=1)
+    axes.add_patch(arrow)
+
+
+def _loop_bend(graph: nx.DiGraph, loop: tuple[str, str],
+               positions: dict[str, tuple[float, float]]) -> float:
+    """How far a repeat's loop-back arc bends (arc3's rad) to pass left of the whole body."""
+    end, start = loop
+    activity, first, last = (graph.nodes[start]["activity"], graph.nodes[start]["order"],
+                             graph.nodes[end]["order"])
+    centre, top = positions[start]
+    reach = 0.0
+    for order in range(first + 1, last):
+        node = f"{activity}/{order}"
+        half = _box_size(_wrapped(describe_node(graph, node)))[0] / 2
+        reach = max(reach, (centre - positions[node][0] + half) * COLUMN_INCHES)
+    distance = max(1e-6, (top - positions[end][1]) * ROW_INCHES)
+    return -2.0 * (reach + 0.2) / distance
