@@ -1,0 +1,305 @@
+"""The occupancy grid: the static world that the engine and every planner navigate.
+
+Owns the map's geometry (world coordinates <-> cells), what is free, how far each cell is from
+the nearest obstacle (clearance), which way points away from it (for wall repulsion), and which
+free cells a body of a given radius can reach. Every query is vectorised over arrays of points of
+shape (..., 2); fields derived from the cells are computed once per grid and cached.
+
+Conventions: row 0 is the lowest y (image rows are already flipped by the loader), cell (r, c)
+covers x in [ox + c*res, ox + (c+1)*res) and y in [oy + r*res, oy + (r+1)*res). Unknown cells
+count as occupied. The map border counts as an obstacle, so clearance never lets a body leave
+the map. Distances are measured between cell centres (scipy's Euclidean distance transform).
+Returned masks and fields are read-only arrays shared between callers.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from numpy.typing import ArrayLike
+from scipy import ndimage
+
+from hubero_dsl.errors import MapError
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
+BoolArray = npt.NDArray[np.bool_]
+
+# A body moves continuously, so diagonal neighbours are connected too.
+_EIGHT_CONNECTED = np.ones((3, 3), dtype=bool)
+# Cell index given to non-finite coordinates: far outside any grid, still a valid integer.
+_FAR_AWAY = np.iinfo(np.int32).max
+
+
+def _points(xy: ArrayLike) -> FloatArray:
+    points = np.asarray(xy, dtype=np.float64)
+    if points.ndim == 0 or points.shape[-1] != 2:
+        raise ValueError(f"expected points of shape (..., 2), got shape {points.shape}")
+    return points
+
+
+def _read_only(array: npt.NDArray[Any]) -> npt.NDArray[Any]:
+    array.setflags(write=False)
+    return array
+
+
+def _unit_vectors(vectors: FloatArray) -> FloatArray:
+    """Each vector scaled to length 1; zero vectors stay zero."""
+    norms = np.linalg.norm(vectors, axis=-1, keepdims=True)
+    return np.divide(vectors, norms, out=np.zeros_like(vectors), where=norms > 0.0)
+
+
+def _check_radius(body_radius: float) -> float:
+    radius = float(body_radius)
+    if not math.isfinite(radius) or radius < 0.0:
+        raise ValueError(f"body radius must be a finite number >= 0, got {body_radius!r}")
+    return radius
+
+
+@dataclass(frozen=True, eq=False)
+class OccupancyGrid:
+    """A 2-D occupancy map on a regular grid, with cached distance and connectivity fields."""
+
+    occupied: BoolArray   # (rows, cols); True = cannot be entered (includes unknown cells)
+    resolution: float     # metres per cell
+    origin: tuple[float, float]  # world (x, y) of the lower-left corner of cell (0, 0)
+    source: str = "<memory>"     # where the map came from, for messages
+    unknown: BoolArray | None = None  # (rows, cols) cells of unknown state, kept for drawing
+    _cache: dict[tuple[Any, ...], npt.NDArray[Any]] = field(
+        default_factory=dict, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        occupied = np.array(self.occupied, dtype=np.bool_)  # a copy: the grid owns its cells
+        if occupied.ndim != 2 or occupied.size == 0:
+            raise MapError(f"map {self.source} must be a non-empty 2-D grid of cells, "
+                           f"got shape {occupied.shape}")
+        resolution = float(self.resolution)
+        if not math.isfinite(resolution) or resolution <= 0.0:
+            raise MapError(f"map {self.source}: resolution must be a positive number of metres "
+                           f"per cell, got {self.resolution!r}")
+        origin = (float(self.origin[0]), float(self.origin[1]))
+        if not all(math.isfinite(v) for v in origin):
+            raise MapError(f"map {self.source}: origin must be finite, got {self.origin!r}")
+        unknown = None
+        if self.unknown is not None:
+            unknown = np.array(self.unknown, dtype=np.bool_)
+            if unknown.shape != occupied.shape:
+                raise MapError(f"map {self.source}: unknown cells have shape {unknown.shape}, "
+                               f"occupied cells {occupied.shape}")
+            occupied |= unknown  # unknown space is never entered
+            _read_only(unknown)
+        object.__setattr__(self, "occupied", _read_only(occupied))
+        object.__setattr__(self, "unknown", unknown)
+        object.__setattr__(self, "resolution", resolution)
+        object.__setattr__(self, "origin", origin)
+
+    def __repr__(self) -> str:
+        rows, cols = self.shape
+        return (f"OccupancyGrid({cols}x{rows} cells, {self.resolution:g} m, "
+                f"origin ({self.origin[0]:g}, {self.origin[1]:g}), source={self.source!r})")
+
+    def __getstate__(self) -> dict[str, Any]:
+        # Pickle only the map itself; derived fields are rebuilt on demand in the receiver.
+        state = {f.name: getattr(self, f.name) for f in fields(self) if f.init}
+        state["_cache"] = {}
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        for array in (self.occupied, self.unknown):
+            if array is not None:
+                array.setflags(write=False)
+
+    # --- geometry -------------------------------------------------------------------------
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(rows, cols)."""
+        rows, cols = self.occupied.shape
+        return int(rows), int(cols)
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(xmin, ymin, xmax, ymax) of the map rectangle, in metres."""
+        rows, cols = self.shape
+        x0, y0 = self.origin
+        return (x0, y0, x0 + cols * self.resolution, y0 + rows * self.resolution)
+
+    def _fractional_cells(self, points: FloatArray) -> FloatArray:
+        """(..., 2) continuous (row, col) coordinates; cell (r, c) spans [r, r+1) x [c, c+1)."""
+        col = (points[..., 0] - self.origin[0]) / self.resolution
+        row = (points[..., 1] - self.origin[1]) / self.resolution
+        return np.stack((row, col), axis=-1)
+
+    def world_to_cell(self, xy: ArrayLike) -> IntArray:
+        """(..., 2) world points -> (..., 2) cells as (row, col); may be out of range."""
+        cells = np.floor(self._fractional_cells(_points(xy)))
+        # Non-finite coordinates land far outside the grid rather than on an arbitrary integer.
+        cells = np.where(np.isfinite(cells), np.clip(cells, -_FAR_AWAY, _FAR_AWAY), -_FAR_AWAY)
+        return cells.astype(np.intp)
+
+    def cell_to_world(self, rc: ArrayLike) -> FloatArray:
+        """(..., 2) cells as (row, col) -> (..., 2) world (x, y) of the cell centres."""
+        cells = np.asarray(rc, dtype=np.float64)
+        if cells.ndim == 0 or cells.shape[-1] != 2:
+            raise ValueError(f"expected cells of shape (..., 2), got shape {cells.shape}")
+        x = self.origin[0] + (cells[..., 1] + 0.5) * self.resolution
+        y = self.origin[1] + (cells[..., 0] + 0.5) * self.resolution
+        return np.stack((x, y), axis=-1)
+
+    def _inside(self, cells: IntArray) -> BoolArray:
+        rows, cols = self.shape
+        row, col = cells[..., 0], cells[..., 1]
+        inside: BoolArray = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
+        return inside
+
+    def _clipped(self, cells: IntArray) -> tuple[IntArray, IntArray]:
+        """Row and column indices clipped into the grid, safe for fancy indexing."""
+        rows, cols = self.shape
+        return np.clip(cells[..., 0], 0, rows - 1), np.clip(cells[..., 1], 0, cols - 1)
+
+    def contains(self, xy: ArrayLike) -> BoolArray:
+        """Whether each point lies inside the map rectangle."""
+        return self._inside(self.world_to_cell(xy))
+
+    def is_free(self, xy: ArrayLike) -> BoolArray:
+        """Whether each point lies inside the map on a free cell (outside counts as occupied)."""
+        cells = self.world_to_cell(xy)
+        row, col = self._clipped(cells)
+        free: BoolArray = self._inside(cells) & ~self.occupied[row, col]
+        return free
+
+    # --- distance fields ------------------------------------------------------------------
+
+    @cached_property
+    def _obstacle_field(self) -> tuple[FloatArray, npt.NDArray[np.int32]]:
+        """Distance from each cell centre to the nearest occupied cell, and that cell (row, col).
+
+        The grid is padded with one ring of occupied cells so the border acts as a wall; the
+        nearest cell of a border-bound cell may therefore be row/col -1 or rows/cols.
+        """
+        padded = np.pad(self.occupied, 1, constant_values=True)
+        distances, nearest = ndimage.distance_transform_edt(
+            ~padded, sampling=self.resolution, return_indices=True)
+        nearest_cells = (nearest[:, 1:-1, 1:-1] - 1).astype(np.int32)
+        return _read_only(distances[1:-1, 1:-1]), _read_only(nearest_cells)
+
+    @cached_property
+    def _free_field(self) -> npt.NDArray[np.int32] | None:
+        """For each cell, the nearest free cell (row, col); None when no cell is free."""
+        if self.occupied.all():
+            return None
+        nearest = ndimage.distance_transform_edt(
+            self.occupied, return_distances=False, return_indices=True)
+        return _read_only(nearest.astype(np.int32))
+
+    @property
+    def clearance(self) -> FloatArray:
+        """(rows, cols) metres from each cell centre to the nearest occupied cell, 0 on one."""
+        return self._obstacle_field[0]
+
+    def clearance_at(self, xy: ArrayLike) -> FloatArray:
+        """Clearance at each point, bilinear between cell centres; 0 off free cells."""
+        points = _points(xy)
+        # Shift so cell centres sit on integer coordinates, as map_coordinates expects.
+        coords = np.nan_to_num(self._fractional_cells(points) - 0.5, nan=0.0, posinf=0.0,
+                               neginf=0.0)
+        flat = coords.reshape(-1, 2).T
+        values = ndimage.map_coordinates(self.clearance, flat, order=1, mode="nearest")
+        values = values.reshape(points.shape[:-1])
+        result: FloatArray = np.where(self.is_free(points), values, 0.0)
+        return result
+
+    def _cell_squares(self, cells: npt.NDArray[np.int32]) -> tuple[FloatArray, FloatArray]:
+        """(2, ...) cells -> (..., 2) lower-left and upper-right world corners of each cell."""
+        lower = self.cell_to_world(np.moveaxis(cells, 0, -1)) - 0.5 * self.resolution
+        return lower, lower + self.resolution
+
+    def obstacle_direction_at(self, xy: ArrayLike) -> FloatArray:
+        """(..., 2) unit vectors pointing away from the nearest occupied cell.
+
+        On a free cell: from the nearest point of the nearest occupied cell (as a square) to the
+        point, so a straight wall pushes straight out. On an occupied cell: towards the nearest
+        free cell, so a body pushed into a wall is pushed back out. Outside the map: towards
+        the map. Zero where no direction exists (a fully occupied map).
+        """
+        points = _points(xy)
+        cells = self.world_to_cell(points)
+        row, col = self._clipped(cells)
+        centres = self.cell_to_world(np.stack((row, col), axis=-1))
+        lower, upper = self._cell_squares(self._obstacle_field[1][:, row, col])
+        away = points - np.clip(points, lower, upper)
+        # A point on the obstacle's very edge falls back to the cell-to-cell direction.
+        on_edge = ~np.any(away != 0.0, axis=-1, keepdims=True)
+        away = np.where(on_edge, centres - 0.5 * (lower + upper), away)
+        towards_free = np.zeros_like(points)
+        if self._free_field is not None:
+            lower, upper = self._cell_squares(self._free_field[:, row, col])
+            towards_free = np.clip(points, lower, upper) - points
+        xmin, ymin, xmax, ymax = self.bounds
+        towards_map = np.clip(points, (xmin, ymin), (xmax, ymax)) - points
+        free = self.is_free(points)[..., None]
+        inside = self._inside(cells)[..., None]
+        direction = np.where(free, away, np.where(inside, towards_free, towards_map))
+        return _unit_vectors(direction)
+
+    # --- where a body fits ----------------------------------------------------------------
+
+    def free_mask(self, body_radius: float) -> BoolArray:
+        """(rows, cols) cells with clearance > `body_radius`: where that body's centre fits."""
+        radius = _check_radius(body_radius)
+        key = ("free", radius)
+        if key not in self._cache:
+            self._cache[key] = _read_only(self.clearance > radius)
+        return self._cache[key]
+
+    def _components(self, radius: float) -> npt.NDArray[np.int32]:
+        """Connected components (8-connected) of free_mask(radius); 0 marks blocked cells."""
+        key = ("components", radius)
+        if key not in self._cache:
+            labels, _ = ndimage.label(self.free_mask(radius), structure=_EIGHT_CONNECTED)
+            self._cache[key] = _read_only(labels.astype(np.int32))
+        return self._cache[key]
+
+    def reachable_mask(self, start: tuple[float, float], body_radius: float) -> BoolArray:
+        """(rows, cols) cells a body of this radius can reach from `start`, 8-connected.
+
+        All False when the body does not fit at `start` (or `start` is outside the map).
+        """
+        radius = _check_radius(body_radius)
+        cell = self.world_to_cell(start)
+        labels = self._components(radius)
+        label = int(labels[self._clipped(cell)]) if self._inside(cell) else 0
+        key = ("reachable", radius, label)
+        if key not in self._cache:
+            mask = labels == label if label else np.zeros(self.shape, dtype=np.bool_)
+            self._cache[key] = _read_only(mask)
+        return self._cache[key]
+
+    def nearest_free(self, xy: tuple[float, float],
+                     body_radius: float = 0.0) -> tuple[tuple[float, float], float]:
+        """The nearest point whose cell fits a body of this radius, and the distance to it.
+
+        The point itself (distance 0) when its own cell fits the body; otherwise the centre of
+        the nearest such cell. Raises MapError when the body fits nowhere on the map.
+        """
+        point = _points(xy)
+        if point.shape != (2,):
+            raise ValueError(f"expected one point (x, y), got shape {point.shape}")
+        mask = self.free_mask(body_radius)
+        cell = self.world_to_cell(point)
+        if self._inside(cell) and mask[self._clipped(cell)]:
+            return (float(point[0]), float(point[1])), 0.0
+        rows, cols = np.nonzero(mask)
+        if rows.size == 0:
+            raise MapError(f"no place on map {self.source} fits a body of radius "
+                           f"{body_radius:g} m")
+        centres = self.cell_to_world(np.stack((rows, cols), axis=-1))
+        distances = np.hypot(centres[:, 0] - point[0], centres[:, 1] - point[1])
+        best = int(np.argmin(distances))
+        return (float(centres[best, 0]), float(centres[best, 1])), float(distances[best])

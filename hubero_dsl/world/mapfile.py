@@ -1,0 +1,303 @@
+"""ROS map_server maps on disk: `load_map` reads YAML + image into an OccupancyGrid, `save_map`
+writes one back.
+
+Pixels are read as ROS 1 map_server (navigation/map_server, image_loader.cpp) reads them: the
+channels are averaged (alpha included in trinary mode, excluded in scale and raw mode when the
+image has an alpha channel), `negate: 1` flips the value, p = (255 - value) / 255 is the
+occupancy probability; p > occupied_thresh is occupied, p < free_thresh is free, anything else is
+unknown (trinary) or a graded value (scale; fully transparent pixels are unknown). In raw mode
+the averaged value is the occupancy value itself: 0-99 free, 100 occupied, above 100 unknown.
+hubero's grid is binary: occupied and unknown cells cannot be entered, graded cells can, as the
+navigation stack's costmap (lethal threshold 100) treats them. Image rows are flipped so that
+row 0 is the lowest y. Every failure is a MapError naming the file and the field.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import StrEnum
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import yaml
+from PIL import Image
+
+from hubero_dsl.diagnostics import Span
+from hubero_dsl.errors import MapError
+from hubero_dsl.world.grid import BoolArray, OccupancyGrid
+
+UInt8Array = npt.NDArray[np.uint8]
+
+REQUIRED_FIELDS = ("image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh")
+EXAMPLE = ("image: map.pgm\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
+           "occupied_thresh: 0.65\nfree_thresh: 0.196")
+
+# What map_saver writes, so saved maps read back identically in ROS and here.
+SAVED_OCCUPIED, SAVED_FREE, SAVED_UNKNOWN = 0, 254, 205
+SAVED_OCCUPIED_THRESH, SAVED_FREE_THRESH = 0.65, 0.196
+
+
+class MapMode(StrEnum):
+    TRINARY = "trinary"
+    SCALE = "scale"
+    RAW = "raw"
+
+
+@dataclass(frozen=True, slots=True)
+class MapMetadata:
+    """The checked fields of a map YAML file."""
+
+    image: Path
+    resolution: float
+    origin: tuple[float, float, float]
+    negate: bool
+    occupied_thresh: float
+    free_thresh: float
+    mode: MapMode = MapMode.TRINARY
+
+
+@dataclass(frozen=True, slots=True)
+class _Document:
+    """A parsed YAML mapping and where each of its fields sits in the file."""
+
+    path: Path
+    values: dict[str, Any]
+    spans: dict[str, Span]
+
+    def span(self, name: str) -> Span:
+        return self.spans.get(name, Span.whole_file(str(self.path)))
+
+    def error(self, name: str, message: str, hint: str | None = None) -> MapError:
+        return MapError(f"field '{name}' of map {self.path} {message}", self.span(name), hint)
+
+
+def load_map(path: str | Path) -> OccupancyGrid:
+    """Read a ROS map_server map (YAML file naming a PGM/PNG/... image) into an OccupancyGrid."""
+    document = _read_document(Path(path))
+    metadata = _check_fields(document)
+    channels, has_alpha = _read_image(metadata.image, document)
+    occupied, unknown = classify_pixels(channels, has_alpha, metadata)
+    # Image row 0 is the top of the map; grid row 0 is the lowest y.
+    return OccupancyGrid(np.flipud(occupied), metadata.resolution, metadata.origin[:2],
+                         source=str(document.path), unknown=np.flipud(unknown))
+
+
+# --- the YAML file ------------------------------------------------------------------------
+
+
+def _read_document(path: Path) -> _Document:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise MapError(f"map file not found: {path}") from None
+    except IsADirectoryError:
+        raise MapError(f"map path is a directory, not a YAML file: {path}") from None
+    except UnicodeDecodeError as exc:
+        raise MapError(f"map file {path} is not UTF-8 text (byte {exc.start})") from None
+    except OSError as exc:
+        raise MapError(f"cannot read map file {path}: {exc.strerror or exc}") from None
+    try:
+        root = yaml.compose(text, Loader=yaml.SafeLoader)
+        values = yaml.safe_load(text)
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        if mark is None:
+            raise MapError(f"map file {path} is not valid YAML: {exc}") from None
+        raise MapError(f"map file {path} is not valid YAML: {exc.problem} (line {mark.line + 1}, "
+                       f"column {mark.column + 1})", _mark_span(path, mark, mark)) from None
+    except yaml.YAMLError as exc:
+        raise MapError(f"map file {path} is not valid YAML: {exc}") from None
+    if not isinstance(values, dict) or not isinstance(root, yaml.MappingNode):
+        raise MapError(f"map file {path} must be a YAML mapping of fields",
+                       Span.whole_file(str(path)),
+                       hint=f"a map file looks like:\n{EXAMPLE}")
+    spans = {key.value: _mark_span(path, value.start_mark, value.end_mark)
+             for key, value in root.value if isinstance(key, yaml.ScalarNode)}
+    return _Document(path, {str(k): v for k, v in values.items()}, spans)
+
+
+def _mark_span(path: Path, start: yaml.Mark, end: yaml.Mark) -> Span:
+    return Span(str(path), start.line + 1, start.column + 1, end.line + 1, end.column + 1)
+
+
+def _check_fields(document: _Document) -> MapMetadata:
+    missing = [name for name in REQUIRED_FIELDS if name not in document.values]
+    if missing:
+        names = ", ".join(f"'{name}'" for name in missing)
+        raise MapError(f"map file {document.path} lacks the required field(s) {names}",
+                       Span.whole_file(str(document.path)),
+                       hint=f"a map file looks like:\n{EXAMPLE}")
+    resolution = _number(document, "resolution")
+    if resolution <= 0.0:
+        raise document.error("resolution", f"must be > 0 metres per cell, got {resolution:g}")
+    occupied_thresh = _threshold(document, "occupied_thresh")
+    free_thresh = _threshold(document, "free_thresh")
+    if free_thresh > occupied_thresh:
+        raise document.error("free_thresh", f"({free_thresh:g}) must not exceed "
+                             f"occupied_thresh ({occupied_thresh:g})")
+    return MapMetadata(_image_path(document), resolution, _origin(document),
+                       _negate(document), occupied_thresh, free_thresh, _mode(document))
+
+
+def _is_finite_number(value: object) -> bool:
+    if not isinstance(value, int | float) or isinstance(value, bool):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:  # an integer too large for a float
+        return False
+
+
+def _number(document: _Document, name: str) -> float:
+    value = document.values[name]
+    if not _is_finite_number(value):
+        raise document.error(name, f"must be a number, got {value!r}")
+    return float(value)
+
+
+def _threshold(document: _Document, name: str) -> float:
+    value = _number(document, name)
+    if not 0.0 <= value <= 1.0:
+        raise document.error(name, f"must be a probability between 0 and 1, got {value:g}")
+    return value
+
+
+def _origin(document: _Document) -> tuple[float, float, float]:
+    value = document.values["origin"]
+    if (not isinstance(value, list) or len(value) != 3
+            or not all(_is_finite_number(v) for v in value)):
+        raise document.error("origin", f"must be [x, y, yaw] in metres and radians, "
+                             f"got {value!r}")
+    x, y, yaw = (float(v) for v in value)
+    if yaw != 0.0:
+        raise document.error("origin", f"has yaw {yaw:g} rad; rotated maps are not supported",
+                             hint="rotate the image so the map's x axis is horizontal and "
+                                  "set the yaw to 0")
+    return x, y, yaw
+
+
+def _negate(document: _Document) -> bool:
+    value = document.values["negate"]
+    if value not in (0, 1) or isinstance(value, float):
+        raise document.error("negate", f"must be 0 or 1, got {value!r}")
+    return bool(value)
+
+
+def _mode(document: _Document) -> MapMode:
+    value = document.values.get("mode", MapMode.TRINARY.value)
+    choices = [mode.value for mode in MapMode]
+    if value not in choices:
+        raise document.error("mode", f"must be one of {', '.join(choices)}, got {value!r}")
+    return MapMode(value)
+
+
+def _image_path(document: _Document) -> Path:
+    value = document.values["image"]
+    if not isinstance(value, str) or not value.strip():
+        raise document.error("image", f"must be the path of an image file, got {value!r}")
+    image = Path(value)
+    return image if image.is_absolute() else document.path.parent / image
+
+
+# --- the image ----------------------------------------------------------------------------
+
+
+def _read_image(path: Path, document: _Document) -> tuple[UInt8Array, bool]:
+    """(rows, cols, channels) uint8 pixels, and whether the last channel is alpha."""
+    if not path.exists():
+        raise document.error("image", f"names a file that does not exist: {path}")
+    if path.is_dir():
+        raise document.error("image", f"names a directory, not an image: {path}")
+    try:
+        with Image.open(path) as image:
+            image.load()
+            return _channels(image, path, document)
+    except (OSError, ValueError, SyntaxError, EOFError, Image.DecompressionBombError) as exc:
+        raise document.error("image", f"cannot be read: {path}: {exc}") from None
+
+
+def _channels(image: Image.Image, path: Path, document: _Document) -> tuple[UInt8Array, bool]:
+    if image.mode in ("I", "I;16", "I;16B", "I;16L", "I;16N"):
+        return _sixteen_bit(np.asarray(image), path, document), False
+    if image.mode == "1":
+        image = image.convert("L")
+    elif image.mode == "LA" or image.mode == "PA" or "transparency" in image.info:
+        # SDL_image (what map_server reads with) expands grey + alpha and palettes to RGBA.
+        image = image.convert("RGBA")
+    elif image.mode not in ("L", "RGB", "RGBA"):
+        image = image.convert("RGB")
+    pixels = np.asarray(image, dtype=np.uint8)
+    if pixels.ndim == 2:
+        pixels = pixels[..., None]
+    if pixels.shape[0] == 0 or pixels.shape[1] == 0:
+        raise document.error("image", f"is empty: {path}")
+    return pixels, image.mode == "RGBA"
+
+
+def _sixteen_bit(values: npt.NDArray[Any], path: Path, document: _Document) -> UInt8Array:
+    """16-bit grey reduced to 8 bits, as SDL_image does with such images."""
+    if values.size and (values.min() < 0 or values.max() > 65535):
+        raise document.error("image", f"has pixel values outside 0-65535: {path}")
+    scaled = (values.astype(np.int64) * 255 + 32767) // 65535
+    return scaled.astype(np.uint8)[..., None]
+
+
+def classify_pixels(channels: UInt8Array, has_alpha: bool,
+                    metadata: MapMetadata) -> tuple[BoolArray, BoolArray]:
+    """(occupied, unknown) masks in image order, following map_server's pixel semantics.
+
+    `occupied` includes unknown cells: neither may be entered.
+    """
+    count = channels.shape[-1]
+    averaged = count - 1 if has_alpha and metadata.mode is not MapMode.TRINARY else count
+    value = channels[..., :averaged].astype(np.float64).sum(axis=-1) / averaged
+    if metadata.negate:
+        value = 255.0 - value
+    if metadata.mode is MapMode.RAW:
+        raw = value.astype(np.uint8)  # map_server truncates the average to a byte
+        return raw >= 100, raw > 100
+    occupancy = (255.0 - value) / 255.0
+    occupied = occupancy > metadata.occupied_thresh
+    undecided = ~occupied & ~(occupancy < metadata.free_thresh)
+    if metadata.mode is MapMode.TRINARY:
+        unknown = undecided
+    else:
+        # Scale mode grades undecided pixels; only fully transparent ones are unknown.
+        transparent = channels[..., -1] == 0 if has_alpha else np.zeros_like(occupied)
+        unknown = undecided & transparent
+    return occupied | unknown, unknown
+
+
+# --- saving -------------------------------------------------------------------------------
+
+
+def save_map(grid: OccupancyGrid, yaml_path: str | Path, *, comment: str | None = None) -> Path:
+    """Write `grid` as map_server YAML + binary PGM (P5) next to it; returns the image path.
+
+    Pixels are written as map_saver writes them: 0 occupied, 254 free, 205 unknown.
+    """
+    yaml_path = Path(yaml_path)
+    image_path = yaml_path.with_suffix(".pgm")
+    pixels = np.full(grid.shape, SAVED_FREE, dtype=np.uint8)
+    pixels[grid.occupied] = SAVED_OCCUPIED
+    if grid.unknown is not None:
+        pixels[grid.unknown] = SAVED_UNKNOWN
+    rows, cols = grid.shape
+    header = f"P5\n# CREATOR: hubero {grid.resolution:.3f} m/pix\n{cols} {rows}\n255\n"
+    lines = [f"# {line}".rstrip() for line in (comment or "").splitlines()]
+    lines += [f"image: {image_path.name}",
+              f"resolution: {grid.resolution!r}",
+              f"origin: [{grid.origin[0]!r}, {grid.origin[1]!r}, 0.0]",
+              "negate: 0",
+              f"occupied_thresh: {SAVED_OCCUPIED_THRESH!r}",
+              f"free_thresh: {SAVED_FREE_THRESH!r}",
+              f"mode: {MapMode.TRINARY.value}"]
+    try:
+        image_path.write_bytes(header.encode("ascii") + np.flipud(pixels).tobytes())
+        yaml_path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    except OSError as exc:
+        raise MapError(f"cannot write map {yaml_path}: {exc.strerror or exc}") from None
+    return image_path
