@@ -1,0 +1,491 @@
+"""The social force local planner (Helbing & Molnar 1995), vectorised over the whole crowd.
+
+Each steered human i accelerates by the sum of
+
+* a goal term: relaxation towards the desired velocity, with an arrival slow-down
+  (`direct.goal_acceleration`);
+* social repulsion from every neighbour j within its interaction range,
+  A * exp((r_ij - d_ij) / B) along the line from j to i, where r_ij is the extent of i's
+  personal space towards j (at i's heading) plus j's body radius: an ellipse pushes people
+  further away in front than beside, and a larger personal space keeps people further apart.
+  The push is weighted by where j appears in i's view, lambda + (1 - lambda)(1 + cos phi)/2,
+  and further by `outside_view_weight` when j is outside the field of view;
+* repulsion from walls read off the grid's distance field, A_wall * exp((radius - clearance)
+  / B_wall) along the direction away from the nearest obstacle (body radius only: comfort
+  around walls is the global planner's business);
+* body contact (Helbing, Farkas & Vicsek 2000): a normal push k * overlap and sliding friction
+  kappa * overlap * (relative tangential velocity), against bodies and walls alike.
+
+Two additions to the 1995 model make head-on encounters work: pushes between people (and from
+robots) are computed at the pair's closest approach within `anticipation` seconds at their
+current velocities (collision prediction in the spirit of Zanlungo, Ikeda & Kanda 2011), so
+people on a collision course turn aside early; and a small `side_preference` sidestep breaks the
+deadlock of two people walking exactly at each other. A last guard removes any velocity that
+would carry a body into a wall within the step.
+
+Robots are rows of the crowd that repel humans and are never steered. Neighbours come from a
+k-d tree (`neighbours.py`), so a tick costs O(N) in the number of close pairs; each pair's
+geometry is computed once and applied both ways; there is no loop over humans or pairs; and
+pair terms are summed per row, so the result does not depend on row order. Parameters that are
+the same for everyone are kept as scalars, which spares a gather per pair in the common case.
+
+Units: the model is written as accelerations (per unit mass), so A and A_wall are in m/s^2,
+k in 1/s^2 and kappa in 1/(m s). Defaults: A = 2.1 and B = 0.3 m take Helbing & Molnar's
+(1995) V0 = 2.1 m^2/s^2 and sigma = 0.3 m as the push at the edge of the personal space and its
+decay length; A_wall = 10 and B_wall = 0.2 m likewise take their U0 = 10 m^2/s^2 and R = 0.2 m;
+k = 1500 and kappa = 3000 are Helbing, Farkas & Vicsek's (2000) k = 1.2e5 kg/s^2 and
+kappa = 2.4e5 kg/(m s) for an 80 kg pedestrian. Outside the field of view Helbing & Molnar
+weigh influences by c = 0.5; here the anisotropy lambda already weakens what is behind, so
+what is outside the view is damped further, by 0.2 by default. lambda = 0.35 is a moderate
+choice of ours: someone straight behind counts about a third as much as someone straight
+ahead. The goal term's relaxation time comes from the Drive (0.54 s by default, after Helbing
+& Molnar's 0.5 s).
+
+Stability at dt = 0.05 s: the contact terms are stiff (k dt^2 = 3.75 with the literature value),
+so per step the stiffness is capped at k dt^2 <= 0.5 and the friction rate at
+kappa * overlap * dt <= 0.5; with these an explicit step cannot overshoot an overlap, and speeds
+are clipped to max_speed in any case.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields, replace
+from typing import TYPE_CHECKING, ClassVar
+
+import numpy as np
+import numpy.typing as npt
+from pydantic import ConfigDict, Field, JsonValue
+
+from hubero_dsl.planners.base import Crowd, Drive, PlannerParams
+from hubero_dsl.planners.direct import check_drive, clip_speed, goal_acceleration, params_as
+from hubero_dsl.planners.neighbours import NeighbourPairs, PairFinder, closest_approach
+from hubero_dsl.world.personal_space import extent_in_body_frame
+from hubero_dsl.world.shapes import ShapeKind
+
+if TYPE_CHECKING:
+    from hubero_dsl.world.grid import OccupancyGrid
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
+BoolArray = npt.NDArray[np.bool_]
+# A per-row quantity: one float when it is the same for every row (the common case, which
+# spares a gather per pair), else an array indexed by Crowd row.
+Column = FloatArray | float
+
+# Largest exponent of the repulsion terms: beyond it the push is already far above anything
+# max_speed lets through, and exp() must not overflow to inf (inf * 0 would be NaN).
+_MAX_EXPONENT = 30.0
+# Walls further than this many B_wall beyond the body push less than A_wall * e^-12: skipped.
+_WALL_REACH_IN_B = 12.0
+# Per-step caps on the contact terms (see the module docstring).
+_STIFFNESS_STEP_CAP = 0.5
+_FRICTION_STEP_CAP = 0.5
+
+
+# The dimension of a parameter, for tools that show or convert values.
+_LENGTH: dict[str, JsonValue] = {"dimension": "length"}
+_TIME: dict[str, JsonValue] = {"dimension": "time"}
+
+
+class SocialForceParams(PlannerParams):
+    """Parameters of the social force planner, in acceleration form (per unit mass)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+
+    A: float = Field(default=2.1, ge=0.0, description=(
+        "Push from a person at the edge of one's personal space, m/s^2 (Helbing & Molnar "
+        "1995: V0 = 2.1)."))
+    B: float = Field(default=0.3, gt=0.0, json_schema_extra=_LENGTH, description=(
+        "Decay length of the push from people, m (Helbing & Molnar 1995: sigma = 0.3 m)."))
+    A_wall: float = Field(default=10.0, ge=0.0, description=(
+        "Push from a wall touching the body, m/s^2 (Helbing & Molnar 1995: U0 = 10)."))
+    B_wall: float = Field(default=0.2, gt=0.0, json_schema_extra=_LENGTH, description=(
+        "Decay length of the push from walls, m (Helbing & Molnar 1995: R = 0.2 m)."))
+    lambda_: float = Field(default=0.35, alias="lambda", ge=0.0, le=1.0, description=(
+        "Anisotropy: weight of a person straight behind relative to one straight ahead "
+        "(1 = isotropic). Written `lambda` in scenarios."))
+    outside_view_weight: float = Field(default=0.2, ge=0.0, le=1.0, description=(
+        "Extra weight of people outside the field of view (Helbing & Molnar 1995 use 0.5)."))
+    k: float = Field(default=1500.0, ge=0.0, description=(
+        "Body compression per metre of overlap, 1/s^2 (Helbing et al. 2000: 1.2e5 kg/s^2 "
+        "for 80 kg)."))
+    kappa: float = Field(default=3000.0, ge=0.0, description=(
+        "Sliding friction per metre of overlap, 1/(m s) (Helbing et al. 2000: 2.4e5 kg/(m s) "
+        "for 80 kg)."))
+    arrival_radius: float = Field(default=1.0, gt=0.0, json_schema_extra=_LENGTH, description=(
+        "Distance from the target at which a human starts to slow down, m; the stop is "
+        "critically damped, so humans halt at goals instead of orbiting them."))
+    side_preference: float = Field(default=0.1, ge=-1.0, le=1.0, description=(
+        "Sidestep to the right from someone ahead, as a fraction of their push (negative: to "
+        "the left); breaks the deadlock of people walking dead-on at each other."))
+    anticipation: float = Field(default=0.5, ge=0.0, json_schema_extra=_TIME, description=(
+        "Horizon of collision prediction, s: people and robots push from where they will be "
+        "closest within it at the current velocities (0 = the plain distance of Helbing & "
+        "Molnar)."))
+
+
+@dataclass(frozen=True, slots=True)
+class _RowParams:
+    """The parameter models as columns over Crowd rows."""
+
+    A: Column
+    inverse_decay: Column
+    A_wall: Column
+    inverse_wall_decay: Column
+    view_base: Column    # lambda + (1 - lambda) / 2: the weight of someone at phi = 90 deg
+    view_slope: Column   # (1 - lambda) / 2, the weight per unit of cos phi
+    outside_view_weight: Column
+    k: Column
+    kappa: Column
+    arrival_radius: Column
+    side_preference: Column
+    anticipation: Column
+
+    @staticmethod
+    def from_models(models: list[SocialForceParams]) -> _RowParams:
+        def values(name: str) -> FloatArray:
+            return np.array([getattr(m, name) for m in models], dtype=np.float64)
+
+        anisotropy = values("lambda_")
+        return _RowParams(
+            A=_column(values("A")), inverse_decay=_column(1.0 / values("B")),
+            A_wall=_column(values("A_wall")), inverse_wall_decay=_column(1.0 / values("B_wall")),
+            view_base=_column((1.0 + anisotropy) / 2.0),
+            view_slope=_column((1.0 - anisotropy) / 2.0),
+            outside_view_weight=_column(values("outside_view_weight")),
+            k=_column(values("k")), kappa=_column(values("kappa")),
+            arrival_radius=_column(values("arrival_radius")),
+            side_preference=_column(values("side_preference")),
+            anticipation=_column(values("anticipation")))
+
+    def padded(self, rows: int) -> _RowParams:
+        """Columns long enough for `rows` bodies; bodies without a model get the defaults.
+
+        Such bodies (robots) are never steered, so their entries are read but never used.
+        """
+        defaults = _RowParams.from_models([SocialForceParams()])
+        changes: dict[str, FloatArray] = {}
+        for f in fields(self):
+            column = getattr(self, f.name)
+            if isinstance(column, np.ndarray) and column.shape[0] < rows:
+                fill = np.full(rows - column.shape[0], getattr(defaults, f.name))
+                changes[f.name] = np.concatenate([column, fill])
+        return replace(self, **changes)
+
+
+def _rows_of(params: _RowParams) -> int:
+    """How many rows the columns cover; all-float columns cover any number."""
+    lengths = [c.shape[0] for f in fields(params)
+               if isinstance(c := getattr(params, f.name), np.ndarray)]
+    return min(lengths) if lengths else np.iinfo(np.intp).max
+
+
+def _column(values: FloatArray) -> Column:
+    """`values` as a Column: a float when they are all equal (or there are none)."""
+    if values.size == 0 or np.all(values == values[0]):
+        return float(values[0]) if values.size else 0.0
+    return values
+
+
+def _at(column: Column, index: IntArray) -> Column:
+    return column if isinstance(column, float) else column[index]
+
+
+def _drive_column(values: FloatArray, rows: IntArray, count: int) -> Column:
+    """A Drive field (one value per steered human) as a Column over all Crowd rows."""
+    column = _column(values)
+    if isinstance(column, float):
+        return column
+    by_row = np.zeros(count)
+    by_row[rows] = values
+    return by_row
+
+
+class SocialForcePlanner:
+    """Helbing & Molnar's social force model with personal-space shapes, body contact, walls."""
+
+    name: ClassVar[str] = "social_force"
+    Params: ClassVar[type[PlannerParams]] = SocialForceParams
+
+    def __init__(self, grid: OccupancyGrid, params: list[PlannerParams]) -> None:
+        self.grid = grid
+        models = params_as(SocialForceParams, params, self.name)
+        self._rows_with_params = len(models)
+        self._params = _RowParams.from_models(models or [SocialForceParams()])
+        self._padded = self._params
+        self._pair_finder = PairFinder()
+        self._near_wall_rasters: dict[float, BoolArray] = {}
+
+    def velocities(self, crowd: Crowd, drive: Drive, dt: float) -> FloatArray:
+        """(K, 2) new velocities for the humans in `drive`, never faster than max_speed."""
+        check_drive(crowd, drive, self._rows_with_params)
+        params = self._params_for(crowd.count)
+        rows = drive.index
+        velocity = crowd.velocity[rows]
+        pairs = self._pair_finder.find(crowd.position, self._reach(crowd, drive))
+        acceleration = goal_acceleration(crowd.position[rows], velocity, drive,
+                                         _at(params.arrival_radius, rows), dt)
+        per_row = _social_acceleration(crowd, drive, params, pairs)
+        per_row += _contact_acceleration(crowd, params, pairs, dt)
+        acceleration += per_row[rows]
+        walls = self._nearby_walls(crowd, rows, params)
+        acceleration += _wall_acceleration(crowd, drive, params, walls, dt)
+        new_velocity = clip_speed(velocity + acceleration * dt, drive.max_speed)
+        new_velocity = _stop_at_walls(new_velocity, walls, dt)
+        # robots follow their scripts: a drive that names one leaves it as it is
+        robots = crowd.is_robot[rows]
+        new_velocity[robots] = velocity[robots]
+        return new_velocity
+
+    def _params_for(self, count: int) -> _RowParams:
+        """Parameter columns covering `count` rows (robots may come without a model)."""
+        if count > self._rows_with_params and _rows_of(self._padded) < count:
+            self._padded = self._params.padded(count)
+        return self._padded
+
+    @staticmethod
+    def _reach(crowd: Crowd, drive: Drive) -> FloatArray:
+        """How far each row looks; rows nobody steers look as far as the furthest (their
+        reactions are computed with the rest and then dropped, which is cheaper than masking).
+        """
+        ranges = np.where(crowd.is_robot[drive.index], 0.0, drive.interaction_range)
+        reach = np.full(crowd.count, float(ranges.max()) if ranges.size else 0.0)
+        reach[drive.index] = ranges
+        return reach
+
+    def _nearby_walls(self, crowd: Crowd, rows: IntArray, params: _RowParams) -> _NearbyWalls:
+        """The steered humans with a wall close enough to matter, and where it is."""
+        nothing = _NearbyWalls(np.zeros(0, dtype=np.intp), np.zeros((0, 2)), np.zeros(0))
+        if rows.size == 0:
+            return nothing
+        position = crowd.position[rows]
+        reach = _WALL_REACH_IN_B / _at(params.inverse_wall_decay, rows) + crowd.radius[rows]
+        maybe = np.flatnonzero(self._maybe_near_a_wall(position, float(np.max(reach))))
+        if maybe.size == 0:
+            return nothing
+        clearance = np.asarray(self.grid.clearance_at(position[maybe]), dtype=np.float64)
+        # clearance runs to the centre of the nearest occupied cell; its face is half a cell
+        # nearer
+        gap = clearance - 0.5 * self.grid.resolution - crowd.radius[rows[maybe]]
+        close = np.flatnonzero(gap < reach[maybe] - crowd.radius[rows[maybe]])
+        if close.size == 0:
+            return nothing
+        near = maybe[close]
+        away = np.asarray(self.grid.obstacle_direction_at(position[near]),
+                          dtype=np.float64).reshape(-1, 2)
+        return _NearbyWalls(near, away, gap[close])
+
+    def _maybe_near_a_wall(self, position: FloatArray, reach: float) -> BoolArray:
+        """A cheap first cut: False only where the map is certainly clear for `reach` metres.
+
+        Reads a raster of the grid's clearance field thresholded once per reach (rounded up
+        to 0.25 m), so most humans in open space never reach the interpolating queries.
+        """
+        grid = self.grid
+        key = math.ceil(reach / 0.25) * 0.25
+        raster = self._near_wall_rasters.get(key)
+        if raster is None:
+            # two cells of margin cover interpolation and the point's place within its cell
+            raster = np.asarray(grid.clearance < key + 2.5 * grid.resolution)
+            self._near_wall_rasters[key] = raster
+        rows, cols = raster.shape
+        col = np.floor((position[:, 0] - grid.origin[0]) / grid.resolution)
+        row = np.floor((position[:, 1] - grid.origin[1]) / grid.resolution)
+        inside = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
+        row_index = np.clip(np.nan_to_num(row), 0, rows - 1).astype(np.intp)
+        col_index = np.clip(np.nan_to_num(col), 0, cols - 1).astype(np.intp)
+        return np.asarray(~inside | raster[row_index, col_index], dtype=np.bool_)
+
+
+@dataclass(frozen=True, slots=True)
+class _NearbyWalls:
+    """Steered humans near a wall: their slots, the unit vector away from it, the gap to it."""
+
+    slot: IntArray
+    away: FloatArray   # (W, 2)
+    gap: FloatArray    # (W,) clearance minus body radius, negative when touching
+
+
+def _wall_acceleration(crowd: Crowd, drive: Drive, params: _RowParams, walls: _NearbyWalls,
+                       dt: float) -> FloatArray:
+    """Exponential push from the nearest obstacle plus contact once the body touches it."""
+    acceleration = np.zeros((drive.index.shape[0], 2))
+    if walls.slot.size == 0:
+        return acceleration
+    near, away, gap = walls.slot, walls.away, walls.gap
+    rows = drive.index[near]
+    push = (_at(params.A_wall, rows) * drive.obstacle_strength[near]
+            * np.exp(np.minimum(-gap * _at(params.inverse_wall_decay, rows), _MAX_EXPONENT)))
+    overlap = np.maximum(-gap, 0.0)
+    push += _capped(_at(params.k, rows) * dt * dt, _STIFFNESS_STEP_CAP) / (dt * dt) * overlap
+    tangent = np.column_stack([-away[:, 1], away[:, 0]])
+    sliding = np.einsum("ij,ij->i", crowd.velocity[rows], tangent)
+    friction = _capped(_at(params.kappa, rows) * overlap * dt, _FRICTION_STEP_CAP) / dt
+    acceleration[near] = away * push[:, None] - tangent * (friction * sliding)[:, None]
+    return acceleration
+
+
+def _stop_at_walls(velocity: FloatArray, walls: _NearbyWalls, dt: float) -> FloatArray:
+    """Remove any speed towards a wall that would carry a body into it within this step.
+
+    The exponential push and the contact terms keep bodies out of walls in ordinary walking;
+    this guard covers the rest (a running human, a crowd pressing someone against a wall).
+    It only removes velocity, so max_speed still holds.
+    """
+    if walls.slot.size == 0:
+        return velocity
+    towards = -np.einsum("ij,ij->i", velocity[walls.slot], walls.away)
+    excess = towards - np.maximum(walls.gap, 0.0) / dt
+    blocked = excess > 0.0
+    if np.any(blocked):
+        slots = walls.slot[blocked]
+        velocity[slots] += walls.away[blocked] * excess[blocked, None]
+    return velocity
+
+
+def _capped(value: Column, cap: float) -> Column:
+    return np.minimum(value, cap) if isinstance(value, np.ndarray) else min(value, cap)
+
+
+class _PairPush:
+    """The social push of one tick, computed once per close pair and applied both ways."""
+
+    def __init__(self, crowd: Crowd, drive: Drive, params: _RowParams,
+                 pairs: NeighbourPairs) -> None:
+        count, rows = crowd.count, drive.index
+        self.crowd, self.params, self.pairs = crowd, params, pairs
+        self.strength = _product(params.A, _drive_column(drive.avoidance_strength, rows, count))
+        self.cos_half_view = _drive_column(np.cos(drive.field_of_view / 2.0), rows, count)
+        self.cos_heading, self.sin_heading = np.cos(crowd.heading), np.sin(crowd.heading)
+        self.inverse_distance = 1.0 / pairs.distance
+        horizon = params.anticipation
+        self.shared_horizon = isinstance(horizon, float)
+        if self.shared_horizon:  # the closest approach is the same seen from either side
+            self.ahead = closest_approach(pairs, crowd.velocity, horizon)
+        space = crowd.personal_space
+        self.circles = bool(np.all(space.kind == ShapeKind.CIRCLE))
+        radius = _column(crowd.radius)
+        # with circles of one size, one radius and one decay, the closeness term is symmetric
+        self.shared_closeness: FloatArray | None = None
+        same_circles = self.circles and isinstance(_column(space.a), float)
+        if (same_circles and self.shared_horizon and isinstance(radius, float)
+                and isinstance(params.inverse_decay, float) and isinstance(self.strength, float)):
+            comfort = float(space.a[0]) + radius
+            self.shared_closeness = self.strength * self._closeness(comfort, self.ahead[2],
+                                                                    params.inverse_decay)
+
+    @staticmethod
+    def _closeness(comfort: Column, distance: FloatArray, inverse_decay: Column) -> FloatArray:
+        return np.asarray(np.exp(np.minimum((comfort - distance) * inverse_decay,
+                                            _MAX_EXPONENT)), dtype=np.float64)
+
+    def one_way(self, receiver: IntArray, other: IntArray, sign: float
+                ) -> tuple[FloatArray, FloatArray]:
+        """Push on `receiver` from `other` per pair; `sign` orients the pair's vectors."""
+        pairs, params = self.pairs, self.params
+        if self.shared_horizon:
+            ahead_x, ahead_y, distance = self.ahead
+        else:
+            ahead_x, ahead_y, distance = closest_approach(pairs, self.crowd.velocity,
+                                                          _at(params.anticipation, receiver))
+        cos_heading, sin_heading = self.cos_heading[receiver], self.sin_heading[receiver]
+        # where the other is seen now, as cos phi: towards the other is -sign * offset
+        seen_ahead = (pairs.offset_x * cos_heading + pairs.offset_y * sin_heading)
+        seen_ahead *= -sign * self.inverse_distance
+        if self.shared_closeness is not None:
+            push = self.shared_closeness
+        else:
+            forward = -sign * (ahead_x * cos_heading + ahead_y * sin_heading)
+            left = sign * (ahead_x * sin_heading - ahead_y * cos_heading)
+            comfort = self._extent(receiver, forward, left) + self.crowd.radius[other]
+            push = _at(self.strength, receiver) * self._closeness(
+                comfort, distance, _at(params.inverse_decay, receiver))
+        weight = _at(params.view_base, receiver) + _at(params.view_slope, receiver) * seen_ahead
+        unseen = seen_ahead < _at(self.cos_half_view, receiver)
+        weight = np.where(unseen, weight * _at(params.outside_view_weight, receiver), weight)
+        push = push * weight
+        # a preference for one side breaks the deadlock of two people walking dead-on at each
+        # other: each also sidesteps to its right (left when negative) from whoever is ahead
+        sidestep = push * np.maximum(seen_ahead, 0.0)
+        sidestep *= _at(params.side_preference, receiver)
+        push *= sign
+        return push * ahead_x + sidestep * sin_heading, push * ahead_y - sidestep * cos_heading
+
+    def _extent(self, receiver: IntArray, forward: FloatArray, left: FloatArray) -> Column:
+        space = self.crowd.personal_space
+        if self.circles:  # the radius is the extent in every direction
+            return np.asarray(space.a[receiver], dtype=np.float64)
+        return extent_in_body_frame(space.kind[receiver], space.a[receiver], space.b[receiver],
+                                    space.offset[receiver], forward, left)
+
+
+def _product(first: Column, second: Column) -> Column:
+    if isinstance(first, float) and isinstance(second, float):
+        return first * second
+    return np.asarray(first * second, dtype=np.float64)
+
+
+def _social_acceleration(crowd: Crowd, drive: Drive, params: _RowParams,
+                         pairs: NeighbourPairs) -> FloatArray:
+    """(N, 2) sum over neighbours of the anisotropic exponential push, per Crowd row."""
+    count = crowd.count
+    if pairs.count == 0:
+        return np.zeros((count, 2))
+    kernel = _PairPush(crowd, drive, params, pairs)
+    on_first = kernel.one_way(pairs.first, pairs.second, 1.0)
+    on_second = kernel.one_way(pairs.second, pairs.first, -1.0)
+    return _sum_both_ways(pairs, on_first, on_second, count)
+
+
+def _sum_both_ways(pairs: NeighbourPairs, on_first: tuple[FloatArray, FloatArray],
+                   on_second: tuple[FloatArray, FloatArray], count: int) -> FloatArray:
+    """(N, 2) per-row sums of pair terms; directions a receiver does not react to are dropped."""
+    first_x, first_y = on_first
+    second_x, second_y = on_second
+    if pairs.first_reacts is not None and pairs.second_reacts is not None:
+        first_x, first_y = first_x * pairs.first_reacts, first_y * pairs.first_reacts
+        second_x, second_y = second_x * pairs.second_reacts, second_y * pairs.second_reacts
+    total = np.empty((count, 2))
+    total[:, 0] = (np.bincount(pairs.first, weights=first_x, minlength=count)
+                   + np.bincount(pairs.second, weights=second_x, minlength=count))
+    total[:, 1] = (np.bincount(pairs.first, weights=first_y, minlength=count)
+                   + np.bincount(pairs.second, weights=second_y, minlength=count))
+    return total
+
+
+def _contact_acceleration(crowd: Crowd, params: _RowParams, pairs: NeighbourPairs,
+                          dt: float) -> FloatArray:
+    """(N, 2) Helbing's body compression and sliding friction for overlapping bodies."""
+    count = crowd.count
+    if pairs.count == 0:
+        return np.zeros((count, 2))
+    radius = crowd.radius
+    overlap = radius[pairs.first] + radius[pairs.second] - pairs.distance
+    touching = np.flatnonzero(overlap > 0.0)
+    if touching.size == 0:
+        return np.zeros((count, 2))
+    pairs = _subset(pairs, touching)
+    overlap = overlap[touching]
+    unit_x, unit_y = pairs.offset_x / pairs.distance, pairs.offset_y / pairs.distance
+    relative = crowd.velocity[pairs.second] - crowd.velocity[pairs.first]
+    # sliding speed of the second past the first along t = (-unit_y, unit_x); by symmetry the
+    # first slides past the second at the same speed along -t
+    sliding = relative[:, 1] * unit_x - relative[:, 0] * unit_y
+
+    def one_way(receiver: IntArray, sign: float) -> tuple[FloatArray, FloatArray]:
+        stiffness = _capped(_at(params.k, receiver) * dt * dt, _STIFFNESS_STEP_CAP) / (dt * dt)
+        friction = _capped(_at(params.kappa, receiver) * overlap * dt, _FRICTION_STEP_CAP) / dt
+        normal = sign * stiffness * overlap
+        along = sign * friction * sliding
+        return normal * unit_x - along * unit_y, normal * unit_y + along * unit_x
+
+    return _sum_both_ways(pairs, one_way(pairs.first, 1.0), one_way(pairs.second, -1.0), count)
+
+
+def _subset(pairs: NeighbourPairs, keep: IntArray) -> NeighbourPairs:
+    first_reacts = pairs.first_reacts[keep] if pairs.first_reacts is not None else None
+    second_reacts = pairs.second_reacts[keep] if pairs.second_reacts is not None else None
+    return NeighbourPairs(pairs.first[keep], pairs.second[keep], pairs.offset_x[keep],
+                          pairs.offset_y[keep], pairs.distance[keep], first_reacts,
+                          second_reacts)
