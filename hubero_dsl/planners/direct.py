@@ -23,17 +23,22 @@ if TYPE_CHECKING:
 FloatArray = npt.NDArray[np.float64]
 ModelT = TypeVar("ModelT", bound=PlannerParams)
 
-_ARRIVAL_RADIUS_DOC = (
+# Planners cannot tell a path's last point from a waypoint on the way, so the slow-down must
+# start closer than the distance at which the engine moves on to the next waypoint (0.6 m),
+# or humans would slow at every corner.
+ARRIVAL_RADIUS = 0.5
+ARRIVAL_RADIUS_DOC = (
     "Distance from the target at which the desired speed starts to fall linearly to zero, m. "
     "Inside it the relaxation is made at least critically damped, so a human stops at its "
     "target without overshooting; it is widened to 4 * speed * dt when smaller, which keeps the "
-    "discrete step from overshooting too.")
+    "discrete step from overshooting too. Keep it below the engine's waypoint look-ahead, or "
+    "humans slow down at every waypoint.")
 
 
 class DirectParams(PlannerParams):
     """Parameters of the direct planner."""
 
-    arrival_radius: float = Field(default=1.0, gt=0.0, description=_ARRIVAL_RADIUS_DOC,
+    arrival_radius: float = Field(default=ARRIVAL_RADIUS, gt=0.0, description=ARRIVAL_RADIUS_DOC,
                                   json_schema_extra={"dimension": "length"})
 
 

@@ -58,7 +58,14 @@ import numpy.typing as npt
 from pydantic import ConfigDict, Field, JsonValue
 
 from hubero_dsl.planners.base import Crowd, Drive, PlannerParams
-from hubero_dsl.planners.direct import check_drive, clip_speed, goal_acceleration, params_as
+from hubero_dsl.planners.direct import (
+    ARRIVAL_RADIUS,
+    ARRIVAL_RADIUS_DOC,
+    check_drive,
+    clip_speed,
+    goal_acceleration,
+    params_as,
+)
 from hubero_dsl.planners.neighbours import NeighbourPairs, PairFinder, closest_approach
 from hubero_dsl.world.personal_space import extent_in_body_frame
 from hubero_dsl.world.shapes import ShapeKind
@@ -113,9 +120,8 @@ class SocialForceParams(PlannerParams):
     kappa: float = Field(default=3000.0, ge=0.0, description=(
         "Sliding friction per metre of overlap, 1/(m s) (Helbing et al. 2000: 2.4e5 kg/(m s) "
         "for 80 kg)."))
-    arrival_radius: float = Field(default=1.0, gt=0.0, json_schema_extra=_LENGTH, description=(
-        "Distance from the target at which a human starts to slow down, m; the stop is "
-        "critically damped, so humans halt at goals instead of orbiting them."))
+    arrival_radius: float = Field(default=ARRIVAL_RADIUS, gt=0.0, json_schema_extra=_LENGTH,
+                                  description=ARRIVAL_RADIUS_DOC)
     side_preference: float = Field(default=0.1, ge=-1.0, le=1.0, description=(
         "Sidestep to the right from someone ahead, as a fraction of their push (negative: to "
         "the left); breaks the deadlock of people walking dead-on at each other."))

@@ -66,6 +66,26 @@ def test_stops_at_the_target_without_overshooting() -> None:
     assert np.linalg.norm(velocities[-1]) < 0.05
 
 
+@pytest.mark.parametrize("speed", [0.5, 1.29, 3.0])
+@pytest.mark.parametrize("relaxation_time", [0.2, 1.5])
+@pytest.mark.parametrize("goal_strength", [0.5, 2.0])
+def test_the_stop_is_clean_for_any_speed_and_relaxation(speed: float, relaxation_time: float,
+                                                         goal_strength: float) -> None:
+    planner = DirectPlanner(GRID, [DirectParams()])
+    target = np.array([[4.0, 1.0]])
+    k = np.ones(1)
+    steer = Drive(np.array([0]), target, k * speed, k * 3.0, k * relaxation_time,
+                  k * goal_strength, k, k, k * 3.0, k * np.pi)
+    position, velocity = np.zeros((1, 2)), np.zeros((1, 2))
+    distance = []
+    for _ in range(300):
+        velocity = planner.velocities(crowd(position, velocity), steer, DT)
+        position = position + velocity * DT
+        distance.append(float(np.linalg.norm(position[0] - target[0])))
+    assert np.all(np.diff(distance) <= 1e-9)
+    assert distance[-1] < 0.01
+
+
 def test_never_faster_than_max_speed() -> None:
     _, velocities = run(np.zeros((1, 2)), np.array([[9.0, 0.0]]), seconds=5.0, speed=3.0)
     speeds = np.linalg.norm(velocities, axis=-1)
