@@ -250,22 +250,29 @@ def _follow_forever(context: _Context, action: str) -> tuple[Diagnostic | None, 
     """Walk on from a task that never ends: what after it waits in vain for its token?"""
     graph = context.graph
     held = [graph.nodes[action]["label"]] if graph.nodes[action]["label"] else []
-    blocked: str | None = None  # a join or repeat end that never fires
+    stuck: list[str] = []  # joins, repeat ends and race joins that never let the token on
     node = action
     while (following := exit_successor(graph, node)) is not None:
         node = following
         kind = graph.nodes[node]["kind"]
         if kind is NodeKind.LABEL_END:
             held.append(graph.nodes[node]["label"])
-        elif kind is NodeKind.JOIN or (kind is NodeKind.REPEAT_END
-                                       and graph.nodes[node]["count"] != 1):
-            blocked = blocked or node
         elif kind is NodeKind.RACE_JOIN and _race_can_end(context, graph.nodes[node]["fork"],
                                                           action):
             return None, []  # another branch ends the race; preempted counts as done
-        elif kind not in (NodeKind.RACE_JOIN, NodeKind.REPEAT_END, NodeKind.FINAL):
-            return _blocks_step(context, action, node, blocked), held
-    return (_blocks_join(context, action, blocked) if blocked else None), held
+        elif kind in _BLOCKS or (kind is NodeKind.REPEAT_END and graph.nodes[node]["count"] != 1):
+            stuck.append(node)
+        elif kind not in (NodeKind.REPEAT_END, NodeKind.FINAL):
+            return _blocks_step(context, action, node, stuck), held
+    # At the end of the activity only a parallel or a repeat that never ends is a problem: a
+    # task (or a race of tasks) that runs forever there does not keep the run alive.
+    waiting = [n for n in stuck if graph.nodes[n]["kind"] is not NodeKind.RACE_JOIN]
+    return (_blocks_join(context, action, waiting[0]) if waiting else None), held
+
+
+_BLOCKS = frozenset({NodeKind.JOIN, NodeKind.RACE_JOIN})
+_BLOCK_WORDS = {NodeKind.JOIN: "parallel", NodeKind.RACE_JOIN: "race",
+                NodeKind.REPEAT_END: "repeat"}
 
 
 def _race_can_end(context: _Context, fork: str, action: str) -> bool:
@@ -284,12 +291,11 @@ _FOREVER_HINT = ("bound it with `for 10 s` or `until ...`, make it the activity'
                  "run it in a `race` beside the steps that should end it")
 
 
-def _blocks_step(context: _Context, action: str, dead: str, blocked: str | None) -> Diagnostic:
+def _blocks_step(context: _Context, action: str, dead: str, stuck: list[str]) -> Diagnostic:
     graph = context.graph
     around = ""
-    if blocked is not None:
-        block = "parallel" if graph.nodes[blocked]["kind"] is NodeKind.JOIN else "repeat"
-        around = f" the `{block}` around it never ends and"
+    if stuck:
+        around = f" the `{_BLOCK_WORDS[graph.nodes[stuck[0]]['kind']]}` around it never ends and"
     return error("E308", f"{_quoted(graph, action)} runs forever, so{around} the steps after it "
                  "never run", graph.nodes[action]["span"], _FOREVER_HINT,
                  (Related(f"{_quoted(graph, dead)} never runs", graph.nodes[dead]["span"]),))
@@ -299,7 +305,7 @@ def _blocks_join(context: _Context, action: str, blocked: str) -> Diagnostic:
     graph = context.graph
     if graph.nodes[blocked]["kind"] is NodeKind.JOIN:
         fork = graph.nodes[blocked]["fork"]
-        what = "this `parallel` never ends: it waits for every branch to end"
+        what = "the `parallel` around it never ends: it waits for every branch to end"
         related = Related("the `parallel` is here", graph.nodes[fork]["span"])
         hint = "use `race` instead of `parallel` if the other branches should end it, or " + \
                "bound the task with `for 10 s` or `until ...`"

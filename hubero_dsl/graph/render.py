@@ -21,6 +21,7 @@ import networkx as nx
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.patches import Ellipse, FancyArrowPatch, FancyBboxPatch, Patch, Polygon, Rectangle
+from matplotlib.path import Path as MplPath
 
 from hubero_dsl.graph.build import (
     FORK_KINDS,
@@ -79,17 +80,17 @@ def format_condition(condition: ast.Condition) -> str:
         case ast.TimeCondition():
             return f"time {condition.operator} {format_value(condition.threshold)}"
         case ast.NotCondition():
-            return f"not {_operand(condition.operand, ast.AllOf | ast.AnyOf)}"
+            return f"not {_operand(condition.operand, (ast.AllOf, ast.AnyOf))}"
         case ast.AllOf():
-            return " and ".join(_operand(c, ast.AnyOf) for c in condition.operands)
+            return " and ".join(_operand(c, (ast.AnyOf,)) for c in condition.operands)
         case ast.AnyOf():
-            return " or ".join(_operand(c, ast.AllOf) for c in condition.operands)
+            return " or ".join(_operand(c, (ast.AllOf,)) for c in condition.operands)
     raise TypeError(f"not a condition: {condition!r}")
 
 
-def _operand(condition: ast.Condition, needs_parentheses: type | object) -> str:
+def _operand(condition: ast.Condition, needs_parentheses: tuple[type, ...]) -> str:
     text = format_condition(condition)
-    return f"({text})" if isinstance(condition, needs_parentheses) else text  # type: ignore[arg-type]
+    return f"({text})" if isinstance(condition, needs_parentheses) else text
 
 
 def format_task_step(step: ast.TaskStep) -> str:
@@ -283,21 +284,28 @@ _CHAR_INCHES = 0.6 * FONT_SIZE / 72  # DejaVu Sans Mono advances 0.6 em per char
 _LINE_INCHES = 1.25 * FONT_SIZE / 72
 _WRAP = 34
 _MAX_PIXELS = 30_000
+_DIAMOND_INCHES = 0.12  # half the diagonal of a decision/merge rhombus
 
 
 def to_png(graph: nx.DiGraph, path: str | Path, *, dpi: int = 110) -> Path:
     """Draw the graph into a PNG file (no graphviz needed); returns the path written."""
-    positions, extent = layout(graph)
-    width_in = max(1.0, (extent[1] - extent[0])) * COLUMN_INCHES
-    height_in = max(1.0, (extent[3] - extent[2])) * ROW_INCHES
+    positions, (x0, x1, y0, y1) = layout(graph)
+    edges = _ordered_edges(graph, list(positions))
+    loops = {edge: _loop_left(graph, edge, positions) for edge in edges
+             if graph.edges[edge].get("loop", False)}
+    x0 = min([x0, *(left - 0.05 for left in loops.values())])
+    width_in, height_in = max(1.0, x1 - x0) * COLUMN_INCHES, max(1.0, y1 - y0) * ROW_INCHES
     figure = Figure(figsize=(width_in, height_in))
     axes = figure.add_axes((0.0, 0.0, 1.0, 1.0))
-    axes.set_xlim(extent[0], extent[1])
-    axes.set_ylim(extent[2], extent[3])
+    axes.set_xlim(x0, x1)
+    axes.set_ylim(y0, y1)
     axes.set_axis_off()
     patches = {node: _draw_node(axes, graph, node, positions[node]) for node in positions}
-    for source, target in _ordered_edges(graph, list(positions)):
-        _draw_edge(axes, graph, (source, target), positions, patches)
+    for edge in edges:
+        if edge in loops:
+            _draw_loop(axes, edge, positions, loops[edge])
+        else:
+            _draw_edge(axes, graph, edge, positions, patches)
     for activity in graph.graph["activities"]:
         x, y = positions[f"{activity}/0"]
         axes.text(x, y + 0.35, activity, ha="center", va="bottom", fontsize=FONT_SIZE + 2,
@@ -454,7 +462,7 @@ def _draw_bar(axes: Axes, graph: nx.DiGraph, node: str, x: float, y: float) -> P
 
 
 def _draw_diamond(axes: Axes, text: str, x: float, y: float) -> Patch:
-    half_w, half_h = 0.12 / COLUMN_INCHES, 0.12 / ROW_INCHES
+    half_w, half_h = _DIAMOND_INCHES / COLUMN_INCHES, _DIAMOND_INCHES / ROW_INCHES
     diamond = Polygon([(x, y + half_h), (x + half_w, y), (x, y - half_h), (x - half_w, y)],
                       closed=True, facecolor="white", edgecolor="#333", zorder=2)
     axes.add_patch(diamond)
@@ -472,27 +480,33 @@ def _draw_edge(axes: Axes, graph: nx.DiGraph, edge: tuple[str, str],
         x0 = x1
     if graph.nodes[target]["kind"] in JOIN_KINDS:
         x1 = x0
-    loop = graph.edges[source, target].get("loop", False)
-    rad = _loop_bend(graph, edge, positions) if loop else 0.0
-    arrow = FancyArrowPatch((x0, y0), (x1, y1), patchA=patches[source], patchB=patches[target],
-                            arrowstyle="-|>", mutation_scale=9, shrinkA=0, shrinkB=0,
-                            connectionstyle=f"arc3,rad={rad}", linewidth=0.8,
-                            color="#666" if loop else "#222",
-                            linestyle="--" if loop else "-", zorder=1)
-    axes.add_patch(arrow)
+    axes.add_patch(FancyArrowPatch((x0, y0), (x1, y1), patchA=patches[source],
+                                   patchB=patches[target], arrowstyle="-|>", mutation_scale=9,
+                                   shrinkA=0, shrinkB=0, linewidth=0.8, color="#222", zorder=1))
 
 
-def _loop_bend(graph: nx.DiGraph, loop: tuple[str, str],
+def _loop_left(graph: nx.DiGraph, loop: tuple[str, str],
                positions: dict[str, tuple[float, float]]) -> float:
-    """How far a repeat's loop-back arc bends (arc3's rad) to pass left of the whole body."""
+    """Where a repeat's loop-back runs up: left of every box of its body and of inner loops."""
     end, start = loop
     activity, first, last = (graph.nodes[start]["activity"], graph.nodes[start]["order"],
                              graph.nodes[end]["order"])
-    centre, top = positions[start]
-    reach = 0.0
+    centre = positions[start][0]
+    reach, inner_loops = _DIAMOND_INCHES, 0
     for order in range(first + 1, last):
         node = f"{activity}/{order}"
         half = _box_size(_wrapped(describe_node(graph, node)))[0] / 2
         reach = max(reach, (centre - positions[node][0] + half) * COLUMN_INCHES)
-    distance = max(1e-6, (top - positions[end][1]) * ROW_INCHES)
-    return -2.0 * (reach + 0.2) / distance
+        inner_loops += graph.nodes[node]["kind"] is NodeKind.REPEAT_END
+    return centre - (reach + 0.15 + 0.12 * inner_loops) / COLUMN_INCHES
+
+
+def _draw_loop(axes: Axes, loop: tuple[str, str], positions: dict[str, tuple[float, float]],
+               left: float) -> None:
+    """Out of the repeat's decision to the left, up past the body, into its merge."""
+    end, start = loop
+    (centre, top), bottom = positions[start], positions[end][1]
+    tip = centre - _DIAMOND_INCHES / COLUMN_INCHES
+    route = MplPath([(tip, bottom), (left, bottom), (left, top), (tip, top)])
+    axes.add_patch(FancyArrowPatch(path=route, arrowstyle="-|>", mutation_scale=9,
+                                   linewidth=0.8, color="#666", linestyle="--", zorder=1))

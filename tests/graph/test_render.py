@@ -1,0 +1,153 @@
+"""Mermaid, DOT and PNG renderings of the activity graph, and the words nodes are shown with."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import networkx as nx
+import numpy as np
+import pytest
+from PIL import Image
+
+from hubero_dsl.graph.build import build_activity_graph
+from hubero_dsl.graph.render import (
+    describe_node,
+    format_condition,
+    layout,
+    to_dot,
+    to_mermaid,
+    to_png,
+)
+from hubero_dsl.lang import ast
+from hubero_dsl.lang.parse import parse_source
+
+SCENARIO = """\
+activity dinner {
+    invite: actor2 move_to sofa
+    wait until invite done and distance(actor1, actor2) < 2 m
+    both: parallel {
+        actor2 talk to actor1 for 5 s
+        { wait 500ms; actor1 move_to (0.6, -2.0) heading -135 deg }
+    }
+    race { actor1 stand forever; wait 10 s }
+    repeat 2 { actor1 move_around in rect((0, 0), (4, 4)) times 3 }
+}
+activity { actor3 talk to "say \\"hi\\" #1" for 2 s }
+"""
+
+
+def graph_of(text: str) -> nx.DiGraph:
+    module = parse_source(text, "t.hub")
+    return build_activity_graph(module.of_type(ast.ActivityDecl))
+
+
+@pytest.fixture(scope="module")
+def graph() -> nx.DiGraph:
+    return graph_of(SCENARIO)
+
+
+def test_nodes_are_described_in_the_scenarios_words(graph: nx.DiGraph) -> None:
+    words = [describe_node(graph, n) for n in graph.nodes]
+    assert words[:6] == ["start", "invite: actor2 move_to sofa",
+                         "wait until invite done and distance(actor1, actor2) < 2 m",
+                         "begin both", "parallel", "actor2 talk to actor1 for 5 s"]
+    assert "wait 500 ms" in words
+    assert "actor1 move_to (0.6, -2.0) heading -135 deg" in words
+    assert "actor1 move_around in rect((0, 0), (4, 4)) times 3" in words
+    assert [w for w in words if "repeat" in w or "rounds" in w] == ["repeat 2", "2 rounds done?"]
+    assert 'actor3 talk to "say \\"hi\\" #1" for 2 s' in words
+
+
+@pytest.mark.parametrize("text", [
+    "a done", "not a done", "a done and (b started or c failed)",
+    "not (a done and b done) or time >= 5 s", "h in rect((0, 0), (1, 1))",
+    "h reaches sofa and distance(h, (1, 2)) <= 0.5 m",
+])
+def test_conditions_read_back_as_written(text: str) -> None:
+    module = parse_source(f"activity a {{ wait until {text} }}", "t.hub")
+    step = module.of_type(ast.ActivityDecl)[0].steps[0]
+    assert isinstance(step, ast.WaitUntilStep)
+    assert format_condition(step.condition) == text
+
+
+def test_mermaid_shapes(graph: nx.DiGraph) -> None:
+    text = to_mermaid(graph)
+    assert text.startswith("flowchart TD\n")
+    assert text.count("subgraph ") == 2 and text.count("\n    end\n") == 2
+    assert '    a1_0(("●"))' in text                              # initial
+    assert '    a1_17((("●")))' in text                            # final
+    assert '    a1_1("invite: actor2 move_to sofa")' in text       # action
+    assert ('    a1_2>"wait until invite done and distance(actor1, actor2) #60; 2 m"]'
+            in text)                                                # accept event
+    assert '    a1_6[/"wait 500 ms"\\]' in text                    # time event
+    assert '    a1_14{"repeat 2"}' in text                          # merge
+    assert '    a1_16 -.->|"next round"| a1_14' in text            # loop back
+    assert 'a2_1("actor3 talk to #34;say \\#34;hi\\#34; #35;1#34; for 2 s")' in text
+    assert re.search(r"class [a-z0-9_,]*a1_4[a-z0-9_,]* bar", text)
+
+
+def test_mermaid_has_one_edge_line_per_edge(graph: nx.DiGraph) -> None:
+    assert len(re.findall(r" -(?:->|\.->)", to_mermaid(graph))) == graph.number_of_edges()
+
+
+def test_dot_quotes_ids_and_escapes_labels(graph: nx.DiGraph) -> None:
+    text = to_dot(graph)
+    assert text.startswith("digraph activities {\n") and text.endswith("}\n")
+    assert '"activity#2/1" [shape=box, style=rounded, ' \
+           'label="actor3 talk to \\"say \\\\\\"hi\\\\\\" #1\\" for 2 s"];' in text
+    assert '"dinner/16" -> "dinner/14" [style=dashed, constraint=false, label="next round"];' \
+        in text
+    assert text.count(" -> ") == graph.number_of_edges()
+
+
+@pytest.mark.skipif(shutil.which("dot") is None, reason="graphviz is not installed")
+def test_dot_is_accepted_by_graphviz(graph: nx.DiGraph, tmp_path: Path) -> None:
+    result = subprocess.run(["dot", "-Tsvg"], input=to_dot(graph), capture_output=True,
+                            text=True, check=False, timeout=30)
+    assert result.returncode == 0, result.stderr
+    assert result.stderr == ""
+    assert "actor3 talk to &quot;say \\&quot;hi\\&quot; #1&quot; for 2 s" in result.stdout
+
+
+def test_renderings_are_deterministic() -> None:
+    first, second = graph_of(SCENARIO), graph_of(SCENARIO)
+    assert to_mermaid(first) == to_mermaid(second)
+    assert to_dot(first) == to_dot(second)
+
+
+def test_layout_puts_branches_side_by_side_and_steps_below(graph: nx.DiGraph) -> None:
+    positions, (x0, x1, y0, y1) = layout(graph)
+    assert set(positions) == set(graph.nodes)
+    fork_x, fork_y = positions["dinner/4"]
+    talk, wait = positions["dinner/5"], positions["dinner/6"]
+    assert talk[0] < fork_x < wait[0]
+    assert talk[1] == wait[1] == fork_y - 1
+    assert positions["dinner/7"][0] == wait[0]          # the branch's second step, same column
+    for u, v in nx.subgraph_view(graph, filter_edge=lambda u, v: not graph.edges[u, v].get(
+            "loop", False)).edges:
+        assert positions[v][1] < positions[u][1]
+    assert all(x0 < x < x1 and y0 < y < y1 for x, y in positions.values())
+    assert positions["activity#2/0"][0] > max(x for n, (x, _) in positions.items()
+                                              if n.startswith("dinner/"))
+
+
+def test_png_is_a_real_drawing(graph: nx.DiGraph, tmp_path: Path) -> None:
+    written = to_png(graph, tmp_path / "graph.png")
+    assert written == tmp_path / "graph.png"
+    with Image.open(written) as image:
+        assert image.format == "PNG"
+        pixels = np.asarray(image.convert("L"))
+    height, width = pixels.shape
+    assert width > 400 and height > 800          # two columns of branches, 17 layers
+    dark = pixels < 100
+    assert 0.005 < dark.mean() < 0.2             # lines and text, not blank, not a blot
+    assert dark[:, : width // 2].any() and dark[:, width // 2:].any()
+
+
+def test_png_of_no_activities(tmp_path: Path) -> None:
+    written = to_png(graph_of(""), tmp_path / "empty.png")
+    with Image.open(written) as image:
+        assert image.size[0] > 0
