@@ -1,0 +1,238 @@
+"""Each task kind on a small room map, driven through the human control API."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hubero_dsl.errors import SimulationError
+from hubero_dsl.sim.simulation import Simulation
+from hubero_dsl.sim.status import Posture, TaskStatus
+from tests.sim.conftest import ScenarioFactory
+
+TWO_HUMANS = """
+human alice at (2, 4) heading 0 deg
+human bob at (8, 4) heading 180 deg
+"""
+
+
+def api_sim(scenario: ScenarioFactory, body: str = TWO_HUMANS) -> Simulation:
+    return Simulation(scenario(body), activities=False)
+
+
+def test_move_to_reaches_goal_within_tolerance_and_turns_to_heading(
+        scenario: ScenarioFactory) -> None:
+    sim = api_sim(scenario)
+    alice = sim.human("alice")
+    task = alice.move_to((5.0, 6.0), heading=math.radians(90))
+    assert task.status is TaskStatus.ACTIVE
+    assert sim.run_until(lambda: task.done, time_limit=30)
+    assert task.status is TaskStatus.SUCCEEDED
+    assert math.dist(alice.position, (5.0, 6.0)) <= 0.2 + 1e-9
+    assert abs(alice.heading - math.radians(90)) < math.radians(3)
+    assert alice.state == "idle"
+
+
+def test_run_to_is_faster_than_move_to(scenario: ScenarioFactory) -> None:
+    times = {}
+    for kind in ("move_to", "run_to"):
+        sim = api_sim(scenario)
+        task = getattr(sim.human("alice"), kind)((7.0, 2.0))
+        sim.run_until(lambda task=task: task.done, time_limit=30)
+        assert task.status is TaskStatus.SUCCEEDED
+        times[kind] = sim.time
+    assert times["run_to"] < 0.7 * times["move_to"]
+
+
+def test_move_to_a_human_stops_beside_them(scenario: ScenarioFactory) -> None:
+    sim = api_sim(scenario)
+    task = sim.human("alice").move_to("bob")
+    sim.run_until(lambda: task.done, time_limit=30)
+    assert task.status is TaskStatus.SUCCEEDED
+    gap = math.dist(sim.human("alice").position, sim.human("bob").position)
+    assert 0.4 <= gap <= 0.7  # two 0.2 m bodies plus the tolerance, never on top of bob
+
+
+def test_unreachable_goal_is_aborted_with_the_reason(scenario: ScenarioFactory,
+                                                    walled_map: Path) -> None:
+    sim = Simulation(scenario(TWO_HUMANS.replace("(8, 4)", "(8, 2)"), walled_map),
+                     activities=False)
+    task = sim.human("alice").move_to((8.0, 6.0))
+    assert task.status is TaskStatus.ABORTED
+    assert "cannot be reached" in task.reason
+
+
+def test_stand_holds_still_for_its_duration_and_faces_target(scenario: ScenarioFactory) -> None:
+    sim = api_sim(scenario)
+    alice = sim.human("alice")
+    task = alice.stand(facing="bob", duration=2.0)
+    start = alice.position
+    sim.run_until(lambda: task.done, time_limit=10)
+    assert task.status is TaskStatus.SUCCEEDED
+    assert sim.time == pytest.approx(2.0, abs=sim.dt)
+    assert alice.position == start
+    assert abs(alice.heading) < math.radians(3)  # bob is straight along +x
+
+
+def test_talk_turns_to_face_the_partner(scenario: ScenarioFactory) -> None:
+    sim = api_sim(scenario, "human alice at (2, 4) heading 0 deg\nhuman bob at (2, 7)\n")
+    alice = sim.human("alice")
+    task = alice.talk(to="bob", duration=3.0)
+    assert alice.state == "talking"
+    sim.run_until(lambda: task.done, time_limit=10)
+    assert task.status is TaskStatus.SUCCEEDED
+    assert abs(alice.heading - math.pi / 2) < math.radians(3)
+
+
+def test_follow_keeps_its_distance_and_waits_when_close(scenario: ScenarioFactory) -> None:
+    sim = api_sim(scenario)
+    alice, bob = sim.human("alice"), sim.human("bob")
+    follow = alice.follow("bob", distance=1.5, duration=40.0)
+    walk = bob.move_to((8.0, 1.0))
+    gaps = []
+    while not follow.done:
+        sim.step()
+        gaps.append(math.dist(alice.position, bob.position))
+    assert walk.status is TaskStatus.SUCCEEDED
+    assert follow.status is TaskStatus.SUCCEEDED
+    assert min(gaps) > 1.0                    # never runs into bob
+    assert gaps[-1] == pytest.approx(1.5, abs=0.5)  # ends up waiting at about the distance
+    assert alice.velocity == (0.0, 0.0)
+
+
+def test_follow_aborts_when_the_target_disappears(scenario: ScenarioFactory) -> None:
+    sim = api_sim(scenario)
+    follow = sim.human("alice").follow("bob", duration=20.0)
+    sim.run_until(lambda: sim.time >= 2.0)
+    sim.remove("bob")
+    sim.run_until(lambda: follow.done, time_limit=10)
+    assert follow.status is TaskStatus.ABORTED
+    assert "disappeared" in follow.reason
+
+
+@pytest.mark.parametrize(("kind", "posture"), [("sit_down", Posture.SITTING),
+                                               ("lie_down", Posture.LYING)])
+def test_sit_and_lie_down_go_there_and_hold_the_posture(scenario: ScenarioFactory, kind: str,
+                                                        posture: Posture) -> None:
+    sim = api_sim(scenario)
+    alice = sim.human("alice")
+    task = getattr(alice, kind)(at=(4.0, 6.0), duration=3.0)
+    seen = set()
+    while not task.done:
+        sim.step()
+        seen.add(alice.posture)
+    assert task.status is TaskStatus.SUCCEEDED
+    assert alice.posture is posture and seen == {Posture.STANDING, posture}
+    assert math.dist(alice.position, (4.0, 6.0)) <= 0.21
+    alice.move_to((2.0, 2.0))
+    assert alice.posture is Posture.STANDING  # the next task gets up
+
+
+def test_teleop_moves_with_the_commanded_velocity(scenario: ScenarioFactory) -> None:
+    sim = api_sim(scenario)
+    alice = sim.human("alice")
+    task = alice.teleop(duration=2.0)
+    alice.set_velocity(0.5, 0.0)
+    sim.run_until(lambda: task.done, time_limit=10)
+    assert task.status is TaskStatus.SUCCEEDED
+    assert alice.position[0] == pytest.approx(3.0, abs=0.06)
+
+
+def test_teleop_does_not_go_through_walls(scenario: ScenarioFactory) -> None:
+    sim = api_sim(scenario)
+    alice = sim.human("alice")
+    alice.teleop(duration=10.0)
+    alice.set_velocity(-1.0, 0.0)
+    sim.run_until(lambda: sim.time >= 5.0)
+    assert sim.engine.grid.is_free(alice.position)
+    assert alice.position[0] > 0.05
+
+
+def test_move_around_visits_the_asked_number_of_goals_inside_the_area(
+        scenario: ScenarioFactory) -> None:
+    from shapely.geometry import Polygon, box
+
+    sim = api_sim(scenario)
+    area = box(1.0, 1.0, 4.0, 7.0)
+    alice = sim.human("alice")
+    task = alice.move_around(area=area, times=3)
+    inside = []
+    while not task.done:
+        sim.step()
+        inside.append(area.buffer(0.3).contains(Polygon([alice.position] * 3).centroid))
+    assert task.status is TaskStatus.SUCCEEDED
+    assert sim.engine.behaviour[0] is None
+    assert all(inside)
+
+
+def test_move_around_goals_come_from_the_seed(scenario: ScenarioFactory) -> None:
+    def wander(seed: int) -> np.ndarray:
+        sim = Simulation(scenario(TWO_HUMANS), seed=seed, activities=False)
+        sim.human("alice").move_around(duration=8.0)
+        sim.run_until(lambda: sim.time >= 8.0)
+        return sim.engine.humans.position.copy()
+
+    assert np.array_equal(wander(1), wander(1))
+    assert not np.array_equal(wander(1), wander(2))
+
+
+def test_a_new_command_preempts_the_current_task(scenario: ScenarioFactory) -> None:
+    sim = api_sim(scenario)
+    alice = sim.human("alice")
+    first = alice.move_to((8.0, 7.0))
+    sim.run_until(lambda: sim.time >= 1.0)
+    second = alice.stand(duration=1.0)
+    assert first.status is TaskStatus.PREEMPTED and "replaced" in first.reason
+    assert second.status is TaskStatus.ACTIVE
+
+
+def test_cancel_preempts_and_stops_the_human(scenario: ScenarioFactory) -> None:
+    sim = api_sim(scenario)
+    alice = sim.human("alice")
+    task = alice.move_to((8.0, 7.0))
+    sim.run_until(lambda: sim.time >= 1.0)
+    task.cancel()
+    assert task.status is TaskStatus.PREEMPTED
+    sim.step()
+    sim.step()
+    assert alice.velocity == (0.0, 0.0)
+    task.cancel()  # cancelling a finished task changes nothing
+    assert task.status is TaskStatus.PREEMPTED
+
+
+def test_a_boxed_in_human_is_aborted_as_stuck(scenario: ScenarioFactory) -> None:
+    # Bob sits in a corridor too narrow to pass him; alice's only way is through him.
+    sim = Simulation(scenario(
+        "human alice at (2, 0.5)\nhuman bob at (5, 0.5) { radius 0.4 m }\n",
+        _corridor(scenario)), activities=False)
+    sim.engine.stuck_time = 5.0
+    sim.human("bob").sit_down(duration=100.0)
+    task = sim.human("alice").move_to((8.0, 0.5))
+    sim.run_until(lambda: task.done, time_limit=60)
+    assert task.status is TaskStatus.ABORTED
+    assert task.reason.startswith("stuck")
+
+
+def _corridor(scenario: ScenarioFactory) -> Path:
+    from tests.sim.conftest import room_grid
+    from hubero_dsl.world.mapfile import save_map
+
+    path = Path(scenario.__closure__[0].cell_contents).parent / "corridor.yaml"  # type: ignore[index]
+    save_map(room_grid(walls=((0.0, 1.0, 10.0, 8.0),)), path)
+    return path
+
+
+def test_commands_check_their_arguments(scenario: ScenarioFactory) -> None:
+    sim = api_sim(scenario)
+    alice = sim.human("alice")
+    with pytest.raises(SimulationError, match="unknown target"):
+        alice.move_to("nobody")
+    with pytest.raises(SimulationError, match="itself"):
+        alice.follow("alice")
+    with pytest.raises(SimulationError, match="speed"):
+        alice.move_to((3.0, 3.0), speed=0.0)
+    with pytest.raises(SimulationError, match="no human"):
+        sim.human("carol")
