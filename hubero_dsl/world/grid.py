@@ -15,6 +15,8 @@ Returned masks and fields are read-only arrays shared between callers.
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 from functools import cached_property
 from typing import Any
@@ -34,6 +36,9 @@ BoolArray = npt.NDArray[np.bool_]
 _EIGHT_CONNECTED = np.ones((3, 3), dtype=bool)
 # Cell index given to non-finite coordinates: far outside any grid, still a valid integer.
 _FAR_AWAY = np.iinfo(np.int32).max
+# Masks and labels kept per grid (least recently used dropped first): body radii drawn from a
+# distribution would otherwise each keep a map-sized array alive.
+_CACHE_ENTRIES = 48
 
 
 def _points(xy: ArrayLike) -> FloatArray:
@@ -70,8 +75,8 @@ class OccupancyGrid:
     origin: tuple[float, float]  # world (x, y) of the lower-left corner of cell (0, 0)
     source: str = "<memory>"     # where the map came from, for messages
     unknown: BoolArray | None = None  # (rows, cols) cells of unknown state, kept for drawing
-    _cache: dict[tuple[Any, ...], npt.NDArray[Any]] = field(
-        default_factory=dict, init=False, repr=False)
+    _cache: OrderedDict[tuple[Any, ...], npt.NDArray[Any]] = field(
+        default_factory=OrderedDict, init=False, repr=False)
 
     def __post_init__(self) -> None:
         occupied = np.array(self.occupied, dtype=np.bool_)  # a copy: the grid owns its cells
@@ -106,7 +111,7 @@ class OccupancyGrid:
     def __getstate__(self) -> dict[str, Any]:
         # Pickle only the map itself; derived fields are rebuilt on demand in the receiver.
         state = {f.name: getattr(self, f.name) for f in fields(self) if f.init}
-        state["_cache"] = {}
+        state["_cache"] = OrderedDict()
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
@@ -250,21 +255,29 @@ class OccupancyGrid:
 
     # --- where a body fits ----------------------------------------------------------------
 
+    def _cached(self, key: tuple[Any, ...],
+                compute: Callable[[], npt.NDArray[Any]]) -> npt.NDArray[Any]:
+        if key in self._cache:
+            self._cache.move_to_end(key)
+            return self._cache[key]
+        value = _read_only(compute())
+        self._cache[key] = value
+        if len(self._cache) > _CACHE_ENTRIES:
+            self._cache.popitem(last=False)
+        return value
+
     def free_mask(self, body_radius: float) -> BoolArray:
         """(rows, cols) cells with clearance > `body_radius`: where that body's centre fits."""
         radius = _check_radius(body_radius)
-        key = ("free", radius)
-        if key not in self._cache:
-            self._cache[key] = _read_only(self.clearance > radius)
-        return self._cache[key]
+        return self._cached(("free", radius), lambda: self.clearance > radius)
 
     def _components(self, radius: float) -> npt.NDArray[np.int32]:
         """Connected components (8-connected) of free_mask(radius); 0 marks blocked cells."""
-        key = ("components", radius)
-        if key not in self._cache:
+        def label() -> npt.NDArray[np.int32]:
             labels, _ = ndimage.label(self.free_mask(radius), structure=_EIGHT_CONNECTED)
-            self._cache[key] = _read_only(labels.astype(np.int32))
-        return self._cache[key]
+            return labels.astype(np.int32)
+
+        return self._cached(("components", radius), label)
 
     def reachable_mask(self, start: tuple[float, float], body_radius: float) -> BoolArray:
         """(rows, cols) cells a body of this radius can reach from `start`, 8-connected.
@@ -275,11 +288,9 @@ class OccupancyGrid:
         cell = self.world_to_cell(start)
         labels = self._components(radius)
         label = int(labels[self._clipped(cell)]) if self._inside(cell) else 0
-        key = ("reachable", radius, label)
-        if key not in self._cache:
-            mask = labels == label if label else np.zeros(self.shape, dtype=np.bool_)
-            self._cache[key] = _read_only(mask)
-        return self._cache[key]
+        if not label:
+            return self._cached(("nowhere",), lambda: np.zeros(self.shape, dtype=np.bool_))
+        return self._cached(("reachable", radius, label), lambda: labels == label)
 
     def nearest_free(self, xy: tuple[float, float],
                      body_radius: float = 0.0) -> tuple[tuple[float, float], float]:

@@ -284,3 +284,12 @@ def test_obstacle_direction_around_a_pillar_is_radial() -> None:
     points = np.array([2.05, 2.05]) + 0.5 * radial
     directions = grid.obstacle_direction_at(points)
     assert (np.einsum("ij,ij->i", directions, radial) > 0.97).all()
+
+
+def test_caches_stay_bounded_and_keep_what_was_used_last() -> None:
+    grid = two_rooms(door_cells=5)
+    kept = grid.free_mask(0.1)
+    for radius in np.linspace(0.2, 1.0, 100):
+        grid.free_mask(float(radius))
+        assert grid.free_mask(0.1) is kept  # used again, so never the oldest
+    assert len(grid._cache) <= 48
