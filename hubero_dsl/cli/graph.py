@@ -79,8 +79,10 @@ def _checked_graph(path: str) -> Any:
         text = result.source.text if result.source is not None else None
         report = FileReport(path, text, tuple(result.diagnostics))
         Printer.to(sys.stderr).lines(text_report([report]))
-    if result.program is None or result.errors:
+    if result.errors:
         return None
+    if result.program is None:  # a checker bug, reported by main as an internal error
+        raise RuntimeError(f"{path}: the checker found no errors but built no program")
     return result.program.graph
 
 
