@@ -93,9 +93,9 @@ def run_program(sim: Simulation, observers: Sequence[Observer] = ()) -> RunResul
     source = sim.program.source
     expectations = [Expectation(e, _text(source, e)) for e in sim.program.expectations]
     last_tick = sim.engine.ticks(sim.program.time_limit)
-    _judge(sim, expectations)
     while True:
         scheduler.update()
+        _judge(sim, expectations)
         if scheduler.state is not RunState.RUNNING:
             break
         if sim.tick >= last_tick:
@@ -104,7 +104,6 @@ def run_program(sim: Simulation, observers: Sequence[Observer] = ()) -> RunResul
             break
         sim.engine.step()
         scheduler.after_step()
-        _judge(sim, expectations)
         for observer in observers:
             observer(sim)
     for expectation in expectations:

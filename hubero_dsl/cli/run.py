@@ -1,0 +1,112 @@
+"""`hubero run FILE`: simulate a scenario with a progress bar, then a summary per human.
+
+    hubero run scenarios/living_room.hub --variant ellipse --seed 3 -o run.mcap
+
+Exit 0 when every activity ended and every expectation holds, 1 when the scenario failed
+(a stopping abort, the time limit, an expectation), 2 for bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+from contextlib import ExitStack
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from hubero_dsl.lang.program import Program
+    from hubero_dsl.sim.run import RunResult
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    parser: argparse.ArgumentParser = subparsers.add_parser(
+        "run", help="run a scenario", description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("file", metavar="FILE", help="scenario file (.hub)")
+    add_run_options(parser)
+    parser.add_argument("-o", "--output", metavar="OUT.mcap", type=Path,
+                        help="write an MCAP log of the run")
+    parser.add_argument("--out-dir", metavar="DIR", type=Path,
+                        help="write one MCAP log per run into DIR (VARIANT.mcap)")
+    parser.add_argument("--log-rate", metavar="HZ", type=float, default=10.0,
+                        help="how often the log records the humans' state (default 10 Hz)")
+    return parser
+
+
+def add_run_options(parser: argparse.ArgumentParser) -> None:
+    """Options shared by `run` and `test`."""
+    which = parser.add_mutually_exclusive_group()
+    which.add_argument("--variant", metavar="NAME", help="run this variant")
+    which.add_argument("--all-variants", action="store_true", help="run every variant")
+    parser.add_argument("--seed", type=int, metavar="N", help="override the scenario's seed")
+    parser.add_argument("--quiet", "-q", action="store_true",
+                        help="no progress bar and no summary, only problems")
+
+
+def variants_to_run(program: Program, args: argparse.Namespace) -> list[str | None]:
+    from hubero_dsl.errors import InputError
+
+    if args.all_variants:
+        return list(program.variants) or [None]
+    if args.variant is not None and args.variant not in program.variants:
+        known = ", ".join(program.variants) or "none"
+        raise InputError(f"unknown variant '{args.variant}' (variants: {known})")
+    return [args.variant]
+
+
+def run(args: argparse.Namespace) -> int:
+    from hubero_dsl.errors import InputError
+    from hubero_dsl.lang.compile import compile_file
+
+    if args.log_rate <= 0:
+        raise InputError("--log-rate must be greater than zero")
+    if args.output is not None and args.out_dir is not None:
+        raise InputError("give -o/--output or --out-dir, not both")
+    program = compile_file(args.file)
+    variants = variants_to_run(program, args)
+    if args.output is not None and len(variants) > 1:
+        raise InputError("--all-variants writes several logs: use --out-dir DIR")
+    failed = False
+    for variant in variants:
+        output = _log_path(args, variant)
+        result = run_one(program, variant, args.seed, output, args.log_rate, quiet=args.quiet)
+        if not args.quiet:
+            from hubero_dsl.cli.summary import print_summary
+
+            print_summary(program, result, output)
+        failed = failed or not result.succeeded
+    return 1 if failed else 0
+
+
+def _log_path(args: argparse.Namespace, variant: str | None) -> Path | None:
+    if args.output is not None:
+        return Path(args.output)
+    if args.out_dir is not None:
+        safe = (variant or "default").replace("/", "_").replace(" ", "")
+        return Path(args.out_dir) / f"{safe}.mcap"
+    return None
+
+
+def run_one(program: Program, variant: str | None, seed: int | None, output: Path | None,
+            log_rate: float, *, quiet: bool) -> RunResult:
+    """Simulate one variant, with a progress bar unless quiet and a log if asked."""
+    from hubero_dsl.sim.run import run_program
+    from hubero_dsl.sim.simulation import Simulation
+
+    sim = Simulation(program, variant=variant, seed=seed)
+    with ExitStack() as stack:
+        observers = []
+        log = None
+        if output is not None:
+            from hubero_dsl.log.writer import RunLog
+
+            log = stack.enter_context(RunLog(output, sim, rate_hz=log_rate))
+            observers.append(log.observe)
+        if not quiet:
+            from hubero_dsl.cli.summary import progress_observer
+
+            observers.append(stack.enter_context(progress_observer(program, variant)))
+        result = run_program(sim, observers)
+        if log is not None:
+            log.close(result)
+    return result

@@ -1,0 +1,86 @@
+"""What `hubero run` and `hubero test` show: a progress bar over simulated time, and tables.
+
+Rich renders both; the progress bar goes to stderr and disappears when the run ends, the
+summary goes to stdout (plain text when stdout is not a terminal).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from rich.console import Console
+from rich.markup import escape
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+if TYPE_CHECKING:
+    from hubero_dsl.lang.program import Program
+    from hubero_dsl.sim.run import RunResult
+    from hubero_dsl.sim.simulation import Simulation
+
+STATE_STYLE = {"completed": "green", "failed": "red", "timed_out": "yellow"}
+STATUS_STYLE = {"SUCCEEDED": "green", "ABORTED": "red", "PREEMPTED": "yellow", "ACTIVE": "cyan"}
+
+
+def _label(program: Program, variant: str | None) -> str:
+    return escape(f"{Path(program.source.path).name}" + (f" [{variant}]" if variant else ""))
+
+
+@contextmanager
+def progress_observer(program: Program, variant: str | None
+                      ) -> Iterator[Callable[[Simulation], None]]:
+    """A rich progress bar over simulated time (to the time limit), updated a few times a second
+    of simulated time so it costs nothing measurable."""
+    console = Console(stderr=True)
+    progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(),
+                        TextColumn("{task.fields[clock]}"), TimeElapsedColumn(),
+                        console=console, transient=True, disable=not console.is_terminal)
+    task = progress.add_task(_label(program, variant), total=program.time_limit, clock="")
+    every = max(1, round(0.25 / program.step))
+
+    def observe(sim: Simulation) -> None:
+        if sim.tick % every == 0:
+            progress.update(task, completed=sim.time, clock=f"t = {sim.time:6.1f} s")
+
+    with progress:
+        yield observe
+
+
+def print_summary(program: Program, result: RunResult, output: Path | None,
+                  console: Console | None = None) -> None:
+    console = console or Console()
+    state = result.state.value
+    title = (f"{_label(program, result.variant)}: [{STATE_STYLE.get(state, '')}]{state}[/] "
+             f"at t = {result.time:.2f} s (seed {result.seed})")
+    console.print(title)
+    if result.reason:
+        console.print(f"  reason: {result.reason}")
+    console.print(_humans_table(result))
+    if result.expectations:
+        console.print(_expectations_table(result))
+    if output is not None:
+        console.print(f"log written to {output}")
+
+
+def _humans_table(result: RunResult) -> Table:
+    table = Table("human", "tasks done", "status", "path length", "time on tasks",
+                  title="humans", title_justify="left")
+    for human in result.humans:
+        style = STATUS_STYLE.get(human.last_status, "")
+        table.add_row(human.name, f"{human.tasks_done}/{human.tasks_total}",
+                      f"[{style}]{human.last_status}[/]" if style else human.last_status,
+                      f"{human.path_length:.2f} m", f"{human.busy_time:.2f} s")
+    return table
+
+
+def _expectations_table(result: RunResult) -> Table:
+    table = Table("expectation", "result", "decided at", title="expectations",
+                  title_justify="left")
+    for expectation in result.expectations:
+        verdict = "[green]holds[/]" if expectation.held else "[red]FAILS[/]"
+        when = f"{expectation.decided_at:.2f} s" if expectation.decided_at is not None else "-"
+        table.add_row(escape(expectation.text), verdict, when)
+    return table

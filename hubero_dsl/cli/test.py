@@ -1,0 +1,52 @@
+"""`hubero test FILE...`: run scenarios and judge every `expect`, for CI.
+
+Every variant of every file runs (or the one named with --variant); the exit status is 0 when
+every run completed and every expectation held, 1 otherwise, 2 for bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from hubero_dsl.cli.run import add_run_options, run_one, variants_to_run
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    parser: argparse.ArgumentParser = subparsers.add_parser(
+        "test", help="run scenarios and judge their expectations", description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("files", nargs="+", metavar="FILE", help="scenario files (.hub)")
+    add_run_options(parser)
+    parser.set_defaults(all_variants=True)
+    return parser
+
+
+def run(args: argparse.Namespace) -> int:
+    from rich.console import Console
+
+    from hubero_dsl.lang.compile import compile_file
+
+    console = Console()
+    failures = 0
+    runs = 0
+    for file in args.files:
+        program = compile_file(file)
+        if args.variant is not None:
+            args.all_variants = False
+        for variant in variants_to_run(program, args):
+            result = run_one(program, variant, args.seed, None, 10.0, quiet=True)
+            runs += 1
+            name = file + (f" [{variant}]" if variant else "")
+            ok = result.succeeded
+            failures += not ok
+            if not ok or not args.quiet:
+                verdict = "[green]PASS[/]" if ok else "[red]FAIL[/]"
+                console.print(f"{verdict} {name}: {result.state.value} at "
+                              f"t = {result.time:.2f} s" + (f" ({result.reason})"
+                                                            if result.reason else ""))
+            for expectation in result.expectations:
+                if not expectation.held:
+                    console.print(f"    expectation fails: {expectation.text}")
+    console.print(f"{runs - failures} passed, {failures} failed")
+    return 1 if failures else 0
