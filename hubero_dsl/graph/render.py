@@ -176,7 +176,8 @@ def _mermaid_text(text: str) -> str:
     return f'"{text}"'
 
 
-def _mermaid_caption(graph: nx.DiGraph, node: str) -> str:
+def _short_caption(graph: nx.DiGraph, node: str) -> str:
+    """The words inside a Mermaid node (and beside a DOT race bar): few on the symbols."""
     kind = graph.nodes[node]["kind"]
     if kind in (NodeKind.INITIAL, NodeKind.FINAL):
         return "●"
@@ -201,7 +202,7 @@ def to_mermaid(graph: nx.DiGraph) -> str:
         for node in nodes:
             kind = graph.nodes[node]["kind"]
             opening, closing = _MERMAID_SHAPES[kind]
-            text = _mermaid_caption(graph, node)
+            text = _short_caption(graph, node)
             lines.append(f"        {ids[node]}{opening}{_mermaid_text(text)}{closing}")
             if kind in _MERMAID_CLASSES:
                 by_class.setdefault(_MERMAID_CLASSES[kind], []).append(ids[node])
@@ -244,9 +245,9 @@ def _dot_quote(text: str) -> str:
 def _dot_node(graph: nx.DiGraph, node: str) -> str:
     kind = graph.nodes[node]["kind"]
     style = _DOT_STYLES[kind]
-    if kind in (NodeKind.RACE_FORK, NodeKind.RACE_JOIN):
-        text = "" if kind in _DOT_NO_TEXT else _mermaid_caption(graph, node)
-        return f"{_dot_quote(node)} [{style}, label=\"\", xlabel={_dot_quote(text)}];"
+    if kind in (NodeKind.RACE_FORK, NodeKind.RACE_JOIN):  # a bar, with its words beside it
+        caption = _dot_quote(_short_caption(graph, node))
+        return f'{_dot_quote(node)} [{style}, label="", xlabel={caption}];'
     text = "" if kind in _DOT_NO_TEXT else describe_node(graph, node)
     return f"{_dot_quote(node)} [{style}, label={_dot_quote(text)}];"
 
@@ -300,7 +301,7 @@ def to_png(graph: nx.DiGraph, path: str | Path, *, dpi: int = 110) -> Path:
     axes.set_xlim(x0, x1)
     axes.set_ylim(y0, y1)
     axes.set_axis_off()
-    patches = {node: _draw_node(axes, graph, node, positions[node]) for node in positions}
+    patches = {node: _draw_node(axes, graph, node, positions) for node in positions}
     for edge in edges:
         if edge in loops:
             _draw_loop(axes, edge, positions, loops[edge])
@@ -398,13 +399,14 @@ def _box_size(text: str) -> tuple[float, float]:
     return width, height
 
 
-def _draw_node(axes: Axes, graph: nx.DiGraph, node: str, centre: tuple[float, float]) -> Patch:
+def _draw_node(axes: Axes, graph: nx.DiGraph, node: str,
+               positions: dict[str, tuple[float, float]]) -> Patch:
     kind = graph.nodes[node]["kind"]
-    x, y = centre
+    x, y = positions[node]
     if kind in (NodeKind.INITIAL, NodeKind.FINAL):
         return _draw_terminal(axes, kind, x, y)
     if kind in FORK_KINDS | JOIN_KINDS:
-        return _draw_bar(axes, graph, node, x, y)
+        return _draw_bar(axes, graph, node, positions)
     if kind in (NodeKind.REPEAT_START, NodeKind.REPEAT_END):
         return _draw_diamond(axes, describe_node(graph, node), x, y)
     text = _wrapped(describe_node(graph, node))
@@ -447,17 +449,19 @@ def _draw_terminal(axes: Axes, kind: NodeKind, x: float, y: float) -> Patch:
     return outer
 
 
-def _draw_bar(axes: Axes, graph: nx.DiGraph, node: str, x: float, y: float) -> Patch:
+def _draw_bar(axes: Axes, graph: nx.DiGraph, node: str,
+              positions: dict[str, tuple[float, float]]) -> Patch:
+    """A fork or join bar, reaching over every branch's column."""
+    x, y = positions[node]
     fork = node if graph.nodes[node]["kind"] in FORK_KINDS else graph.nodes[node]["fork"]
-    branches = len(branches_of(graph, fork))
-    width = max(0.4, branches * 0.8 - 0.4) if branches > 1 else 0.4
+    columns = [positions[b.entry][0] for b in branches_of(graph, fork) if b.entry] + [x]
+    left, right = min(columns) - 0.2, max(columns) + 0.2
     height = 0.07 / ROW_INCHES
-    bar = Rectangle((x - width / 2, y - height / 2), width, height, facecolor="black", zorder=2)
+    bar = Rectangle((left, y - height / 2), right - left, height, facecolor="black", zorder=2)
     axes.add_patch(bar)
-    kind = graph.nodes[node]["kind"]
-    if kind in (NodeKind.RACE_FORK, NodeKind.RACE_JOIN):
-        axes.text(x + width / 2 + 0.03, y, _mermaid_caption(graph, node),
-                  ha="left", va="center", fontsize=FONT_SIZE - 1, style="italic")
+    if graph.nodes[node]["kind"] in (NodeKind.RACE_FORK, NodeKind.RACE_JOIN):
+        axes.text(right + 0.03, y, _short_caption(graph, node), ha="left", va="center",
+                  fontsize=FONT_SIZE - 1, style="italic")
     return bar
 
 
