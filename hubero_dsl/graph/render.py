@@ -179,15 +179,11 @@ def _mermaid_text(text: str) -> str:
 def _short_caption(graph: nx.DiGraph, node: str) -> str:
     """The words inside a Mermaid node (and beside a DOT race bar): few on the symbols."""
     kind = graph.nodes[node]["kind"]
-    if kind in (NodeKind.INITIAL, NodeKind.FINAL):
-        return "●"
-    if kind in (NodeKind.FORK, NodeKind.JOIN):
-        return " "
-    if kind is NodeKind.RACE_FORK:
-        return "race"
-    if kind is NodeKind.RACE_JOIN:
-        return "first done"
-    return describe_node(graph, node)
+    return _SYMBOL_WORDS[kind] if kind in _SYMBOL_WORDS else describe_node(graph, node)
+
+
+_SYMBOL_WORDS = {NodeKind.INITIAL: "●", NodeKind.FINAL: "●", NodeKind.FORK: " ",
+                 NodeKind.JOIN: " ", NodeKind.RACE_FORK: "race", NodeKind.RACE_JOIN: "first done"}
 
 
 def to_mermaid(graph: nx.DiGraph) -> str:
