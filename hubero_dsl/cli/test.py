@@ -24,6 +24,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     from rich.console import Console
+    from rich.markup import escape
 
     from hubero_dsl.lang.compile import compile_file
 
@@ -37,16 +38,16 @@ def run(args: argparse.Namespace) -> int:
         for variant in variants_to_run(program, args):
             result = run_one(program, variant, args.seed, None, 10.0, quiet=True)
             runs += 1
-            name = file + (f" [{variant}]" if variant else "")
+            name = escape(file + (f" [{variant}]" if variant else ""))
             ok = result.succeeded
             failures += not ok
             if not ok or not args.quiet:
                 verdict = "[green]PASS[/]" if ok else "[red]FAIL[/]"
                 console.print(f"{verdict} {name}: {result.state.value} at "
-                              f"t = {result.time:.2f} s" + (f" ({result.reason})"
+                              f"t = {result.time:.2f} s" + (f" ({escape(result.reason)})"
                                                             if result.reason else ""))
             for expectation in result.expectations:
                 if not expectation.held:
-                    console.print(f"    expectation fails: {expectation.text}")
+                    console.print(f"    expectation fails: {escape(expectation.text)}")
     console.print(f"{runs - failures} passed, {failures} failed")
     return 1 if failures else 0

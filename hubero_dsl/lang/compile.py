@@ -83,7 +83,7 @@ def _check_module(module: ast.Module, diagnostics: list[Diagnostic]) -> Program 
             check_positions(grid, facts.positions, diagnostics)
     activities = tuple(module.of_type(ast.ActivityDecl))
     graph = build_activity_graph(activities)
-    diagnostics.extend(analyse_activities(activities, graph))
+    diagnostics.extend(analyse_activities(activities, graph, label_names=False))
     if grid is None or facts.map is None or any(d.is_error for d in diagnostics):
         return None
     return _program(module, facts, grid, graph)
