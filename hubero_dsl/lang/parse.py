@@ -58,9 +58,11 @@ class _DropSeparatorsInBrackets:
 
 @cache
 def _parser() -> Lark:
+    # `cache=True` keeps the analysed grammar in the temp directory, keyed by a hash of the
+    # grammar and options, so a cold `hubero check` skips the LALR and collision analysis.
     return Lark(grammar_text(), parser="lalr", lexer="contextual", strict=True,
                 propagate_positions=True, maybe_placeholders=False,
-                postlex=_DropSeparatorsInBrackets(), cache=False)
+                postlex=_DropSeparatorsInBrackets(), cache=True)
 
 
 def parse_source(text: str, path: str = "<string>") -> ast.Module:
@@ -116,11 +118,21 @@ _TOKEN_NAMES = {
     "TASK_KIND": "a task (stand, move_to, run_to, move_around, follow, talk, sit_down, "
                  "lie_down, teleop)",
     "SHAPE_KIND": "a shape (circle, ellipse, rectangle, square)",
-    "EXPECT_MODE": "'always', 'eventually' or 'within'",
-    "LABEL_EVENT": "'done', 'started' or 'failed'",
-    "DISTRIBUTION": "'normal' or 'uniform'",
+    "EXPECT_MODE": "how it must hold (always, eventually, within)",
+    "LABEL_EVENT": "a label event (done, started, failed)",
+    "DISTRIBUTION": "a distribution (normal, uniform)",
     "SPEED_KW": "'speed'", "LOOP": "'loop'",
 }
+
+# Keyword terminals that a hint names as one group when the parser would take any of them.
+_TERMINAL_GROUPS: tuple[tuple[frozenset[str], str], ...] = (
+    (frozenset({"STAND", "MOVE_TO", "RUN_TO", "MOVE_AROUND", "FOLLOW", "TALK", "SIT_DOWN",
+                "LIE_DOWN", "TELEOP"}), "TASK_KIND"),
+    (frozenset({"CIRCLE", "ELLIPSE", "RECTANGLE", "SQUARE"}), "SHAPE_KIND"),
+    (frozenset({"ALWAYS", "EVENTUALLY", "WITHIN"}), "EXPECT_MODE"),
+    (frozenset({"DONE", "STARTED", "FAILED"}), "LABEL_EVENT"),
+    (frozenset({"NORMAL", "UNIFORM"}), "DISTRIBUTION"),
+)
 
 
 def _describe_terminal(name: str) -> str:
@@ -145,7 +157,7 @@ def _syntax_diagnostic(exc: UnexpectedInput, source: ast.SourceFile) -> Diagnost
     column = getattr(exc, "column", None) or 1
     if isinstance(exc, UnexpectedToken):
         token = exc.token
-        expected = sorted({_describe_terminal(t) for t in exc.expected if not t.startswith("__")})
+        expected = sorted({_describe_terminal(t) for t in _expected_terminals(exc)})
         found = _describe_found(token)
         if token.type in ("$END",) or token.line is None:
             line, column = _end_position(source.text)
@@ -167,6 +179,17 @@ def _syntax_diagnostic(exc: UnexpectedInput, source: ast.SourceFile) -> Diagnost
         return error("E001", "unexpected end of file", Span(source.path, line, column, line,
                                                              column + 1), "a block is not closed")
     return error("E001", str(exc), Span(source.path, line, column, line, column + 1))
+
+
+def _expected_terminals(exc: UnexpectedToken) -> set[str]:
+    """What the parser would take here. `accepts` tries each terminal, so it leaves out the
+    look-aheads that LALR state merging adds to `expected` (a `)` after a complete statement)."""
+    accepted = exc.accepts or exc.expected
+    names = {t for t in accepted if not t.startswith("__IGNORE")}
+    for group, name in _TERMINAL_GROUPS:
+        if group <= names:
+            names = (names - group) | {name}
+    return names
 
 
 def _expected_hint(expected: list[str]) -> str | None:
