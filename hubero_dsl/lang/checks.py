@@ -23,7 +23,7 @@ from hubero_dsl.lang.program import (
 )
 from hubero_dsl.lang.symbols import NameKind, SymbolTable
 from hubero_dsl.lang.units import Dimension
-from hubero_dsl.lang.values import ValueReader, did_you_mean
+from hubero_dsl.lang.values import ValueReader, did_you_mean, field_dimension
 from hubero_dsl.params import HUMAN_PARAMS, ROBOT_PARAMS
 from hubero_dsl.planners.base import global_planner_names, local_planner_names
 
@@ -71,6 +71,8 @@ class Checker:
         self.symbols = SymbolTable(self.diagnostics)
         self.facts = Facts()
         self.planners = sorted(set(global_planner_names()) | set(local_planner_names()))
+        self.planners_by_param = {"global_planner": global_planner_names(),
+                                  "local_planner": local_planner_names()}
 
     def report(self, code: str, message: str, span: Span | None, hint: str | None = None,
                related: tuple[Related, ...] = ()) -> None:
@@ -286,7 +288,8 @@ class Checker:
                 self.report("E105", f"unknown parameter '{path[0]}'", param.name_span,
                             hint or "parameters: " + ", ".join(sorted(HUMAN_PARAMS)))
                 return None
-            return self.values.param(spec, param.value, self.planners)
+            planners = self.planners_by_param.get(spec.name, self.planners)
+            return self.values.param(spec, param.value, planners)
         if len(path) == 2:
             return self._planner_param(param, path[0], path[1])
         self.report("E105", f"unknown parameter '{'.'.join(path)}'", param.name_span,
@@ -313,18 +316,20 @@ class Checker:
             self.report("E105", f"planner '{planner}' has no parameter '{name}'",
                         param.name_span, hint)
             return None
-        value = param.value
+        value, what = param.value, f"'{planner}.{name}'"
         number: float | None
-        if isinstance(value, ast.Quantity) and value.known_unit:
-            number = value.si
-        elif isinstance(value, ast.Number):
+        if isinstance(value, ast.Quantity):  # its unit must fit the dimension the planner declares
+            number = self.values.quantity(value, field_dimension(model, fields[name]), what)
+        elif isinstance(value, ast.Number):  # a bare number is in SI units
             number = value.value
         else:
-            self.report("E201", f"'{planner}.{name}' takes a number", value.span)
+            self.report("E201", f"{what} takes a number", value.span)
             return None
-        return self._validate_planner_value(model, name, number, value.span)
+        if number is None:
+            return None
+        return self._validate_planner_value(model, name, what, number, value.span)
 
-    def _validate_planner_value(self, model: type, name: str, number: float,
+    def _validate_planner_value(self, model: type, name: str, what: str, number: float,
                                 span: Span) -> float | None:
         from pydantic import ValidationError
 
@@ -332,7 +337,7 @@ class Checker:
             model.model_validate({name: number})  # type: ignore[attr-defined]
         except ValidationError as exc:
             problem = exc.errors()[0]
-            self.report("E203", f"{name}: {problem['msg'].lower()}", span)
+            self.report("E203", f"{what}: {problem['msg'].lower()}", span)
             return None
         return number
 

@@ -33,6 +33,15 @@ def did_you_mean(word: str, candidates: Iterable[str]) -> str | None:
     return f"did you mean '{close[0]}'?" if close else None
 
 
+def field_dimension(model: type, field: str) -> Dimension:
+    """The dimension a planner declares for a parameter (`json_schema_extra={"dimension": ...}`
+    on its pydantic field); a parameter that declares none is a plain number."""
+    extra = model.model_fields[field].json_schema_extra  # type: ignore[attr-defined]
+    written = extra.get("dimension") if isinstance(extra, dict) else None
+    known = {dimension.value: dimension for dimension in Dimension}
+    return known.get(written, Dimension.NUMBER) if isinstance(written, str) else Dimension.NUMBER
+
+
 def format_si(value: float, dimension: Dimension) -> str:
     unit = EXAMPLE_UNIT[dimension]
     if dimension is Dimension.ANGLE:
@@ -123,7 +132,8 @@ class ValueReader:
                 return None
             if value.name not in names:
                 hint = did_you_mean(value.name, names) or "installed: " + ", ".join(names)
-                self.report("E101", f"unknown planner '{value.name}'", value.span, hint)
+                kind = spec.name.replace("_", " ")  # "global planner" or "local planner"
+                self.report("E101", f"unknown {kind} '{value.name}'", value.span, hint)
                 return None
             return value.name
         if isinstance(value, ast.Distribution):
