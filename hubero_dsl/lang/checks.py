@@ -473,7 +473,8 @@ class Checker:
         for part in ast.walk_conditions(condition):
             match part:
                 case ast.LabelCondition(label=label):
-                    self.symbols.resolve(label, NameKind.LABEL, role=f"`{part.event.value}`")
+                    self.symbols.resolve(label, NameKind.LABEL,
+                                         role=f"`{label.name} {part.event.value}`")
                 case ast.ReachesCondition(subject=subject, target=target):
                     self.symbols.resolve(subject, *BODIES, role="`reaches`")
                     self._target(target, "the target of `reaches`")

@@ -59,7 +59,7 @@ class SymbolTable:
     def define(self, ref: ast.NameRef, kind: NameKind) -> None:
         if ref.name in reserved_words():
             self.diagnostics.append(error(
-                "E104", f"'{ref.name}' is a keyword and cannot name a {kind.value}", ref.span,
+                "E104", f"'{ref.name}' is a keyword and cannot name {_a(kind.value)}", ref.span,
                 f"pick another name, e.g. '{ref.name}_1'"))
             return
         previous = self.symbols.get(ref.name)
@@ -67,7 +67,7 @@ class SymbolTable:
             self.diagnostics.append(error(
                 "E102", f"'{ref.name}' is defined twice", ref.span,
                 "every name (place, area, human, robot, variant, activity, label) is defined once",
-                (Related(f"first defined here as a {previous.kind.value}", previous.span),)))
+                (Related(f"first defined here as {_a(previous.kind.value)}", previous.span),)))
             return
         self.symbols[ref.name] = Symbol(ref.name, kind, ref.span)
 
@@ -92,7 +92,12 @@ class SymbolTable:
         self.used.add(ref.name)
         if symbol.kind not in kinds:
             self.diagnostics.append(error(
-                "E103", f"'{ref.name}' is a {symbol.kind.value}, but {role} needs a {wanted}",
+                "E103", f"'{ref.name}' is {_a(symbol.kind.value)}, but {role} needs {_a(wanted)}",
                 ref.span, None, (Related(f"'{ref.name}' is defined here", symbol.span),)))
             return None
         return symbol
+
+
+def _a(noun: str) -> str:
+    """The noun with its indefinite article: 'a place', 'an area'."""
+    return f"{'an' if noun[:1] in 'aeiou' else 'a'} {noun}"
