@@ -9,7 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from hubero_dsl.diagnostics import Diagnostic, Span, error
+from hubero_dsl.diagnostics import Diagnostic, Related, Span, error
 from hubero_dsl.errors import MapError
 from hubero_dsl.lang import ast
 
@@ -29,13 +29,18 @@ def load_scenario_map(source: ast.SourceFile, written: ast.String,
                       diagnostics: list[Diagnostic]) -> OccupancyGrid | None:
     from hubero_dsl.world.mapfile import load_map
 
-    path = map_path(source, written)
+    # Loaded by the path as written next to the scenario's own path, not the resolved one, so
+    # that messages name the files as the user sees them (and do not depend on the machine).
+    path = Path(written.value)
+    if not path.is_absolute():
+        path = Path(source.path).parent / path
     try:
         return load_map(path)
     except MapError as exc:
+        related = (Related("in the map file", exc.span),) if exc.span is not None else ()
         diagnostics.append(error("E401", f"the map cannot be loaded: {exc.message}",
                                  written.span, exc.hint or "the map is a ROS map_server YAML "
-                                 "file with an `image:` next to it"))
+                                 "file with an `image:` next to it", related))
         return None
 
 
