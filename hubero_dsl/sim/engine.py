@@ -64,7 +64,7 @@ class Engine:
         self.anchor_tick = np.zeros(count, dtype=np.int64)
         self.events: list[TaskEvent] = []
         self.listeners: list[Callable[[TaskEvent], None]] = []
-        self._goal_cells: dict[tuple[int, float], IntArray] = {}
+        self._goal_cells: dict[tuple[int, bytes], IntArray] = {}
         self.removed: set[str] = set()
 
     # ---- time ----------------------------------------------------------------------------
@@ -161,16 +161,35 @@ class Engine:
         return (float(x), float(y))
 
     def _reachable_cells(self, index: int, area: Polygon | None) -> IntArray:
-        import shapely
-
+        """Free cells reachable from the human (inside `area`), cached per region and area:
+        every wanderer of a run draws from the same few arrays."""
         radius = float(self.humans.radius[index]) + 0.05
         start = (float(self.humans.position[index, 0]), float(self.humans.position[index, 1]))
-        mask = self.grid.reachable_mask(start, radius)
-        cells = np.argwhere(mask)
-        if area is not None and len(cells):
-            centres = self.grid.cell_to_world(cells)
-            cells = cells[shapely.contains_xy(area, centres[:, 0], centres[:, 1])]
+        reachable = self.grid.reachable_mask(start, radius)
+        key = (id(reachable), area.wkb if area is not None else b"")
+        cells = self._goal_cells.get(key)
+        if cells is None:
+            mask = reachable if area is None else reachable & self._area_mask(area)
+            cells = np.argwhere(mask)
+            self._goal_cells[key] = cells
         return cells
+
+    def _area_mask(self, area: Polygon) -> np.ndarray:
+        """The grid cells whose centres lie in `area` (tested only inside its bounding box)."""
+        import shapely
+
+        mask = np.zeros(self.grid.shape, dtype=bool)
+        xmin, ymin, xmax, ymax = area.bounds
+        (r0, c0), (r1, c1) = self.grid.world_to_cell([(xmin, ymin), (xmax, ymax)])
+        r0, c0 = max(r0, 0), max(c0, 0)
+        r1, c1 = min(r1, mask.shape[0] - 1), min(c1, mask.shape[1] - 1)
+        if r1 < r0 or c1 < c0:
+            return mask
+        rows, cols = np.mgrid[r0:r1 + 1, c0:c1 + 1]
+        centres = self.grid.cell_to_world(np.stack([rows.ravel(), cols.ravel()], axis=1))
+        inside = shapely.contains_xy(area, centres[:, 0], centres[:, 1])
+        mask[r0:r1 + 1, c0:c1 + 1] = inside.reshape(rows.shape)
+        return mask
 
     # ---- commanding ----------------------------------------------------------------------
 
