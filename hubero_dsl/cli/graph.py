@@ -58,7 +58,9 @@ def run(args: argparse.Namespace) -> int:
 
     if output_format == "png":
         try:
-            render.to_png(graph, Path(args.output))
+            from hubero_dsl.graph import picture
+
+            picture.to_png(graph, Path(args.output))
         except OSError as exc:
             raise InputError(f"{args.output}: cannot be written ({exc.strerror or exc})") from None
         return 0

@@ -10,6 +10,7 @@ import networkx as nx
 import pytest
 
 from hubero_dsl.diagnostics import Span, warning
+from hubero_dsl.graph import picture as graph_picture
 from hubero_dsl.graph import render as graph_render
 from hubero_dsl.lang import ast
 from hubero_dsl.lang import compile as compile_module
@@ -45,7 +46,7 @@ def stand_in(monkeypatch: pytest.MonkeyPatch) -> list[tuple[str, object]]:
     monkeypatch.setattr(compile_module, "check_file", check_file)
     monkeypatch.setattr(graph_render, "to_mermaid", lambda g: "flowchart TD\n  start --> end")
     monkeypatch.setattr(graph_render, "to_dot", lambda g: "digraph {\n  start -> end\n}\n")
-    monkeypatch.setattr(graph_render, "to_png", to_png)
+    monkeypatch.setattr(graph_picture, "to_png", to_png)
     return calls
 
 

@@ -13,14 +13,8 @@ import pytest
 from PIL import Image
 
 from hubero_dsl.graph.build import build_activity_graph
-from hubero_dsl.graph.render import (
-    describe_node,
-    format_condition,
-    layout,
-    to_dot,
-    to_mermaid,
-    to_png,
-)
+from hubero_dsl.graph.picture import layout, to_png
+from hubero_dsl.graph.render import describe_node, format_condition, to_dot, to_mermaid
 from hubero_dsl.lang import ast
 from hubero_dsl.lang.parse import parse_source
 
