@@ -14,8 +14,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from hubero_dsl.lang.program import Program
     from hubero_dsl.sim.run import RunResult
+    from hubero_dsl.sim.simulation import Simulation
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -95,7 +98,7 @@ def run_one(program: Program, variant: str | None, seed: int | None, output: Pat
 
     sim = Simulation(program, variant=variant, seed=seed)
     with ExitStack() as stack:
-        observers = []
+        observers: list[Callable[[Simulation], None]] = []
         log = None
         if output is not None:
             from hubero_dsl.log.writer import RunLog

@@ -25,7 +25,7 @@ from hubero_dsl.lang.symbols import NameKind, SymbolTable
 from hubero_dsl.lang.units import Dimension
 from hubero_dsl.lang.values import ValueReader, did_you_mean, field_dimension
 from hubero_dsl.params import HUMAN_PARAMS, ROBOT_PARAMS
-from hubero_dsl.planners.base import global_planner_names, local_planner_names
+from hubero_dsl.planners.registry import global_planner_names, local_planner_names
 
 BODIES = (NameKind.HUMAN, NameKind.ROBOT)
 TARGETS = (NameKind.PLACE, NameKind.HUMAN, NameKind.ROBOT)
@@ -298,7 +298,7 @@ class Checker:
 
     def _planner_param(self, param: ast.Param, planner: str, name: str) -> ParamValue | None:
         from hubero_dsl.errors import InputError
-        from hubero_dsl.planners.base import planner_params
+        from hubero_dsl.planners.registry import planner_params
 
         try:
             model = planner_params(planner)

@@ -14,14 +14,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
-from shapely.geometry import Polygon
-
 from hubero_dsl.lang import ast
 from hubero_dsl.params import HUMAN_PARAMS
 from hubero_dsl.world.shapes import Shape
 
 if TYPE_CHECKING:
     import networkx as nx
+    from shapely.geometry import Polygon
 
     from hubero_dsl.world.grid import OccupancyGrid
 
@@ -163,6 +162,8 @@ def fixed_point(value: ast.PointValue, places: Mapping[str, Pose]) -> tuple[floa
 
 def area_polygon(value: ast.RectArea | ast.PolygonArea, places: Mapping[str, Pose]) -> Polygon:
     """The polygon of a literal area (names inside must be places; checked before)."""
+    from shapely.geometry import Polygon
+
     if isinstance(value, ast.RectArea):
         a = fixed_point(value.corner_a, places) or (0.0, 0.0)
         b = fixed_point(value.corner_b, places) or (0.0, 0.0)

@@ -1,23 +1,19 @@
 """Planner plugins: the Protocols a global or local planner implements, and their registries.
 
-Built-in planners and third-party ones are found the same way: through the entry-point groups
-`hubero_dsl.global_planners` and `hubero_dsl.local_planners` (see pyproject.toml). Each planner
-declares its own parameters as a pydantic model (`Params`), so `social_force.A 2.1` in a scenario
-is checked against what the planner really takes.
+Each planner declares its own parameters as a pydantic model (`Params`), so `social_force.A 2.1`
+in a scenario is checked against what the planner really takes. Planners are found through
+`hubero_dsl.planners.registry`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cache
-from importlib.metadata import EntryPoint, entry_points
 from typing import TYPE_CHECKING, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 import numpy.typing as npt
 from pydantic import BaseModel, ConfigDict
 
-from hubero_dsl.errors import InputError
 from hubero_dsl.world.shapes import ShapeArrays
 
 if TYPE_CHECKING:
@@ -26,9 +22,6 @@ if TYPE_CHECKING:
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
 BoolArray = npt.NDArray[np.bool_]
-
-GLOBAL_GROUP = "hubero_dsl.global_planners"
-LOCAL_GROUP = "hubero_dsl.local_planners"
 
 
 class PlannerParams(BaseModel):
@@ -126,46 +119,3 @@ class LocalPlanner(Protocol):
     def velocities(self, crowd: Crowd, drive: Drive, dt: float) -> FloatArray:
         """(K, 2) new velocities for the humans in `drive`, never faster than max_speed."""
         ...
-
-
-@cache
-def _entry_points(group: str) -> dict[str, EntryPoint]:
-    return {entry.name: entry for entry in sorted(entry_points(group=group), key=lambda e: e.name)}
-
-
-@cache
-def _load(group: str, name: str) -> type:
-    try:
-        loaded = _entry_points(group)[name].load()
-    except Exception as exc:  # a broken third-party plugin must not take hubero down
-        raise InputError(f"planner plugin '{name}' cannot be loaded: {exc}") from None
-    if not isinstance(loaded, type):
-        raise InputError(f"planner plugin '{name}' is not a class")
-    return loaded
-
-
-def global_planner_names() -> list[str]:
-    """Installed global planners, without importing them."""
-    return sorted(_entry_points(GLOBAL_GROUP))
-
-
-def local_planner_names() -> list[str]:
-    """Installed local planners, without importing them."""
-    return sorted(_entry_points(LOCAL_GROUP))
-
-
-def global_planner(name: str) -> type[GlobalPlanner]:
-    return _load(GLOBAL_GROUP, name)
-
-
-def local_planner(name: str) -> type[LocalPlanner]:
-    return _load(LOCAL_GROUP, name)
-
-
-def planner_params(name: str) -> type[PlannerParams] | None:
-    """The parameter model of a planner of either kind, or None when no such planner exists."""
-    if name in _entry_points(GLOBAL_GROUP):
-        return global_planner(name).Params
-    if name in _entry_points(LOCAL_GROUP):
-        return local_planner(name).Params
-    return None

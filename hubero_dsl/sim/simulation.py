@@ -20,13 +20,8 @@ import numpy as np
 from hubero_dsl.errors import SimulationError
 from hubero_dsl.lang.program import Distribution, ParamValue, Program
 from hubero_dsl.params import HUMAN_PARAMS, ParamKind
-from hubero_dsl.planners.base import (
-    GlobalPlanner,
-    LocalPlanner,
-    PlannerParams,
-    global_planner,
-    local_planner,
-)
+from hubero_dsl.planners.base import GlobalPlanner, LocalPlanner, PlannerParams
+from hubero_dsl.planners.registry import global_planner, local_planner
 from hubero_dsl.sim.crowd import HumanArrays
 from hubero_dsl.sim.engine import Engine
 from hubero_dsl.sim.human import HumanHandle

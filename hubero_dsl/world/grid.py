@@ -24,9 +24,16 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 from numpy.typing import ArrayLike
-from scipy import ndimage
 
 from hubero_dsl.errors import MapError
+
+
+def _ndimage() -> Any:
+    # scipy.ndimage costs a noticeable part of a cold `hubero check`, which never needs it:
+    # it is imported when a distance or connectivity field is first computed.
+    from scipy import ndimage
+
+    return ndimage
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -189,7 +196,7 @@ class OccupancyGrid:
         nearest cell of a border-bound cell may therefore be row/col -1 or rows/cols.
         """
         padded = np.pad(self.occupied, 1, constant_values=True)
-        distances, nearest = ndimage.distance_transform_edt(
+        distances, nearest = _ndimage().distance_transform_edt(
             ~padded, sampling=self.resolution, return_indices=True)
         nearest_cells = (nearest[:, 1:-1, 1:-1] - 1).astype(np.int32)
         return _read_only(distances[1:-1, 1:-1]), _read_only(nearest_cells)
@@ -199,7 +206,7 @@ class OccupancyGrid:
         """For each cell, the nearest free cell (row, col); None when no cell is free."""
         if self.occupied.all():
             return None
-        nearest = ndimage.distance_transform_edt(
+        nearest = _ndimage().distance_transform_edt(
             self.occupied, return_distances=False, return_indices=True)
         return _read_only(nearest.astype(np.int32))
 
@@ -215,7 +222,7 @@ class OccupancyGrid:
         coords = np.nan_to_num(self._fractional_cells(points) - 0.5, nan=0.0, posinf=0.0,
                                neginf=0.0)
         flat = coords.reshape(-1, 2).T
-        values = ndimage.map_coordinates(self.clearance, flat, order=1, mode="nearest")
+        values = _ndimage().map_coordinates(self.clearance, flat, order=1, mode="nearest")
         values = values.reshape(points.shape[:-1])
         result: FloatArray = np.where(self.is_free(points), values, 0.0)
         return result
@@ -274,7 +281,7 @@ class OccupancyGrid:
     def _components(self, radius: float) -> npt.NDArray[np.int32]:
         """Connected components (8-connected) of free_mask(radius); 0 marks blocked cells."""
         def label() -> npt.NDArray[np.int32]:
-            labels, _ = ndimage.label(self.free_mask(radius), structure=_EIGHT_CONNECTED)
+            labels, _ = _ndimage().label(self.free_mask(radius), structure=_EIGHT_CONNECTED)
             return labels.astype(np.int32)
 
         return self._cached(("components", radius), label)

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from hubero_dsl.planners.base import Crowd, Drive, LocalPlanner, PlannerParams, local_planner
+from hubero_dsl.planners.base import Crowd, Drive, LocalPlanner, PlannerParams
 from hubero_dsl.planners.direct import DirectParams, DirectPlanner
+from hubero_dsl.planners.registry import local_planner
 from hubero_dsl.world.grid import OccupancyGrid
 from hubero_dsl.world.shapes import Circle, ShapeArrays
 

@@ -11,8 +11,9 @@ import pytest
 from pydantic import ValidationError
 
 from hubero_dsl.errors import SimulationError
-from hubero_dsl.planners.base import GlobalPlanner, NoPath, PlannerParams, global_planner
+from hubero_dsl.planners.base import GlobalPlanner, NoPath, PlannerParams
 from hubero_dsl.planners.navfn import NavfnParams, NavfnPlanner
+from hubero_dsl.planners.registry import global_planner
 from hubero_dsl.world.grid import OccupancyGrid
 
 RES = 0.05

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from hubero_dsl.errors import SimulationError
-from hubero_dsl.planners.base import NoPath, global_planner
+from hubero_dsl.planners.base import NoPath
+from hubero_dsl.planners.registry import global_planner
 from hubero_dsl.planners.straight import StraightLineParams, StraightLinePlanner
 from hubero_dsl.world.grid import OccupancyGrid
 

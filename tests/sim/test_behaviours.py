@@ -217,8 +217,8 @@ def test_a_boxed_in_human_is_aborted_as_stuck(scenario: ScenarioFactory) -> None
 
 
 def _corridor(scenario: ScenarioFactory) -> Path:
-    from tests.sim.conftest import room_grid
     from hubero_dsl.world.mapfile import save_map
+    from tests.sim.conftest import room_grid
 
     path = Path(scenario.__closure__[0].cell_contents).parent / "corridor.yaml"  # type: ignore[index]
     save_map(room_grid(walls=((0.0, 1.0, 10.0, 8.0),)), path)

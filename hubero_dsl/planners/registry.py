@@ -1,0 +1,62 @@
+"""Finding planners: built-in and third-party planners register the same way, through the
+entry-point groups `hubero_dsl.global_planners` and `hubero_dsl.local_planners` (see
+pyproject.toml). Names are listed without importing any planner, so checking a scenario stays
+cheap; a planner is imported when its class or parameters are first needed.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+from importlib.metadata import EntryPoint, entry_points
+from typing import TYPE_CHECKING
+
+from hubero_dsl.errors import InputError
+
+if TYPE_CHECKING:
+    from hubero_dsl.planners.base import GlobalPlanner, LocalPlanner, PlannerParams
+
+GLOBAL_GROUP = "hubero_dsl.global_planners"
+LOCAL_GROUP = "hubero_dsl.local_planners"
+
+
+@cache
+def _entry_points(group: str) -> dict[str, EntryPoint]:
+    return {entry.name: entry for entry in sorted(entry_points(group=group), key=lambda e: e.name)}
+
+
+@cache
+def _load(group: str, name: str) -> type:
+    try:
+        loaded = _entry_points(group)[name].load()
+    except Exception as exc:  # a broken third-party plugin must not take hubero down
+        raise InputError(f"planner plugin '{name}' cannot be loaded: {exc}") from None
+    if not isinstance(loaded, type):
+        raise InputError(f"planner plugin '{name}' is not a class")
+    return loaded
+
+
+def global_planner_names() -> list[str]:
+    """Installed global planners, without importing them."""
+    return sorted(_entry_points(GLOBAL_GROUP))
+
+
+def local_planner_names() -> list[str]:
+    """Installed local planners, without importing them."""
+    return sorted(_entry_points(LOCAL_GROUP))
+
+
+def global_planner(name: str) -> type[GlobalPlanner]:
+    return _load(GLOBAL_GROUP, name)
+
+
+def local_planner(name: str) -> type[LocalPlanner]:
+    return _load(LOCAL_GROUP, name)
+
+
+def planner_params(name: str) -> type[PlannerParams] | None:
+    """The parameter model of a planner of either kind, or None when no such planner exists."""
+    if name in _entry_points(GLOBAL_GROUP):
+        return global_planner(name).Params
+    if name in _entry_points(LOCAL_GROUP):
+        return local_planner(name).Params
+    return None
