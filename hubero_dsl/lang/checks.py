@@ -8,6 +8,7 @@ first) and the resolved facts the program is built from. Checks that need the ma
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 
 from hubero_dsl.diagnostics import Diagnostic, Related, Span, error, warning
@@ -503,10 +504,17 @@ def _singleton_keyword(statement: ast.Statement) -> str | None:
 
 
 def _source_text(text: str, span: Span) -> str:
-    lines = text.splitlines()
-    if span.line != span.end_line or span.line > len(lines):
+    """What a span covers, on one line: the name of a sweep's variant (`speed=1.2 m/s`)."""
+    lines = text.split("\n")  # as the lexer counts lines (str.splitlines also splits at \f)
+    if span.end_line > len(lines):
         return "?"
-    return lines[span.line - 1][span.column - 1: span.end_column - 1].strip()
+    if span.line == span.end_line:
+        written = lines[span.line - 1][span.column - 1: span.end_column - 1]
+    else:  # a value wrapped inside its parentheses
+        written = "\n".join([lines[span.line - 1][span.column - 1:],
+                             *lines[span.line: span.end_line - 1],
+                             lines[span.end_line - 1][: span.end_column - 1]])
+    return " ".join(re.sub(r"#[^\n]*", "", written).split())
 
 
 __all__ = ["Checker", "Distribution", "Facts"]
