@@ -42,6 +42,17 @@ def field_dimension(model: type, field: str) -> Dimension:
     return known.get(written, Dimension.NUMBER) if isinstance(written, str) else Dimension.NUMBER
 
 
+def _range_problem(spec: ParamSpec, number: float) -> str | None:
+    """What is wrong with a value of a quantity parameter, or None when it is fine."""
+    if spec.positive and number <= 0:
+        return "must be greater than zero"
+    if not spec.positive and number < 0:
+        return "must not be negative"
+    if number > spec.maximum:
+        return f"may be at most {format_si(spec.maximum, spec.dimension)}"
+    return None
+
+
 def format_si(value: float, dimension: Dimension) -> str:
     unit = EXAMPLE_UNIT[dimension]
     if dimension is Dimension.ANGLE:
@@ -147,24 +158,33 @@ class ValueReader:
         second = self.quantity(value.second, spec.dimension, f"{value.kind} of {what}")
         if first is None or second is None:
             return None
-        if value.kind == "normal":
-            if second <= 0:
-                self.report("E206", "the standard deviation of normal(...) must be greater than "
-                            "zero", value.second.span)
-                return None
-            if spec.positive and first <= 0:
-                self.report("E203", f"the mean of {what} must be greater than zero",
-                            value.first.span)
-                return None
-            return Distribution("normal", first, second)
-        if second <= first:
+        if value.kind == "normal" and second <= 0:
+            self.report("E206", "the standard deviation of normal(...) must be greater than "
+                        "zero", value.second.span)
+            return None
+        if value.kind == "uniform" and second <= first:
             self.report("E206", "uniform(low, high) needs low < high", value.span)
             return None
-        if spec.positive and first <= 0:
-            self.report("E203", f"{what} must be greater than zero; uniform(...) starts at "
-                        f"{format_si(first, spec.dimension)}", value.first.span)
+        if not self._distribution_in_range(value, spec, first, second):
             return None
-        return Distribution("uniform", first, second)
+        return Distribution("normal" if value.kind == "normal" else "uniform", first, second)
+
+    def _distribution_in_range(self, value: ast.Distribution, spec: ParamSpec, first: float,
+                               second: float) -> bool:
+        """A normal's mean, or both ends of a uniform, must be values the parameter may take."""
+        what = f"'{spec.name}'"
+        if value.kind == "normal":
+            ends = [(first, value.first.span, f"the mean of {what} {{}}")]
+        else:
+            ends = [(first, value.first.span, f"{what} {{}}; uniform(...) starts at {{}}"),
+                    (second, value.second.span, f"{what} {{}}; uniform(...) ends at {{}}")]
+        for number, span, message in ends:
+            problem = _range_problem(spec, number)
+            if problem is not None:
+                self.report("E203", message.format(problem, format_si(number, spec.dimension)),
+                            span)
+                return False
+        return True
 
     def shape(self, value: ast.Value) -> Shape | None:
         if not isinstance(value, ast.ShapeLit):
