@@ -51,8 +51,7 @@ class Engine:
         self.follow_replan = follow_replan
         self._global = global_planners            # one per human (shared instances)
         self._local = local_planners              # by name
-        self._local_rows = {name: np.array([i for i, n in enumerate(local_planner_of)
-                                            if n == name], dtype=np.intp)
+        self._local_mask = {name: np.array([n == name for n in local_planner_of], dtype=bool)
                             for name in sorted(local_planners)}
         self._rng_for = rng_for
         count = humans.count
@@ -264,8 +263,8 @@ class Engine:
         if len(rows):
             self.paths.advance(humans.position, LOOKAHEAD)
             crowd = self.crowd()
-            for name, planner_rows in self._local_rows.items():
-                steer = np.intersect1d(planner_rows, rows)
+            for name, mask in self._local_mask.items():
+                steer = np.flatnonzero(mask & humans.moving)
                 if len(steer):
                     velocity[steer] = self._local[name].velocities(crowd, self._drive(steer),
                                                                    self.dt)
