@@ -29,6 +29,9 @@ def load_scenario_map(source: ast.SourceFile, written: ast.String,
                       diagnostics: list[Diagnostic]) -> OccupancyGrid | None:
     from hubero_dsl.world.mapfile import load_map
 
+    if "\0" in written.value:  # no file system takes it (and pathlib raises ValueError)
+        diagnostics.append(error("E401", "the map path contains a NUL character", written.span))
+        return None
     # Loaded by the path as written next to the scenario's own path, not the resolved one, so
     # that messages name the files as the user sees them (and do not depend on the machine).
     path = Path(written.value)
