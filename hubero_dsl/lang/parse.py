@@ -16,7 +16,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from lark import Lark, Token, Transformer, v_args
+from lark import Lark, Token, Transformer, Tree, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
 from lark.lexer import PatternStr
 
@@ -26,6 +26,8 @@ from hubero_dsl.lang import ast
 
 MAX_SOURCE_BYTES = 2_000_000
 MAX_NESTING = 64
+# The passes after the parser recurse over the tree; `not not ... C` nests without brackets.
+MAX_TREE_DEPTH = 256
 
 _GRAMMAR_NAME = "hubero.lark"
 
@@ -75,6 +77,9 @@ def parse_source(text: str, path: str = "<string>") -> ast.Module:
         tree = _parser().parse(text)
     except UnexpectedInput as exc:
         raise CompileError([_syntax_diagnostic(exc, source)]) from None
+    too_deep = _tree_depth_problem(tree, path)
+    if too_deep is not None:
+        raise CompileError([too_deep])
     statements = _ToAst(path).transform(tree)
     return ast.Module(source, tuple(statements))
 
@@ -228,6 +233,21 @@ def _nesting_problem(text: str, path: str) -> Diagnostic | None:
                              "split the scenario into flatter steps")
         elif char in ")}]":
             depth = max(0, depth - 1)
+    return None
+
+
+def _tree_depth_problem(tree: Tree[Token], path: str) -> Diagnostic | None:
+    """Refuse a parse tree deeper than the recursive passes after the parser can walk."""
+    stack: list[tuple[Tree[Token], int]] = [(tree, 1)]
+    while stack:
+        node, depth = stack.pop()
+        if depth > MAX_TREE_DEPTH:
+            meta = node.meta
+            line, column = (1, 1) if meta.empty else (meta.line, meta.column)
+            return error("E003", f"nesting deeper than {MAX_TREE_DEPTH} levels of steps, "
+                         "brackets and `not`", Span(path, line, column, line, column + 1),
+                         "write `C` for `not not C`, or split the scenario into flatter steps")
+        stack.extend((child, depth + 1) for child in node.children if isinstance(child, Tree))
     return None
 
 
