@@ -69,6 +69,10 @@ def run(args: argparse.Namespace) -> int:
     variants = variants_to_run(program, args)
     if args.output is not None and len(variants) > 1:
         raise InputError("--all-variants writes several logs: use --out-dir DIR")
+    if args.out_dir is not None:
+        from hubero_dsl.log.writer import ensure_directory
+
+        ensure_directory(args.out_dir)
     failed = False
     for variant in variants:
         output = _log_path(args, variant)

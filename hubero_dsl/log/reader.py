@@ -1,0 +1,275 @@
+"""Reading a run log back: `load_run(path)` gives the trajectories, the map, the provenance
+and the task events of a run, as numpy arrays and hubero's own types, for analysis.
+
+    run = load_run("run.mcap")
+    track = run.humans["actor1"]
+    track.time, track.position, track.heading, track.status   # (T,), (T, 2), (T,), (T,)
+    run.metadata.seed, run.metadata.params["actor1"]["speed"], run.grid, run.events
+
+Anything that is not a complete hubero log (not MCAP, truncated, empty, a directory, another
+tool's MCAP without hubero's metadata, a log of a newer format) raises `LogError` saying so.
+CRCs of chunks are checked while reading.
+"""
+
+from __future__ import annotations
+
+import json
+import struct
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import zstandard
+from mcap.exceptions import McapError
+from mcap.reader import make_reader
+
+from hubero_dsl.diagnostics import Span
+from hubero_dsl.errors import LogError
+from hubero_dsl.lang.program import ParamValue
+from hubero_dsl.log import schemas as s
+from hubero_dsl.sim.status import Posture, TaskEvent, TaskStatus
+from hubero_dsl.world.grid import OccupancyGrid
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class RunMetadata:
+    """What made the run: the provenance record written when the log was opened."""
+
+    format_version: int
+    hubero_version: str
+    title: str
+    source_path: str
+    source_sha256: str
+    source: str                    # the scenario's text (from its attachment)
+    map_path: str
+    seed: int
+    variant: str | None
+    variants: tuple[str, ...]
+    params: dict[str, dict[str, ParamValue]]  # per human, resolved and drawn
+    step: float
+    time_limit: float
+    log_rate_hz: float
+    humans: tuple[str, ...]
+    robots: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class HumanTrack:
+    """One human, frame by frame (row t of every array is the same instant)."""
+
+    name: str
+    time: FloatArray                # (T,) seconds
+    position: FloatArray            # (T, 2) metres, map frame
+    velocity: FloatArray            # (T, 2) m/s
+    heading: FloatArray             # (T,) radians
+    posture: npt.NDArray[np.int8]   # (T,) Posture values
+    status: npt.NDArray[np.str_]    # (T,) current or last task's status, IDLE before any
+    fsm_state: npt.NDArray[np.str_]  # (T,) behaviour state: walking, talking, idle, ...
+    task_id: npt.NDArray[np.int64]  # (T,) current task, 0 when none
+
+
+@dataclass(frozen=True)
+class RobotTrack:
+    name: str
+    time: FloatArray
+    position: FloatArray
+    heading: FloatArray
+
+
+@dataclass(frozen=True)
+class LogLine:
+    """One /log message: a scenario event."""
+
+    time: float
+    level: int
+    message: str
+    file: str
+    line: int
+
+
+@dataclass(frozen=True)
+class RunOutcome:
+    """How the run ended (absent when the log was closed without a result)."""
+
+    state: str
+    reason: str
+    time: float
+    ticks: int
+    succeeded: bool
+    expectations: list[dict[str, Any]]
+    humans: list[dict[str, Any]]
+
+
+@dataclass(frozen=True)
+class LoggedRun:
+    """Everything `load_run` reads from one log."""
+
+    path: Path
+    metadata: RunMetadata
+    grid: OccupancyGrid
+    humans: dict[str, HumanTrack]
+    robots: dict[str, RobotTrack]
+    events: list[TaskEvent]
+    log: list[LogLine]
+    result: RunOutcome | None
+    attachments: dict[str, bytes] = field(repr=False)
+
+
+def load_run(path: str | Path) -> LoggedRun:
+    """Read a log written by `RunLog`; LogError for anything else."""
+    path = Path(path)
+    if path.is_dir():
+        raise LogError(f"cannot read log {path}: it is a directory")
+    try:
+        size = path.stat().st_size
+    except OSError as exc:
+        raise LogError(f"cannot read log {path}: {exc.strerror or exc}") from None
+    if size == 0:
+        raise LogError(f"cannot read log {path}: the file is empty")
+    try:
+        with path.open("rb") as stream:
+            return _read(path, stream)
+    except LogError:
+        raise
+    except OSError as exc:
+        raise LogError(f"cannot read log {path}: {exc.strerror or exc}") from None
+    except (McapError, zstandard.ZstdError, struct.error, ValueError, KeyError, TypeError,
+            IndexError, AttributeError) as exc:
+        # Whatever a damaged file makes the MCAP library or the JSON decoder trip on.
+        raise LogError(f"{path} is not a readable hubero run log (truncated or corrupt?): "
+                       f"{exc}") from None
+
+
+def _read(path: Path, stream: Any) -> LoggedRun:
+    reader = make_reader(stream, validate_crcs=True)
+    records = {record.name: dict(record.metadata) for record in reader.iter_metadata()}
+    provenance = records.get(s.METADATA_NAME)
+    if provenance is None or provenance.get("format") != s.FORMAT:
+        raise LogError(f"{path} is an MCAP file but not a hubero run log "
+                       f"(it has no '{s.METADATA_NAME}' metadata)")
+    version = int(provenance["format_version"])
+    if version > s.FORMAT_VERSION:
+        raise LogError(f"{path} was written in log format {version} by hubero "
+                       f"{provenance.get('hubero_version')}; this hubero reads format "
+                       f"{s.FORMAT_VERSION} and older")
+    attachments = {a.name: a.data for a in reader.iter_attachments()}
+    collector = _Collector(json.loads(provenance["humans"]), json.loads(provenance["robots"]))
+    for _, channel, message in reader.iter_messages(log_time_order=False):
+        collector.add(channel.topic, message.data)
+    if collector.grid_message is None:
+        raise LogError(f"{path} has no /map message: the log is incomplete")
+    metadata = _metadata(provenance, attachments)
+    result = records.get(s.RESULT_METADATA_NAME)
+    return LoggedRun(
+        path=path, metadata=metadata,
+        grid=s.grid_from_message(collector.grid_message, f"{path} /map"),
+        humans=collector.human_tracks(), robots=collector.robot_tracks(),
+        events=collector.events, log=collector.log,
+        result=_outcome(result) if result is not None else None, attachments=attachments)
+
+
+def _metadata(values: dict[str, str], attachments: dict[str, bytes]) -> RunMetadata:
+    names = json.loads(values["attachments"])
+    source = attachments.get(names["source"], b"").decode("utf-8")
+    params: dict[str, dict[str, ParamValue]] = {
+        human: {key: s.shape_from_json(v) if isinstance(v, dict) else v
+                for key, v in entries.items()}
+        for human, entries in json.loads(values["params"]).items()}
+    return RunMetadata(
+        format_version=int(values["format_version"]), hubero_version=values["hubero_version"],
+        title=values["title"], source_path=values["source_path"],
+        source_sha256=values["source_sha256"], source=source, map_path=values["map_path"],
+        seed=int(values["seed"]), variant=values["variant"] or None,
+        variants=tuple(json.loads(values["variants"])), params=params,
+        step=float(values["step"]), time_limit=float(values["time_limit"]),
+        log_rate_hz=float(values["log_rate_hz"]), humans=tuple(json.loads(values["humans"])),
+        robots=tuple(json.loads(values["robots"])))
+
+
+def _outcome(values: dict[str, str]) -> RunOutcome:
+    return RunOutcome(state=values["state"], reason=values["reason"],
+                      time=float(values["time"]), ticks=int(values["ticks"]),
+                      succeeded=values["succeeded"] == "true",
+                      expectations=json.loads(values["expectations"]),
+                      humans=json.loads(values["humans"]))
+
+
+def _seconds(stamp: dict[str, int]) -> float:
+    return int(stamp["sec"]) + int(stamp["nsec"]) * 1e-9
+
+
+class _Collector:
+    """Sorts a log's messages by topic into rows for the arrays of `LoggedRun`."""
+
+    def __init__(self, humans: list[str], robots: list[str]) -> None:
+        self.grid_message: dict[str, Any] | None = None
+        self.events: list[TaskEvent] = []
+        self.log: list[LogLine] = []
+        self._states: dict[str, list[dict[str, Any]]] = {name: [] for name in humans}
+        self._state_topics = {s.human_state_topic(name): name for name in humans}
+        self._robot_frames = {s.robot_frame(name): name for name in robots}
+        self._robots: dict[str, list[tuple[float, float, float, float]]] = {
+            name: [] for name in robots}
+
+    def add(self, topic: str, data: bytes) -> None:
+        human = self._state_topics.get(topic)
+        if human is not None:
+            self._states[human].append(json.loads(data))
+        elif topic == s.TF_TOPIC:
+            if self._robot_frames:
+                self._add_transforms(json.loads(data))
+        elif topic == s.TASKS_TOPIC:
+            self.events.append(_task_event(json.loads(data)))
+        elif topic == s.LOG_TOPIC:
+            value = json.loads(data)
+            self.log.append(LogLine(_seconds(value["timestamp"]), int(value["level"]),
+                                    value["message"], value["file"], int(value["line"])))
+        elif topic == s.MAP_TOPIC and self.grid_message is None:
+            self.grid_message = json.loads(data)
+
+    def _add_transforms(self, message: dict[str, Any]) -> None:
+        for transform in message["transforms"]:
+            robot = self._robot_frames.get(transform["child_frame_id"])
+            if robot is not None:
+                rotation, translation = transform["rotation"], transform["translation"]
+                heading = 2.0 * np.arctan2(rotation["z"], rotation["w"])
+                self._robots[robot].append((_seconds(transform["timestamp"]),
+                                            translation["x"], translation["y"], heading))
+
+    def human_tracks(self) -> dict[str, HumanTrack]:
+        return {name: _human_track(name, rows) for name, rows in self._states.items()}
+
+    def robot_tracks(self) -> dict[str, RobotTrack]:
+        tracks = {}
+        for name, rows in self._robots.items():
+            table = np.array(rows, dtype=np.float64).reshape(-1, 4)
+            tracks[name] = RobotTrack(name, table[:, 0], table[:, 1:3], table[:, 3])
+        return tracks
+
+
+def _human_track(name: str, rows: list[dict[str, Any]]) -> HumanTrack:
+    numbers = np.array([(_seconds(r["timestamp"]), r["position"]["x"], r["position"]["y"],
+                         r["velocity"]["x"], r["velocity"]["y"], r["heading"]) for r in rows],
+                       dtype=np.float64).reshape(-1, 6)
+    postures = {posture.name: posture.value for posture in Posture}
+    return HumanTrack(
+        name=name, time=numbers[:, 0], position=numbers[:, 1:3], velocity=numbers[:, 3:5],
+        heading=numbers[:, 5],
+        posture=np.array([postures[r["posture"]] for r in rows], dtype=np.int8),
+        status=np.array([r["status"] for r in rows], dtype=np.str_),
+        fsm_state=np.array([r["fsm_state"] for r in rows], dtype=np.str_),
+        task_id=np.array([r["task"]["id"] if r["task"] else 0 for r in rows], dtype=np.int64))
+
+
+def _task_event(value: dict[str, Any]) -> TaskEvent:
+    span = None
+    if value["line"] > 0:
+        span = Span(value["file"], value["line"], value["column"], value["end_line"],
+                    value["end_column"])
+    return TaskEvent(tick=int(value["tick"]), time=_seconds(value["timestamp"]),
+                     task_id=int(value["task_id"]), human=value["human"], kind=value["kind"],
+                     status=TaskStatus(value["status"]), reason=value["reason"], span=span)
