@@ -170,7 +170,7 @@ def _syntax_diagnostic(exc: UnexpectedInput, source: ast.SourceFile) -> Diagnost
         span = Span(source.path, line, column, line, column + width)
         message = f"unexpected {found}"
         hint = _expected_hint(expected)
-        if token.type == "NAME" and _follows_number(source, line, column):
+        if token.type == "NAME" and _follows_number(exc):
             hint = (f"'{token.value}' is not a unit; units are m cm mm, s ms min, m/s km/h, "
                     "deg rad")
         return error("E001", message, span, hint)
@@ -207,9 +207,10 @@ def _expected_hint(expected: list[str]) -> str | None:
     return "expected one of: " + ", ".join(expected)
 
 
-def _follows_number(source: ast.SourceFile, line: int, column: int) -> bool:
-    before = source.line(line)[: column - 1].rstrip()
-    return bool(re.search(r"\d$", before))
+def _follows_number(exc: UnexpectedToken) -> bool:
+    """The token before the unexpected one is a bare number (`5 kg`), not a name like `actor1`."""
+    history = exc.token_history or []
+    return bool(history) and history[-1].type == "NUMBER"
 
 
 def _end_position(text: str) -> tuple[int, int]:
