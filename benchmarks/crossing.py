@@ -54,7 +54,8 @@ def scenario_text(count: int, map_path: Path, time_limit: float) -> str:
     for i in range(count):
         angle = 2 * math.pi * i / count
         x, y = radius * math.cos(angle), radius * math.sin(angle)
-        lines.append(f"human h{i} at ({x:.3f}, {y:.3f}) heading {math.degrees(angle) + 180:.1f} deg")
+        heading = math.degrees(angle) + 180
+        lines.append(f"human h{i} at ({x:.3f}, {y:.3f}) heading {heading:.1f} deg")
         steps.append(f"    h{i} move_to ({-x:.3f}, {-y:.3f})")
     lines += ["activity crossing {", "  parallel {", *steps, "  }", "}"]
     return "\n".join(lines) + "\n"

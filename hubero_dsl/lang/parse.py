@@ -171,7 +171,7 @@ def _syntax_diagnostic(exc: UnexpectedInput, source: ast.SourceFile) -> Diagnost
         message = f"unexpected {found}"
         hint = _expected_hint(expected)
         if token.type == "NAME" and _follows_number(exc):
-            hint = (f"'{token.value}' is not a unit; units are m cm mm, s ms min, m/s km/h, "
+            hint = (f"'{token.value}' is not a unit; units are m cm mm, s ms min h, m/s km/h, "
                     "deg rad")
         return error("E001", message, span, hint)
     if isinstance(exc, UnexpectedCharacters):

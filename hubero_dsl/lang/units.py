@@ -22,6 +22,7 @@ UNITS: dict[str, tuple[Dimension, float]] = {
     "s": (Dimension.TIME, 1.0),
     "ms": (Dimension.TIME, 0.001),
     "min": (Dimension.TIME, 60.0),
+    "h": (Dimension.TIME, 3600.0),
     "m/s": (Dimension.SPEED, 1.0),
     "km/h": (Dimension.SPEED, 1000.0 / 3600.0),
     "deg": (Dimension.ANGLE, math.pi / 180.0),

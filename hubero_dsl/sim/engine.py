@@ -54,6 +54,7 @@ class Engine:
         self._local_mask = {name: np.array([n == name for n in local_planner_of], dtype=bool)
                             for name in sorted(local_planners)}
         self._rng_for = rng_for
+        self._rngs: dict[tuple[str, int], np.random.Generator] = {}
         count = humans.count
         self.paths = PathPool(count)
         self.behaviour: list[Behaviour | None] = [None] * count
@@ -148,7 +149,12 @@ class Engine:
         self.wake_tick[index] = tick
 
     def rng(self, purpose: str, index: int) -> np.random.Generator:
-        return self._rng_for(purpose, index)
+        """The human's own random stream for `purpose`: created once, then drawn from, so
+        every draw is new and the sequence depends only on the seed and the human's name."""
+        key = (purpose, index)
+        if key not in self._rngs:
+            self._rngs[key] = self._rng_for(purpose, index)
+        return self._rngs[key]
 
     def random_goal(self, index: int, area: Polygon | None) -> tuple[float, float] | None:
         """A random free point the human can reach, inside `area` (if given)."""

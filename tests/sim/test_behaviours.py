@@ -236,3 +236,15 @@ def test_commands_check_their_arguments(scenario: ScenarioFactory) -> None:
         alice.move_to((3.0, 3.0), speed=0.0)
     with pytest.raises(SimulationError, match="no human"):
         sim.human("carol")
+
+
+def test_move_around_keeps_drawing_new_goals(scenario: ScenarioFactory) -> None:
+    sim = api_sim(scenario)
+    alice = sim.human("alice")
+    task = alice.move_around(duration=60.0)
+    goals = set()
+    while not task.done:
+        sim.step()
+        goals.add(tuple(sim.engine.humans.goal[0]))
+    assert len(goals - {(np.nan, np.nan)}) >= 5
+    assert sim.engine.humans.path_length[0] > 30.0

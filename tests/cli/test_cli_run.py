@@ -1,0 +1,95 @@
+"""`hubero run` and `hubero test`: exit statuses, summaries, interruption."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+from tests.cli.conftest import REPO_ROOT, Outcome
+
+LIVING_ROOM = str(REPO_ROOT / "scenarios" / "living_room.hub")
+MAP = REPO_ROOT / "maps" / "living_room.yaml"
+
+
+def scenario(tmp_path: Path, body: str) -> str:
+    path = tmp_path / "s.hub"
+    path.write_text(f'scenario "t"\nmap "{MAP}"\nhuman a at (1, 1)\n{body}', encoding="utf-8")
+    return str(path)
+
+
+def test_run_prints_a_summary_and_exits_0(cli: Callable[..., Outcome]) -> None:
+    outcome = cli("run", LIVING_ROOM, "--variant", "ellipse")
+    assert outcome.status == 0
+    assert "completed" in outcome.out and "actor1" in outcome.out and "SUCCEEDED" in outcome.out
+    assert "holds" in outcome.out
+
+
+def test_all_variants_and_quiet(cli: Callable[..., Outcome]) -> None:
+    outcome = cli("run", LIVING_ROOM, "--all-variants", "--quiet")
+    assert outcome.status == 0
+    assert outcome.out == ""
+
+
+def test_a_failing_expectation_exits_1(cli: Callable[..., Outcome], tmp_path: Path) -> None:
+    path = scenario(tmp_path, "activity { a stand for 1 s }\nexpect time > 5 s eventually\n")
+    outcome = cli("run", path)
+    assert outcome.status == 1
+    assert "FAILS" in outcome.out
+
+
+def test_a_timed_out_run_exits_1(cli: Callable[..., Outcome], tmp_path: Path) -> None:
+    outcome = cli("run", scenario(tmp_path, "time_limit 1 s\nactivity { a stand for 5 s }\n"))
+    assert outcome.status == 1
+    assert "timed_out" in outcome.out and "time limit" in outcome.out
+
+
+def test_an_aborted_task_exits_1_with_the_reason(cli: Callable[..., Outcome],
+                                                 tmp_path: Path) -> None:
+    outcome = cli("run", scenario(tmp_path, "activity { a move_to (3, 1) within 0.5 s }\n"))
+    assert outcome.status == 1
+    assert "within 0.5 s" in outcome.out
+
+
+def test_bad_input_exits_2_or_1(cli: Callable[..., Outcome], tmp_path: Path) -> None:
+    assert cli("run", str(tmp_path / "missing.hub")).status == 2
+    assert cli("run", LIVING_ROOM, "--variant", "nope").status == 2
+    assert "unknown variant 'nope'" in cli("run", LIVING_ROOM, "--variant", "nope").err
+    assert cli("run", LIVING_ROOM, "--log-rate", "0").status == 2
+    broken = cli("run", scenario(tmp_path, "activity { a move_to nowhere }\n"))
+    assert broken.status == 1 and "unknown" in broken.err
+
+
+def test_seed_changes_a_wandering_run(cli: Callable[..., Outcome], tmp_path: Path) -> None:
+    path = scenario(tmp_path, "activity { a move_around for 5 s }\n")
+    first, again, other = (cli("run", path, "--seed", s) for s in ("1", "1", "2"))
+    assert first.out == again.out
+    assert first.out != other.out
+
+
+def test_hubero_test_judges_every_variant(cli: Callable[..., Outcome], tmp_path: Path) -> None:
+    outcome = cli("test", LIVING_ROOM)
+    assert outcome.status == 0
+    assert "2 passed, 0 failed" in outcome.out
+    failing = scenario(tmp_path, "activity { a stand for 1 s }\nexpect time > 5 s eventually\n")
+    outcome = cli("test", LIVING_ROOM, failing)
+    assert outcome.status == 1
+    assert "2 passed, 1 failed" in outcome.out
+    assert "expectation fails: time > 5 s eventually" in outcome.out
+
+
+def test_ctrl_c_during_a_run_stops_cleanly(tmp_path: Path) -> None:
+    path = scenario(tmp_path, "time_limit 2 h\nactivity { a move_around for 1 h }\n")
+    process = subprocess.Popen([sys.executable, "-m", "hubero_dsl", "run", path, "--quiet"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               env={**os.environ, "HUBERO_DEBUG": ""})
+    time.sleep(2.5)
+    process.send_signal(signal.SIGINT)
+    out, err = process.communicate(timeout=30)
+    assert process.returncode == 130
+    assert "interrupted" in err
+    assert "Traceback" not in out + err
