@@ -209,8 +209,8 @@ def _expected_hint(expected: list[str]) -> str | None:
 
 def _follows_number(exc: UnexpectedToken) -> bool:
     """The token before the unexpected one is a bare number (`5 kg`), not a name like `actor1`."""
-    history = exc.token_history or []
-    return bool(history) and history[-1].type == "NUMBER"
+    previous = exc.token_history[-1] if exc.token_history else None
+    return previous is not None and previous.type == "NUMBER"
 
 
 def _end_position(text: str) -> tuple[int, int]:
