@@ -96,6 +96,8 @@ class RunLog:
 
     def open(self) -> None:
         """Create the temporary file and write the header, provenance, map and first frame."""
+        if self._file is not None:
+            raise LogError(f"log {self.path} is already open")
         fd, self._temp = _create_temp(self.path)
         self._file = os.fdopen(fd, "wb", buffering=1 << 20)
         try:
@@ -354,7 +356,8 @@ def _create_temp(final: Path) -> tuple[int, Path]:
     if final.is_dir():
         raise LogError(f"cannot write log {final}: it is a directory")
     if not parent.is_dir():
-        raise LogError(f"cannot write log {final}: directory {parent} does not exist")
+        problem = "is not a directory" if parent.exists() else "does not exist"
+        raise LogError(f"cannot write log {final}: {parent} {problem}")
     for attempt in itertools.count():
         temp = parent / f".{final.name}.{os.getpid()}.{attempt}.part"
         try:

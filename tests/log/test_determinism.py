@@ -1,0 +1,33 @@
+"""Same scenario, same seed: the same bytes, whatever the process or its hash seed."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from tests.log.conftest import MEETING, REPO_ROOT, World, hubero, write_log
+
+
+def test_two_processes_write_identical_logs(world: World, tmp_path: Path) -> None:
+    scenario = world.scenario("meeting.hub", MEETING)
+    outputs = []
+    for hash_seed in ("1", "4242"):
+        output = tmp_path / f"run-{hash_seed}.mcap"
+        done = hubero("run", str(scenario), "-q", "--variant", "slow", "-o", str(output),
+                      cwd=REPO_ROOT, PYTHONHASHSEED=hash_seed)
+        assert done.returncode == 0, done.stderr
+        outputs.append(output.read_bytes())
+    assert outputs[0] == outputs[1]
+    # and the same as writing it in this process
+    here = tmp_path / "here.mcap"
+    write_log(scenario, here, variant="slow")
+    assert here.read_bytes() == outputs[0]
+
+
+def test_another_seed_or_variant_gives_another_log(world: World, tmp_path: Path) -> None:
+    scenario = world.scenario("meeting.hub", MEETING)
+    logs = {}
+    for name, variant, seed in (("a", "slow", None), ("b", "slow", 6), ("c", "fast", None)):
+        logs[name] = tmp_path / f"{name}.mcap"
+        write_log(scenario, logs[name], variant=variant, seed=seed)
+    contents = {path.read_bytes() for path in logs.values()}
+    assert len(contents) == 3
