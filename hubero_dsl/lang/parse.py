@@ -20,7 +20,7 @@ from lark import Lark, Token, Transformer, Tree, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
 from lark.lexer import PatternStr
 
-from hubero_dsl.diagnostics import Diagnostic, Span, error
+from hubero_dsl.diagnostics import Diagnostic, Related, Span, error
 from hubero_dsl.errors import CompileError, InputError
 from hubero_dsl.lang import ast
 
@@ -173,7 +173,8 @@ def _syntax_diagnostic(exc: UnexpectedInput, source: ast.SourceFile) -> Diagnost
         if token.type == "NAME" and _follows_number(exc):
             hint = (f"'{token.value}' is not a unit; units are m cm mm, s ms min h, m/s km/h, "
                     "deg rad")
-        return error("E001", message, span, hint)
+        related = _unclosed_note(source) if token.type == "$END" else ()
+        return error("E001", message, span, hint, related)
     if isinstance(exc, UnexpectedCharacters):
         char = source.line(line)[column - 1: column] or "?"
         span = Span(source.path, line, column, line, column + 1)
@@ -182,8 +183,31 @@ def _syntax_diagnostic(exc: UnexpectedInput, source: ast.SourceFile) -> Diagnost
     if isinstance(exc, UnexpectedEOF):
         line, column = _end_position(source.text)
         return error("E001", "unexpected end of file", Span(source.path, line, column, line,
-                                                             column + 1), "a block is not closed")
+                                                             column + 1), "a block is not closed",
+                     _unclosed_note(source))
     return error("E001", str(exc), Span(source.path, line, column, line, column + 1))
+
+
+_CLOSING = {"(": ")", "[": "]", "{": "}"}
+
+
+def _unclosed_note(source: ast.SourceFile) -> tuple[Related, ...]:
+    """Point at the innermost bracket left open at the end of the file, if any."""
+    open_brackets: list[tuple[str, int, int]] = []
+    for number, text in enumerate(source.text.split("\n"), start=1):
+        code = re.sub(r'"(?:[^"\\\n]|\\.)*"', lambda m: " " * len(m.group()), text)
+        code = code.split("#", 1)[0]
+        for column, char in enumerate(code, start=1):
+            if char in _CLOSING:
+                open_brackets.append((char, number, column))
+            elif char in _CLOSING.values() and open_brackets \
+                    and _CLOSING[open_brackets[-1][0]] == char:
+                open_brackets.pop()
+    if not open_brackets:
+        return ()
+    char, number, column = open_brackets[-1]
+    return (Related(f"this '{char}' is never closed",
+                    Span(source.path, number, column, number, column + 1)),)
 
 
 def _expected_terminals(exc: UnexpectedToken) -> set[str]:
