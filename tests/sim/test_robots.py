@@ -1,0 +1,85 @@
+"""Robots: scripted paths, Python controllers, and humans treating them as moving obstacles."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hubero_dsl.errors import InputError, SimulationError
+from hubero_dsl.sim.simulation import Simulation
+from hubero_dsl.sim.status import TaskStatus
+from tests.sim.conftest import ScenarioFactory
+
+
+def test_a_robot_follows_its_looping_path(scenario: ScenarioFactory) -> None:
+    sim = Simulation(scenario("""
+    robot r at (2, 2) { speed 1 m/s; path (2, 2) -> (6, 2) -> (6, 5) loop }
+    """), activities=False)
+    seen = []
+    for _ in range(round(20 / sim.dt)):
+        sim.step()
+        seen.append(sim.engine.robots.position[0].copy())
+    track = np.array(seen)
+    assert track[:, 0].max() == pytest.approx(6.0, abs=0.05)
+    assert track[:, 1].max() == pytest.approx(5.0, abs=0.05)
+    lap = 4 + 3 + 5  # the loop closes back to the first waypoint
+    # a robot stops on each waypoint it reaches, which costs it at most one tick each
+    assert np.linalg.norm(track[round(lap / sim.dt) - 1] - (2, 2)) <= 3 * 1.0 * sim.dt + 1e-9
+
+
+def test_humans_keep_clear_of_a_robot_crossing_their_way(scenario: ScenarioFactory) -> None:
+    sim = Simulation(scenario("""
+    human alice at (1, 4)
+    robot r at (5, 7) { radius 0.4 m; speed 0.6 m/s; path (5, 7) -> (5, 1) }
+    """), activities=False)
+    task = sim.human("alice").move_to((9.0, 4.0))
+    gaps = []
+    while not task.done:
+        sim.step()
+        gaps.append(math.dist(sim.human("alice").position, sim.engine.robots.position[0]))
+    assert task.status is TaskStatus.SUCCEEDED
+    assert min(gaps) > 0.6 - 0.02  # body radii 0.2 + 0.4 never overlap
+
+
+def test_a_human_can_follow_a_robot(scenario: ScenarioFactory) -> None:
+    sim = Simulation(scenario("""
+    human alice at (1, 1)
+    robot r at (3, 4) { speed 0.5 m/s; path (3, 4) -> (8, 4) }
+    """), activities=False)
+    follow = sim.human("alice").follow("r", distance=1.0, duration=25.0)
+    sim.run_until(lambda: follow.done)
+    assert follow.status is TaskStatus.SUCCEEDED
+    assert math.dist(sim.human("alice").position, (8.0, 4.0)) < 1.8
+
+
+def test_robot_velocity_from_python(scenario: ScenarioFactory) -> None:
+    sim = Simulation(scenario("robot r at (2, 2)\n"), activities=False)
+    sim.set_robot_velocity("r", 0.5, 0.0)
+    sim.run_until(lambda: sim.time >= 2.0)
+    assert sim.engine.robots.position[0] == pytest.approx((3.0, 2.0), abs=0.03)
+    with pytest.raises(SimulationError):
+        sim.set_robot_velocity("nobody", 0.0, 0.0)
+
+
+def test_a_controller_class_drives_a_robot(scenario: ScenarioFactory, tmp_path: Path,
+                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    (tmp_path / "my_robots.py").write_text(
+        "class Circler:\n"
+        "    def __init__(self, name):\n        self.name = name\n"
+        "    def velocity(self, time, position):\n        return (0.0, 0.4)\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    sim = Simulation(scenario('robot r at (2, 2) { controller "my_robots:Circler" }\n'),
+                     activities=False)
+    sim.run_until(lambda: sim.time >= 1.0)
+    assert sim.engine.robots.position[0] == pytest.approx((2.0, 2.4), abs=0.03)
+    sys.modules.pop("my_robots", None)
+
+
+def test_a_controller_that_cannot_be_loaded_is_bad_input(scenario: ScenarioFactory) -> None:
+    program = scenario('robot r at (2, 2) { controller "no_such_module:Thing" }\n')
+    with pytest.raises(InputError, match="cannot be loaded"):
+        Simulation(program, activities=False)
