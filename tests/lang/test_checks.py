@@ -1,0 +1,409 @@
+"""`check_source` on small texts: which diagnostic, exactly where, and what checks clean.
+
+The header of `check(body)` is four lines (see conftest.py), so a body's first line is line 5.
+Spans are (line, column, end column), 1-based, end exclusive.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from hubero_dsl.lang.compile import CheckResult, check_source
+from hubero_dsl.lang.program import Distribution
+from hubero_dsl.lang.symbols import reserved_words
+from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle
+
+Check = Callable[..., CheckResult]
+
+
+def codes(result: CheckResult) -> list[str]:
+    return [d.code for d in result.diagnostics]
+
+
+def spans(result: CheckResult) -> list[tuple[str, int, int, int]]:
+    found = []
+    for diagnostic in result.diagnostics:
+        span = diagnostic.span
+        assert span is not None and span.end_line == span.line
+        found.append((diagnostic.code, span.line, span.column, span.end_column))
+    return found
+
+
+# ---- one diagnostic, pinned to its span ---------------------------------------------------
+
+SINGLE = {
+    "unknown human": ("activity { actor3 stand for 1 s }", ("E101", 5, 12, 18)),
+    "duplicate name": ("place actor1 (5.5, 1.0)", ("E102", 5, 7, 13)),
+    "keyword as a name": ("place wait (5.5, 1.0)", ("E104", 5, 7, 11)),
+    "unknown parameter": ("defaults { sped 1 m/s }", ("E105", 5, 12, 16)),
+    "per-human outside a variant": ("defaults { actor1.speed 1 m/s }", ("E105", 5, 12, 24)),
+    "duplicate parameter": ("defaults { speed 1 m/s; speed 2 m/s }", ("E106", 5, 25, 30)),
+    "unknown planner parameter": ("defaults { social_force.AA 1 }", ("E105", 5, 12, 27)),
+    "option not taken": ("activity { actor1 move_to (5.5, 1.0) for 5 s }", ("E107", 5, 38, 45)),
+    "wrong dimension": ("defaults { speed 5 s }", ("E201", 5, 18, 21)),
+    "unknown unit": ("defaults { speed 5kg }", ("E202", 5, 18, 21)),
+    "zero radius": ("defaults { radius 0 m }", ("E203", 5, 19, 22)),
+    "planner parameter out of range": ("defaults { social_force.lambda 2 }",
+                                       ("E203", 5, 32, 33)),
+    "missing unit": ("defaults { speed 5 }", ("E204", 5, 18, 19)),
+    "missing target": ("activity { actor1 move_to }", ("E205", 5, 19, 26)),
+    "normal sd zero": ("defaults { speed normal(1 m/s, 0 m/s) }", ("E206", 5, 32, 37)),
+    "seed not whole": ("seed 1.5", ("E207", 5, 6, 9)),
+    "two branches": ("activity { parallel { actor1 stand for 1 s; actor1 stand for 2 s } }",
+                     ("E302", 5, 45, 65)),
+    "label after the wait": ("activity { wait until l done; l: actor1 stand for 1 s }",
+                             ("E304", 5, 12, 29)),
+    "no natural end": ("activity { actor1 stand }", ("E306", 5, 12, 24)),
+    "forever with no effect": ("activity { actor1 move_to (5.5, 1.0) forever }",
+                               ("E307", 5, 12, 45)),
+    "forever blocks": ("activity { actor1 talk forever; actor1 stand for 1 s }",
+                       ("E308", 5, 12, 31)),
+    "repeat 0": ("activity { repeat 0 { actor1 stand for 1 s } }", ("E309", 5, 19, 20)),
+    "empty parallel": ("activity { parallel { } }", ("E311", 5, 12, 24)),
+    "until never holds": ("activity { actor1 stand until n done; n: actor2 stand for 1 s }",
+                          ("E313", 5, 12, 37)),
+    "unused place": ("place sofa (5.5, 1.0)", ("W501", 5, 7, 11)),
+}
+
+
+@pytest.mark.parametrize(("body", "expected"), SINGLE.values(), ids=SINGLE.keys())
+def test_one_diagnostic_at_its_span(check: Check, body: str,
+                                    expected: tuple[str, int, int, int]) -> None:
+    assert spans(check(body)) == [expected]
+
+
+def test_unknown_name_is_pointed_at_with_a_did_you_mean(check: Check) -> None:
+    result = check("place sofa (5.5, 1.0)\nactivity { actor1 move_to sofaa }")
+    assert spans(result) == [("W501", 5, 7, 11), ("E101", 6, 27, 32)]
+    assert result.diagnostics[1].hint == "did you mean 'sofa'?"
+
+
+def test_name_of_the_wrong_kind_points_at_the_use_and_its_definition(check: Check) -> None:
+    result = check("area zone rect((4.0, 1.0), (7.0, 3.0))\nactivity { actor1 move_to zone }")
+    (diagnostic,) = result.diagnostics
+    assert spans(result) == [("E103", 6, 27, 31)]
+    assert diagnostic.message.startswith("'zone' is an area, but the target of move_to needs")
+    assert [(r.span.line, r.span.column) for r in diagnostic.related] == [(5, 6)]
+
+
+def test_two_activities_point_at_the_second_with_the_first_as_related(check: Check) -> None:
+    result = check("activity { actor1 stand for 1 s }\nactivity { actor1 stand for 2 s }")
+    (diagnostic,) = result.diagnostics
+    assert spans(result) == [("E301", 6, 12, 32)]
+    assert diagnostic.related[0].span.line == 5
+
+
+def test_deadlock_is_reported_once_for_the_cycle(check: Check) -> None:
+    result = check("activity { wait until b done; a: actor1 stand for 1 s }\n"
+                   "activity { wait until a done; b: actor2 stand for 1 s }")
+    assert spans(result) == [("E305", 5, 12, 29)]
+
+
+def test_wait_for_a_label_a_forever_task_holds(check: Check) -> None:
+    result = check("activity { parallel { c: actor1 talk forever; "
+                   "{ wait until c done; actor2 stand for 1 s } } }")
+    assert spans(result) == [("E308", 5, 23, 45), ("E312", 5, 49, 66)]
+
+
+def test_points_off_the_map_and_in_obstacles(check: Check) -> None:
+    result = check("place far (20.0, 0.0)\nplace table (0.75, -3.8)\n"
+                   "activity { actor1 move_to far; actor1 move_to table }")
+    assert spans(result) == [("E402", 5, 11, 22), ("E403", 6, 13, 25)]
+    assert result.diagnostics[0].hint == "the map spans x -5.75 .. 8.49 m, y -6.5 .. 6.5 m"
+    assert result.diagnostics[1].hint == "the nearest free cell is 0.51 m away, at (0.74, -3.29)"
+
+
+def test_labels_are_reported_by_the_name_checker_once(check: Check) -> None:
+    """Unknown and duplicate labels are E101/E102 from the names, not also E303/E310."""
+    result = check("activity { go: actor1 stand for 1 s; go: actor2 stand for 1 s\n"
+                   "wait until gone done }")
+    assert spans(result) == [("E102", 5, 38, 40), ("E101", 6, 12, 16)]
+    assert result.diagnostics[1].message == "unknown label 'gone' (`gone done`)"
+
+
+# ---- every error of a file, in order --------------------------------------------------------
+
+
+def test_every_error_is_reported_in_source_order(check: Check) -> None:
+    result = check("seed -1\n"
+                   "defaults { speed 5 s; sped 1 m/s }\n"
+                   "activity { actor1 stand; wait 0 s }\n"
+                   "expect actor1 reaches (1.0, 1.0) within 5\n")
+    assert spans(result) == [("E203", 5, 6, 8), ("E201", 6, 18, 21), ("E105", 6, 23, 27),
+                             ("E306", 7, 12, 24), ("E203", 7, 31, 34), ("E204", 8, 41, 42)]
+    assert result.program is None
+
+
+@pytest.mark.parametrize(("text", "message", "line"), [
+    ("", "the file is empty", 1),
+    ("# only\n# comments\n", "the file is empty", 1),
+    ('map "../../maps/living_room.yaml"\n', 'a scenario file must start with `scenario "TITLE"`',
+     1),
+    ('scenario "x"\n\nhuman actor1 at (6.3, 2.5)\n', "the scenario names no map", 1),
+], ids=["empty", "only comments", "no scenario", "no map"])
+def test_file_structure(check: Check, text: str, message: str, line: int) -> None:
+    (diagnostic,) = check(text, header=False).diagnostics
+    assert (diagnostic.code, diagnostic.message) == ("E404", message)
+    assert diagnostic.span is not None and diagnostic.span.line == line
+
+
+def test_scenario_and_map_are_given_once(check: Check) -> None:
+    result = check('map "../../maps/living_room.yaml"\nscenario "again"')
+    assert [(d.code, d.message) for d in result.diagnostics] == [
+        ("E102", "'map' is given twice"), ("E102", "'scenario' is given twice")]
+
+
+# ---- the map ------------------------------------------------------------------------------
+
+
+def test_missing_map_names_the_path_as_written(tmp_path: Path) -> None:
+    text = 'scenario "x"\nmap "maps/none.yaml"\n'
+    (diagnostic,) = check_source(text, "case.hub").diagnostics
+    assert diagnostic.code == "E401"
+    assert diagnostic.message == "the map cannot be loaded: map file not found: maps/none.yaml"
+    assert diagnostic.span is not None and (diagnostic.span.line, diagnostic.span.column) == (2, 5)
+
+
+def test_bad_map_field_points_into_the_yaml_file(tmp_path: Path) -> None:
+    (tmp_path / "bad.yaml").write_text(
+        "image: x.pgm\nresolution: 0\norigin: [0, 0, 0]\nnegate: 0\noccupied_thresh: 0.65\n"
+        "free_thresh: 0.196\n", encoding="utf-8")
+    text = 'scenario "x"\nmap "bad.yaml"\n'
+    (diagnostic,) = check_source(text, str(tmp_path / "case.hub")).diagnostics
+    assert diagnostic.code == "E401"
+    assert "'resolution'" in diagnostic.message
+    (related,) = diagnostic.related
+    assert (related.span.file, related.span.line) == (str(tmp_path / "bad.yaml"), 2)
+
+
+def test_nul_in_the_map_path_is_a_diagnostic_not_an_exception() -> None:
+    (diagnostic,) = check_source('scenario "x"\nmap "a\0b.yaml"\n', "case.hub").diagnostics
+    assert diagnostic.code == "E401"
+
+
+# ---- values ---------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("param", "message"), [
+    ("speed normal(-1 m/s, 0.2 m/s)", "the mean of 'speed' must be greater than zero"),
+    ("max_speed uniform(-1 m/s, 2 m/s)",
+     "'max_speed' must be greater than zero; uniform(...) starts at -1 m/s"),
+    ("radius uniform(0.1 m, 3 m)", "'radius' may be at most 2 m; uniform(...) ends at 3 m"),
+    ("avoidance_strength uniform(-1, 1)",
+     "'avoidance_strength' must not be negative; uniform(...) starts at -1"),
+    ("field_of_view normal(400 deg, 10 deg)", "the mean of 'field_of_view' may be at most 360 deg"),
+    ("speed uniform(2 m/s, 1 m/s)", "uniform(low, high) needs low < high"),
+])
+def test_distributions_take_only_values_the_parameter_may_take(check: Check, param: str,
+                                                               message: str) -> None:
+    (diagnostic,) = check(f"defaults {{ {param} }}").diagnostics
+    assert diagnostic.message == message
+
+
+@pytest.mark.parametrize(("value", "dimension"), [
+    ("5 s", "time"), ("2 m", "length"), ("90 deg", "angle"), ("1 m/s", "speed"),
+])
+def test_units_must_fit_the_dimension(check: Check, value: str, dimension: str) -> None:
+    body = f"activity {{ actor1 move_to (5.5, 1.0) speed {value} }}"
+    result = check(body)
+    if dimension == "speed":
+        assert codes(result) == []
+    else:
+        (diagnostic,) = result.diagnostics
+        assert diagnostic.code == "E201"
+        assert diagnostic.message.endswith(f"is a unit of {dimension}")
+
+
+def test_planner_names_are_checked_against_their_kind(check: Check) -> None:
+    result = check("defaults { global_planner social_force; local_planner navfn }")
+    assert [d.message for d in result.diagnostics] == [
+        "unknown global planner 'social_force'", "unknown local planner 'navfn'"]
+    assert codes(check("defaults { global_planner straight; local_planner direct }")) == []
+
+
+def test_planner_parameters_take_the_units_their_planner_declares(check: Check) -> None:
+    clean = check("defaults { social_force.B 30 cm; social_force.anticipation 500 ms; "
+                  "social_force.A 2.5; navfn.comfort_weight 10 }")
+    assert codes(clean) == []
+    wrong = check("defaults { social_force.B 2 s; navfn.comfort_weight 3 m }")
+    assert [(d.code, d.message) for d in wrong.diagnostics] == [
+        ("E201", "'social_force.B' takes a length (m, cm, mm), but 's' is a unit of time"),
+        ("E201", "'navfn.comfort_weight' takes a plain number, but 'm' is a unit of length")]
+
+
+def test_shape_arguments(check: Check) -> None:
+    result = check("defaults { personal_space ellipse(semi_major: 1 m, semi_minor: 2 m) }\n"
+                   "variant a { personal_space circle(diameter: 1 m) }\n"
+                   "variant b { personal_space square(side: 1 m, side: 2 m) }")
+    assert spans(result) == [("E203", 5, 52, 67), ("E205", 6, 28, 49), ("E105", 6, 35, 43),
+                             ("E106", 7, 46, 50)]
+
+
+# ---- what checks clean --------------------------------------------------------------------
+
+EVERY_CONSTRUCT = """\
+seed 3; step 20 ms; time_limit 2 min
+on_failure continue
+bounds rect((-4.5, -1.5), (4.5, 5.0))
+
+place door (4.5, -1.0) heading 180 deg
+place hall at (1.0, -0.5)
+place window (3.0, 4.5)
+area lounge rect((-4.5, -1.5), (0.5, 4.0))
+area dance polygon((0.5, -1.5), (3.5, -1.5),
+                   (3.5, 2.0), (0.5, 2.0),)
+area same_lounge lounge
+
+defaults {
+    speed normal(1.29 m/s, 0.10 m/s); max_speed uniform(1.6 m/s, 2.0 m/s)
+    run_speed 9 km/h; radius 20 cm; goal_tolerance 250 mm; relaxation_time 540 ms
+    personal_space ellipse(semi_major: 0.6 m, semi_minor: 0.4 m, offset: 0.1 m)
+    goal_strength 1.0; avoidance_strength 0.5; obstacle_strength 0; interaction_range 3 m
+    field_of_view 3.4 rad; follow_replan 0.5 s
+    global_planner navfn; local_planner social_force; social_force.lambda 0.5
+}
+
+human actor3 at (2.0, 3.0) heading -90 deg { personal_space square(side: 0.5 m) }
+human actor4 at hall { personal_space rectangle(length: 1 m, width: 0.6 m) }
+robot vacuum at (-4.0, 1.0) { radius 0.17 m; speed 0.3 m/s; path (-4.0, 1.0) -> (-3.0, 0.0) loop }
+robot buddy at (-3.0, 3.0) { controller "my_robots:Buddy" }
+robot statue at (-4.0, -1.0)
+
+variant circle { personal_space circle(radius: 0.2 m) }
+variant normal { actor1.speed 1.0 m/s; actor1.social_force.A 3; speed 1.5 m/s }
+sweep social_force.A in [1.0, 2.1, 3.0]
+sweep actor2.radius in [0.2 m, 0.3 m]
+
+activity host {
+    greet: actor1 move_to door heading 180 deg speed 1.0 m/s within 60 s
+    chat: parallel {
+        actor1 talk to actor2 for 3 s
+        actor2 stand facing actor1 for 3 s
+    }
+    walk: race {
+        actor1 run_to window heading 90 deg
+        { wait 2 s; wait until time >= 5 s }
+    }
+    actor2 follow actor1 at 1.2 m until actor1 reaches window or walk done
+    rounds: repeat 2 {
+        actor1 sit_down at (-3.8, 2.0) heading -90 deg for 2 s
+        actor1 lie_down at hall for 1 s
+    }
+    actor2 sit_down for 1 s
+    wait until rounds done and not chat failed
+    actor1 stand forever
+}
+
+activity others {
+    wait until greet started
+    actor3 move_around in dance times 2
+    actor3 move_around for 3 s
+    actor3 teleop for 1 s
+    wait until distance(actor3, door) <= 5 m or actor3 in same_lounge
+    actor4 talk for 1 s
+    actor4 move_to vacuum
+    actor4 stand facing (0.0, 0.0) until (time > 30 s)
+}
+
+expect greet done within 30 s
+expect distance(actor1, actor2) > 0.3 m always
+expect actor3 in lounge eventually
+expect not (rounds failed or chat failed) always
+"""
+
+
+def test_every_construct_checks_clean(check: Check) -> None:
+    result = check(EVERY_CONSTRUCT)
+    assert result.diagnostics == ()
+    assert result.program is not None
+
+
+def test_shape_and_distribution_names_are_not_reserved(check: Check) -> None:
+    words = ("circle", "ellipse", "rectangle", "square", "normal", "uniform")
+    assert not set(words) & reserved_words()
+    body = "\n".join(f"variant {word} {{ radius 0.3 m }}" for word in words)
+    assert check(body).diagnostics == ()
+
+
+@pytest.mark.parametrize("word", sorted(reserved_words()))
+def test_every_keyword_is_reserved(check: Check, word: str) -> None:
+    result = check(f"variant {word} {{ radius 0.3 m }}")
+    assert codes(result) in (["E104"], ["E001"])  # E001 where the parser already stops at it
+
+
+# ---- what the checked program holds -------------------------------------------------------
+
+
+def test_values_are_converted_to_si(check: Check) -> None:
+    result = check(EVERY_CONSTRUCT)
+    assert result.program is not None
+    program = result.program
+    assert (program.seed, program.step, program.time_limit) == (3, 0.02, 120.0)
+    assert program.on_failure == "continue"
+    defaults = program.defaults.values
+    assert defaults["speed"] == Distribution("normal", 1.29, pytest.approx(0.10))
+    assert defaults["run_speed"] == pytest.approx(2.5)
+    assert defaults["radius"] == pytest.approx(0.2)
+    assert defaults["goal_tolerance"] == pytest.approx(0.25)
+    assert defaults["field_of_view"] == pytest.approx(3.4)
+    assert defaults["personal_space"] == Ellipse(0.6, 0.4, 0.1)
+    assert program.human("actor3").params.values["personal_space"] == Rectangle(0.5, 0.5)
+    assert program.places["door"].heading == pytest.approx(math.pi)
+
+
+def test_variants_and_sweeps_multiply(check: Check) -> None:
+    result = check(EVERY_CONSTRUCT)
+    assert result.program is not None
+    names = list(result.program.variants)
+    assert len(names) == 2 * 3 * 2
+    assert names[0] == "circle,social_force.A=1.0,actor2.radius=0.2 m"
+    assert names[-1] == "normal,social_force.A=3.0,actor2.radius=0.3 m"
+
+
+def test_sweeps_alone_name_their_variants_by_value(check: Check) -> None:
+    result = check("sweep speed in [1.0 m/s, 1.4 m/s]\nsweep avoidance_strength in [0.5, 1.5]")
+    assert result.program is not None
+    assert list(result.program.variants) == [
+        "speed=1.0 m/s,avoidance_strength=0.5", "speed=1.0 m/s,avoidance_strength=1.5",
+        "speed=1.4 m/s,avoidance_strength=0.5", "speed=1.4 m/s,avoidance_strength=1.5"]
+
+
+def test_a_sweep_value_wrapped_over_lines_is_named_on_one_line(check: Check) -> None:
+    result = check("sweep personal_space in [circle(radius: 0.2 m), ellipse(semi_major: 1 m,\n"
+                   "    semi_minor: 0.5 m), ellipse(semi_major: 2 m,  # wider\n"
+                   "    semi_minor: 0.5 m)]")
+    assert result.program is not None
+    assert list(result.program.variants) == [
+        "personal_space=circle(radius: 0.2 m)",
+        "personal_space=ellipse(semi_major: 1 m, semi_minor: 0.5 m)",
+        "personal_space=ellipse(semi_major: 2 m, semi_minor: 0.5 m)"]
+
+
+def test_sweep_names_survive_a_form_feed(case_path: str) -> None:
+    text = ('scenario "x"\f\nmap "../../maps/living_room.yaml"\nhuman actor1 at (6.3, 2.5)\n'
+            "sweep speed in [1 m/s, 2 m/s]\n")
+    result = check_source(text, case_path)
+    assert result.program is not None
+    assert list(result.program.variants) == ["speed=1 m/s", "speed=2 m/s"]
+
+
+def test_a_sweep_value_listed_twice(check: Check) -> None:
+    result = check("sweep speed in [1 m/s, 1.2 m/s, 1 m/s]")
+    assert spans(result) == [("E102", 5, 33, 38)]
+
+
+def test_precedence_defaults_human_variant(check: Check) -> None:
+    result = check("defaults { speed 1.0 m/s; radius 0.3 m }\n"
+                   "human actor3 at (2.0, 3.0) { speed 1.1 m/s }\n"
+                   "variant fast { speed 1.5 m/s; actor3.speed 1.7 m/s }")
+    assert result.program is not None
+    base = result.program.resolved_params()
+    fast = result.program.resolved_params("fast")
+    assert (base["actor1"]["speed"], base["actor3"]["speed"]) == (1.0, 1.1)
+    assert (fast["actor1"]["speed"], fast["actor3"]["speed"]) == (1.5, 1.7)
+    assert base["actor1"]["radius"] == fast["actor3"]["radius"] == 0.3
+    assert base["actor2"]["personal_space"] == Circle(0.5)  # the built-in default
