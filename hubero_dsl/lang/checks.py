@@ -426,6 +426,9 @@ class Checker:
                 and self.symbols.kind_of(task.target.name) is NameKind.PLACE:
             self.report("E103", f"'{task.target.name}' is a place; follow needs a human or robot",
                         task.target.span)
+        if task.kind == "follow" and isinstance(task.target, ast.Point):
+            self.report("E201", "follow needs a human or robot, not a point", task.target.span,
+                        "to walk to a point, use move_to")
 
     def _not_self(self, step: ast.TaskStep, target: ast.Value, keyword: str = "") -> None:
         if isinstance(target, ast.NameRef) and target.name == step.human.name:
