@@ -22,7 +22,7 @@ from hubero_dsl.lang.program import (
     area_polygon,
     coordinate,
 )
-from hubero_dsl.lang.symbols import NameKind, SymbolTable
+from hubero_dsl.lang.symbols import NameKind, SymbolTable, alias_depths
 from hubero_dsl.lang.units import Dimension
 from hubero_dsl.lang.values import ValueReader, did_you_mean, field_dimension
 from hubero_dsl.params import HUMAN_PARAMS, ROBOT_PARAMS
@@ -82,10 +82,21 @@ class Checker:
     def run(self) -> Facts:
         self._structure()
         self._define_names()
-        for statement in self.module.statements:
+        for statement in self._in_definition_order():
             self._statement(statement)
         self._unused()
         return self.facts
+
+    def _in_definition_order(self) -> list[ast.Statement]:
+        """Places first, each after the place it is defined by, so that a place may be used
+        before its own statement; then the rest in source order."""
+        places = self.module.of_type(ast.PlaceDecl)
+        depths = alias_depths([(p.name, p.point) for p in places], "place", self.diagnostics)
+        alias_depths([(a.name, a.area) for a in self.module.of_type(ast.AreaDecl)], "area",
+                     self.diagnostics)
+        ordered = sorted((p for p in places if p.name.name in depths),
+                         key=lambda p: depths[p.name.name])
+        return [*ordered, *(s for s in self.module.statements if not isinstance(s, ast.PlaceDecl))]
 
     # ---- structure and names ---------------------------------------------------------------
 

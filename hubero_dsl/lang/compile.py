@@ -117,12 +117,18 @@ def _areas(module: ast.Module, facts: Facts) -> dict[str, object]:
     from hubero_dsl.lang.program import area_polygon
 
     areas: dict[str, object] = {}
+    aliases: dict[str, str] = {}
     for decl in module.of_type(ast.AreaDecl):
-        if not isinstance(decl.area, ast.NameRef):
+        if isinstance(decl.area, ast.NameRef):  # an area may be another area's name
+            aliases[decl.name.name] = decl.area.name
+        else:
             areas[decl.name.name] = area_polygon(decl.area, facts.places)
-    for decl in module.of_type(ast.AreaDecl):  # an area may alias another
-        if isinstance(decl.area, ast.NameRef) and decl.area.name in areas:
-            areas[decl.name.name] = areas[decl.area.name]
+    for name in aliases:  # follow chains of names (the checker rejected cycles)
+        target, hops = aliases[name], 0
+        while target in aliases and hops < len(aliases):
+            target, hops = aliases[target], hops + 1
+        if target in areas:
+            areas[name] = areas[target]
     return areas
 
 

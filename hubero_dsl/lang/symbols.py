@@ -8,6 +8,7 @@ names (with a "did you mean") and names of the wrong kind.
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 from functools import cache
@@ -101,3 +102,25 @@ class SymbolTable:
 def _a(noun: str) -> str:
     """The noun with its indefinite article: 'a place', 'an area'."""
     return f"{'an' if noun[:1] in 'aeiou' else 'a'} {noun}"
+
+
+def alias_depths(definitions: Sequence[tuple[ast.NameRef, object]], kind: str,
+                 diagnostics: list[Diagnostic]) -> dict[str, int]:
+    """How far each place (area) is from one with a position (shape) of its own, through names
+    defined as other names (`place a at b`, `area a b`); names defined through themselves are
+    reported and left out."""
+    names = {name.name for name, _ in definitions}
+    aliases = {name.name: value.name for name, value in definitions
+               if isinstance(value, ast.NameRef) and value.name in names}
+    depths = {name: 0 for name in names - aliases.keys()}
+    for name, value in definitions:
+        chain = [name.name]
+        while chain[-1] in aliases and aliases[chain[-1]] not in chain:
+            chain.append(aliases[chain[-1]])
+        if chain[-1] not in aliases:
+            depths[name.name] = len(chain) - 1
+        elif isinstance(value, ast.NameRef):  # its chain goes round a cycle
+            diagnostics.append(error(
+                "E103", f"{kind} '{name.name}' is defined through itself", value.span,
+                f"give one {kind} of the cycle a definition of its own"))
+    return depths
