@@ -1,0 +1,366 @@
+"""Per-actor metrics of one logged run: how far and how fast each human (and robot) went, when
+its tasks finished, how close it came to the others, how long someone stood inside its personal
+space and how often bodies overlapped.
+
+    metrics = compute_metrics(load_run("run.mcap"))
+    metrics.humans["actor1"].path_length
+    metrics.to_dict()   # JSON-safe, sorted, rounded: equal runs give equal dicts
+    metrics.flat()      # {"actor1.path_length": 7.18, ...} for one CSV row per run
+
+Definitions (docs/analysis.md says the same with examples):
+
+- A *segment* joins two consecutive logged frames; its speed is its length over its time. An
+  actor is *moving* on a segment faster than `MOVING_SPEED`.
+- `path_length`: sum of segment lengths. `mean_speed`: length over time of the moving segments.
+  `max_speed`: the fastest segment.
+- `duration`: from the earlier of the first movement and the first task start to the later of
+  the last movement and the last task end; 0 for an actor that never moved nor had a task.
+- `min_distance`: smallest centre-to-centre distance to each other actor over the frames both
+  were logged (the other's track interpolated at this actor's frame times).
+- `personal_space_intrusion_time`: total time during which another actor's centre lay inside
+  this human's personal space, placed at its position and turned to its heading. A frame counts
+  for the time until the next frame.
+- `collisions`: episodes (runs of consecutive frames) during which the bodies of this actor and
+  another overlapped (centre distance below the sum of the radii), summed over the others.
+- `task_finish_times`: for each task of the human that ended done (SUCCEEDED or PREEMPTED, as
+  the language's `LABEL done`), its label, or `kind#task_id` when it has none, to the time it
+  ended; a labelled `parallel`/`race`/sequence/`repeat` step also gets an entry, the time this
+  human's last task inside it ended, when all of them ended done.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from hubero_dsl.sim.status import TaskStatus
+from hubero_dsl.world.personal_space import contains
+from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, Shape, ShapeArrays
+
+if TYPE_CHECKING:
+    from hubero_dsl.diagnostics import Span
+    from hubero_dsl.lang import ast
+    from hubero_dsl.log.reader import LoggedRun
+    from hubero_dsl.sim.status import TaskEvent
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+
+MOVING_SPEED = 0.05  # m/s: slower than this is standing (turning on the spot, numerical drift)
+DECIMALS = 6  # floats in to_dict/flat are rounded to 1e-6 so runs compare exactly
+DEFAULT_HUMAN_RADIUS = 0.2
+DEFAULT_ROBOT_RADIUS = 0.3
+_DONE = (TaskStatus.SUCCEEDED, TaskStatus.PREEMPTED)
+
+Scalar = float | int | str
+
+
+@dataclass(frozen=True)
+class HumanMetrics:
+    name: str
+    path_length: float                      # m
+    duration: float                         # s
+    task_finish_times: dict[str, float]     # label or "kind#task_id" -> s
+    mean_speed: float                       # m/s
+    max_speed: float                        # m/s
+    min_distance: dict[str, float]          # other actor -> m (centre to centre)
+    personal_space_intrusion_time: float    # s
+    collisions: int                         # overlap episodes of bodies
+    final_status: str                       # the status in the last frame
+
+
+@dataclass(frozen=True)
+class RobotMetrics:
+    name: str
+    path_length: float
+    duration: float
+    mean_speed: float
+    max_speed: float
+    min_distance: dict[str, float]
+    collisions: int
+
+
+@dataclass(frozen=True)
+class RunMetrics:
+    humans: dict[str, HumanMetrics]
+    robots: dict[str, RobotMetrics]
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-safe, keys sorted, floats rounded to 1e-6 (so executors agree exactly)."""
+        return {
+            "humans": {name: _clean(vars_of(m)) for name, m in sorted(self.humans.items())},
+            "robots": {name: _clean(vars_of(m)) for name, m in sorted(self.robots.items())},
+        }
+
+    def flat(self) -> dict[str, Scalar]:
+        """One level: `actor1.path_length`, `actor1.min_distance.actor2`, ... (sorted)."""
+        rows: dict[str, Scalar] = {}
+        for actors in self.to_dict().values():
+            _flatten("", actors, rows)
+        return dict(sorted(rows.items()))
+
+
+def vars_of(metrics: HumanMetrics | RobotMetrics) -> dict[str, object]:
+    return {key: value for key, value in vars(metrics).items() if key != "name"}
+
+
+def _round(value: float) -> float:
+    if not math.isfinite(value):
+        return value
+    return round(float(value), DECIMALS) + 0.0  # + 0.0 turns -0.0 into 0.0
+
+
+def _clean(value: object) -> object:
+    if isinstance(value, dict):
+        return {str(k): _clean(v) for k, v in sorted(value.items())}
+    if isinstance(value, bool | int | str):
+        return value
+    if isinstance(value, float | np.floating):
+        return _round(float(value))
+    raise TypeError(f"unexpected metric value {value!r}")
+
+
+def _flatten(prefix: str, value: object, rows: dict[str, Scalar]) -> None:
+    if isinstance(value, dict):
+        for key, inner in value.items():
+            _flatten(f"{prefix}.{key}" if prefix else str(key), inner, rows)
+    else:
+        assert isinstance(value, float | int | str)
+        rows[prefix] = value
+
+
+# ---- computing ---------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Actor:
+    """What the pairwise metrics need of any actor, human or robot."""
+
+    name: str
+    time: FloatArray
+    position: FloatArray
+    radius: float
+
+
+def compute_metrics(run: LoggedRun) -> RunMetrics:
+    """Every human's and robot's metrics, from a log read by `load_run`."""
+    module = _parse(run)
+    actors = _actors(run, module)
+    spans = _label_spans(module)
+    humans = {}
+    for name, track in sorted(run.humans.items()):
+        actor = actors[name]
+        others = [a for a in actors.values() if a.name != name]
+        events = [e for e in run.events if e.human == name]
+        shape = run.metadata.params.get(name, {}).get("personal_space")
+        shape = shape if isinstance(shape, Circle | Ellipse | Rectangle) else Circle(actor.radius)
+        speeds = _Motion.of(actor, events)
+        humans[name] = HumanMetrics(
+            name=name, path_length=speeds.path_length, duration=speeds.duration,
+            task_finish_times=task_finish_times(events, spans),
+            mean_speed=speeds.mean_speed, max_speed=speeds.max_speed,
+            min_distance=min_distances(actor, others),
+            personal_space_intrusion_time=intrusion_time(actor, track.heading, shape, others),
+            collisions=collisions(actor, others),
+            final_status=str(track.status[-1]) if len(track.status) else TaskStatus.PENDING.value)
+    robots = {}
+    for name in sorted(run.robots):
+        actor = actors[name]
+        others = [a for a in actors.values() if a.name != name]
+        speeds = _Motion.of(actor, [])
+        robots[name] = RobotMetrics(
+            name=name, path_length=speeds.path_length, duration=speeds.duration,
+            mean_speed=speeds.mean_speed, max_speed=speeds.max_speed,
+            min_distance=min_distances(actor, others), collisions=collisions(actor, others))
+    return RunMetrics(humans, robots)
+
+
+def _actors(run: LoggedRun, module: ast.Module | None) -> dict[str, _Actor]:
+    actors = {}
+    for name, human in run.humans.items():
+        radius = run.metadata.params.get(name, {}).get("radius", DEFAULT_HUMAN_RADIUS)
+        actors[name] = _Actor(name, human.time, human.position,
+                              float(radius) if isinstance(radius, int | float) else
+                              DEFAULT_HUMAN_RADIUS)
+    robot_radius = _robot_radii(module, run.metadata.variant)
+    for name, robot in run.robots.items():
+        actors[name] = _Actor(name, robot.time, robot.position,
+                              robot_radius.get(name, DEFAULT_ROBOT_RADIUS))
+    return actors
+
+
+@dataclass(frozen=True)
+class _Motion:
+    path_length: float
+    duration: float
+    mean_speed: float
+    max_speed: float
+
+    @staticmethod
+    def of(actor: _Actor, events: list[TaskEvent]) -> _Motion:
+        steps = np.diff(actor.position, axis=0)
+        lengths = np.hypot(steps[:, 0], steps[:, 1])
+        dt = np.diff(actor.time)
+        speed = np.divide(lengths, dt, out=np.zeros_like(lengths), where=dt > 0)
+        moving = speed > MOVING_SPEED
+        moving_time = float(dt[moving].sum())
+        moments = [e.time for e in events]
+        if np.any(moving):
+            index = np.flatnonzero(moving)
+            moments += [float(actor.time[index[0]]), float(actor.time[index[-1] + 1])]
+        return _Motion(
+            path_length=float(lengths.sum()),
+            duration=max(moments) - min(moments) if moments else 0.0,
+            mean_speed=float(lengths[moving].sum()) / moving_time if moving_time > 0 else 0.0,
+            max_speed=float(speed.max()) if len(speed) else 0.0)
+
+
+def _resampled(other: _Actor, times: FloatArray) -> tuple[FloatArray, BoolArray]:
+    """The other's positions at `times` (linear between its frames) and where it was logged."""
+    if len(other.time) == 0:
+        return np.zeros((len(times), 2)), np.zeros(len(times), dtype=np.bool_)
+    x = np.interp(times, other.time, other.position[:, 0])
+    y = np.interp(times, other.time, other.position[:, 1])
+    logged = (times >= other.time[0] - 1e-9) & (times <= other.time[-1] + 1e-9)
+    return np.column_stack([x, y]), logged
+
+
+def _distances(actor: _Actor, other: _Actor) -> tuple[FloatArray, BoolArray]:
+    where, logged = _resampled(other, actor.time)
+    gap = where - actor.position
+    return np.hypot(gap[:, 0], gap[:, 1]), logged
+
+
+def min_distances(actor: _Actor, others: list[_Actor]) -> dict[str, float]:
+    """Closest approach, centre to centre, to each other actor (only while both are logged)."""
+    result = {}
+    for other in sorted(others, key=lambda a: a.name):
+        distance, logged = _distances(actor, other)
+        if np.any(logged):
+            result[other.name] = float(distance[logged].min())
+    return result
+
+
+def collisions(actor: _Actor, others: list[_Actor]) -> int:
+    """Episodes of overlapping bodies, counted per other actor and summed."""
+    total = 0
+    for other in others:
+        distance, logged = _distances(actor, other)
+        overlap = logged & (distance < actor.radius + other.radius)
+        starts = overlap[1:] & ~overlap[:-1]
+        total += int(starts.sum()) + int(overlap[:1].sum())
+    return total
+
+
+def frame_durations(time: FloatArray) -> FloatArray:
+    """How long each frame's state held: until the next frame (the last holds for no time)."""
+    return np.append(np.diff(time), 0.0) if len(time) else np.zeros(0)
+
+
+def intrusion_time(actor: _Actor, heading: FloatArray, shape: Shape,
+                   others: list[_Actor]) -> float:
+    """Time with any other actor's centre inside this human's personal space."""
+    frames = len(actor.time)
+    if frames == 0 or not others:
+        return 0.0
+    placed = [_resampled(other, actor.time) for other in others]
+    points = np.stack([where for where, _ in placed], axis=1)      # (T, K, 2)
+    logged = np.stack([mask for _, mask in placed], axis=1)        # (T, K)
+    shapes = ShapeArrays.from_shapes([shape] * frames)
+    inside = contains(shapes, heading, actor.position, points) & logged
+    return float(frame_durations(actor.time)[inside.any(axis=1)].sum())
+
+
+# ---- labels and robot sizes, from the scenario text kept in the log ---------------------------
+
+
+def _parse(run: LoggedRun) -> ast.Module | None:
+    """The scenario as parsed from the log's copy of its text; None when there is none."""
+    from hubero_dsl.errors import HuberoError
+    from hubero_dsl.lang.parse import parse_source
+
+    if not run.metadata.source.strip():
+        return None
+    try:
+        return parse_source(run.metadata.source, run.metadata.source_path)
+    except HuberoError:
+        return None  # a log of a scenario this version cannot parse: no labels, default radii
+
+
+def _label_spans(module: ast.Module | None) -> list[tuple[str, Span, bool]]:
+    """(label, span, is a single task) of every labelled step."""
+    if module is None:
+        return []
+    from hubero_dsl.lang import ast
+
+    steps = ast.walk_steps(tuple(s for a in module.of_type(ast.ActivityDecl) for s in a.steps))
+    return [(step.label.name, step.span, isinstance(step, ast.TaskStep))
+            for step in steps if step.label is not None]
+
+
+def _inside(span: Span | None, outer: Span) -> bool:
+    if span is None:
+        return False
+    start = (span.line, span.column)
+    return (outer.line, outer.column) <= start < (outer.end_line, outer.end_column)
+
+
+def task_finish_times(events: list[TaskEvent],
+                      labels: list[tuple[str, Span, bool]]) -> dict[str, float]:
+    """One human's done tasks and labelled steps -> the time they ended (see the module doc)."""
+    started = {e.task_id: e for e in events}
+    ended = {e.task_id: e for e in events if e.status.is_final}
+    finished: dict[str, float] = {}
+    for task_id, event in sorted(ended.items()):
+        if event.status not in _DONE:
+            continue
+        key = _own_label(event.span, labels) or f"{event.kind}#{task_id}"
+        finished[key] = max(finished.get(key, event.time), event.time)
+    for name, span, single in labels:
+        inside = [i for i, e in started.items() if _inside(e.span, span)]
+        if single or not inside:
+            continue
+        if all(i in ended and ended[i].status in _DONE for i in inside):
+            finished[name] = max(ended[i].time for i in inside)
+    return dict(sorted(finished.items()))
+
+
+def _own_label(span: Span | None, labels: list[tuple[str, Span, bool]]) -> str | None:
+    """The label written on this task's own step (`invite: actor2 move_to sofa`)."""
+    if span is None:
+        return None
+    return next((name for name, where, single in labels
+                 if single and (where.line, where.column) == (span.line, span.column)), None)
+
+
+def _robot_radii(module: ast.Module | None, variant: str | None) -> dict[str, float]:
+    """Robots' radii as the scenario sets them (the log records only the humans' parameters)."""
+    if module is None:
+        return {}
+    from hubero_dsl.lang import ast
+
+    radii = {}
+    for robot in module.of_type(ast.RobotDecl):
+        for param in robot.params:
+            if param.path == ("radius",) and isinstance(param.value, ast.Quantity | ast.Number):
+                radii[robot.name.name] = _metres(param.value)
+    for declared in module.of_type(ast.VariantDecl):
+        if declared.name.name != variant:
+            continue
+        for param in declared.params:
+            if (len(param.path) == 2 and param.path[1] == "radius" and param.path[0] in radii
+                    and isinstance(param.value, ast.Quantity | ast.Number)):
+                radii[param.path[0]] = _metres(param.value)
+    return radii
+
+
+def _metres(value: ast.Quantity | ast.Number) -> float:
+    from hubero_dsl.lang import ast
+
+    if isinstance(value, ast.Quantity):
+        return value.si if value.known_unit else DEFAULT_ROBOT_RADIUS
+    return float(value.value)
