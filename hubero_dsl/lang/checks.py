@@ -94,8 +94,8 @@ class Checker:
         depths = alias_depths([(p.name, p.point) for p in places], "place", self.diagnostics)
         alias_depths([(a.name, a.area) for a in self.module.of_type(ast.AreaDecl)], "area",
                      self.diagnostics)
-        ordered = sorted((p for p in places if p.name.name in depths),
-                         key=lambda p: depths[p.name.name])
+        # places on a cycle come last: they resolve to nothing, but their names count as used
+        ordered = sorted(places, key=lambda p: depths.get(p.name.name, len(places)))
         return [*ordered, *(s for s in self.module.statements if not isinstance(s, ast.PlaceDecl))]
 
     # ---- structure and names ---------------------------------------------------------------
