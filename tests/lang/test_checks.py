@@ -407,3 +407,44 @@ def test_precedence_defaults_human_variant(check: Check) -> None:
     assert (fast["actor1"]["speed"], fast["actor3"]["speed"]) == (1.5, 1.7)
     assert base["actor1"]["radius"] == fast["actor3"]["radius"] == 0.3
     assert base["actor2"]["personal_space"] == Circle(0.5)  # the built-in default
+
+
+# ---- names used before their statement ----------------------------------------------------
+
+
+def test_a_place_may_be_used_before_its_statement(check: Check) -> None:
+    result = check("human actor3 at sofa\nrobot vacuum at sofa { path sofa -> (1.0, 1.0) }\n"
+                   "bounds rect(seat, (7.0, 3.0))\nplace seat at sofa\nplace sofa (5.5, 1.0)")
+    assert result.diagnostics == ()
+    assert result.program is not None
+    program = result.program
+    assert program.human("actor3").start.xy == (5.5, 1.0)
+    assert program.robots[0].start.xy == (5.5, 1.0)
+    assert program.robots[0].path == ((5.5, 1.0), (1.0, 1.0))
+    assert program.places["seat"].xy == (5.5, 1.0)
+    assert program.bounds is not None and program.bounds.bounds == (5.5, 1.0, 7.0, 3.0)
+
+
+def test_a_chain_of_area_names_resolves_to_its_end(check: Check) -> None:
+    result = check("area x y\narea y z\narea z rect((5.5, 1.0), (7.0, 3.0))\n"
+                   "activity { actor1 move_around in x for 1 s }")
+    assert result.program is not None
+    areas = result.program.areas
+    assert areas["x"] is areas["y"] is areas["z"]
+
+
+def test_places_and_areas_defined_through_themselves(check: Check) -> None:
+    result = check("place a at b\nplace b at a\nplace c at c\narea d e\narea e d\n"
+                   "activity { actor1 move_to c; actor1 move_to a; actor1 move_around in d }")
+    cycles = [(d.message, d.span.line if d.span else 0) for d in result.diagnostics
+              if d.code == "E103"]
+    assert cycles == [("place 'a' is defined through itself", 5),
+                      ("place 'b' is defined through itself", 6),
+                      ("place 'c' is defined through itself", 7),
+                      ("area 'd' is defined through itself", 8),
+                      ("area 'e' is defined through itself", 9)]
+
+
+def test_follow_needs_a_body_not_a_point(check: Check) -> None:
+    result = check("activity { actor1 follow (5.5, 1.0) for 5 s }")
+    assert spans(result) == [("E201", 5, 26, 36)]
