@@ -260,3 +260,8 @@ def test_a_robot_block() -> None:
     assert robot.path is not None and robot.path.loop
     assert len(robot.path.waypoints) == 3
     assert [p.dotted for p in robot.params] == ["radius"]
+
+
+def test_an_unexpected_first_token() -> None:
+    diagnostic = syntax_error("hello world\n")
+    assert (diagnostic.code, where(diagnostic)) == ("E001", (1, 1, 1, 6))

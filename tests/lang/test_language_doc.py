@@ -1,0 +1,69 @@
+"""The language documents hold true: their examples check, and every code is catalogued.
+
+- The example of the language contract (`../shared/LANGUAGE.md`, "An example"), with its map
+  pointed at the project's living room, checks without errors. Skipped without `../shared`.
+- Every ```hub block of `docs/language.md` is a whole scenario that checks clean.
+- Every diagnostic code the package can emit has a line in the reference's catalogue.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from hubero_dsl.lang.compile import check_source
+from hubero_dsl.lang.symbols import reserved_words
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+SHARED = REPO_ROOT / ".." / "shared"
+REFERENCE = REPO_ROOT / "docs" / "language.md"
+
+
+def _blocks(markdown: str, language: str) -> list[str]:
+    return re.findall(rf"^```{language}\n(.*?)^```$", markdown, flags=re.M | re.S)
+
+
+def _reference_blocks() -> list[str]:
+    return _blocks(REFERENCE.read_text(encoding="utf-8"), "hub")
+
+
+@pytest.mark.skipif(not (SHARED / "LANGUAGE.md").is_file(), reason="../shared is not there")
+def test_the_contract_example_checks() -> None:
+    contract = (SHARED / "LANGUAGE.md").read_text(encoding="utf-8")
+    section = contract.split("## An example", 1)[1]
+    (example,) = _blocks(section, "")[:1]
+    assert example.startswith("scenario")
+    # Checked as if it were a file in scenarios/, next to which ../maps/ is the project's maps.
+    result = check_source(example, str(REPO_ROOT / "scenarios" / "contract_example.hub"))
+    assert result.errors == []
+    assert [(d.code, d.message) for d in result.warnings] == [
+        ("W501", "place 'table' is never used")]
+    assert result.program is not None
+
+
+def test_the_reference_has_examples() -> None:
+    assert len(_reference_blocks()) >= 5
+
+
+@pytest.mark.parametrize("index", range(len(_reference_blocks())))
+def test_every_reference_example_checks_clean(index: int) -> None:
+    block = _reference_blocks()[index]
+    result = check_source(block, str(REFERENCE))
+    assert [(d.code, d.span and d.span.line, d.message) for d in result.diagnostics] == []
+
+
+def test_every_code_is_in_the_catalogue() -> None:
+    package = REPO_ROOT / "hubero_dsl"
+    emitted = {code for path in package.rglob("*.py")
+               for code in re.findall(r'"([EW]\d{3})"', path.read_text(encoding="utf-8"))}
+    catalogue = set(re.findall(r"^\| `([EW]\d{3})` \|", REFERENCE.read_text(encoding="utf-8"),
+                               flags=re.M))
+    assert emitted <= catalogue, sorted(emitted - catalogue)
+
+
+def test_the_reserved_words_are_listed() -> None:
+    section = REFERENCE.read_text(encoding="utf-8").split("## Reserved words", 1)[1]
+    (listing,) = _blocks(section, "")[:1]
+    assert set(listing.split()) == reserved_words()
