@@ -1,0 +1,379 @@
+"""Comparing runs: two logs side by side, or every run of a sweep against a baseline variant.
+
+    d = diff_runs(load_run("circle.mcap"), load_run("ellipse.mcap"), epsilon=0.1)
+    d.humans["actor1"].frechet, d.humans["actor1"].diverged_at, d.humans["actor1"].parameters
+    s = diff_sweep("sweep_out/", baseline="circle")   # reads sweep_out/index.json
+
+Humans are matched by name; runs whose humans differ are not comparable (InputError naming
+them). Per human a diff holds every metric of both runs with its delta (B - A), the discrete
+Fréchet and Hausdorff distances between the two paths (shapely, over the logged positions), the
+first time the two are more than `epsilon` apart at the same instant, and the parameters whose
+values differ between the runs.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import shapely
+
+from hubero_dsl.analysis.metrics import (
+    DECIMALS,
+    HumanMetrics,
+    RunMetrics,
+    Scalar,
+    compute_metrics,
+    vars_of,
+)
+from hubero_dsl.errors import InputError
+from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, describe_shape
+
+if TYPE_CHECKING:
+    from hubero_dsl.log.reader import HumanTrack, LoggedRun
+
+    FloatArray = np.ndarray[Any, np.dtype[np.float64]]
+
+DEFAULT_EPSILON = 0.1  # m
+INDEX_NAME = "index.json"
+INDEX_VERSION = 1
+
+# Metrics in the order tables show them; keys of dict metrics follow their group.
+_ORDER = ("path_length", "duration", "mean_speed", "max_speed", "min_distance",
+          "personal_space_intrusion_time", "collisions", "task_finish_times", "final_status")
+
+
+@dataclass(frozen=True)
+class MetricDelta:
+    """One metric of one human in both runs; `delta` is B - A (None for text or a missing side)."""
+
+    name: str
+    a: Scalar | None
+    b: Scalar | None
+    delta: float | int | None
+
+
+@dataclass(frozen=True)
+class HumanDiff:
+    name: str
+    metrics: tuple[MetricDelta, ...]
+    frechet: float | None        # m, discrete Fréchet distance between the paths
+    hausdorff: float | None      # m
+    max_separation: float | None  # m, largest distance between the two at the same instant
+    diverged_at: float | None    # s, first instant they are more than epsilon apart; None: never
+    parameters: dict[str, tuple[str, str]]  # parameter -> (value in A, value in B), if different
+
+    def metric(self, name: str) -> MetricDelta | None:
+        return next((m for m in self.metrics if m.name == name), None)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "metrics": {m.name: {"a": m.a, "b": m.b, "delta": m.delta} for m in self.metrics},
+            "frechet": self.frechet, "hausdorff": self.hausdorff,
+            "max_separation": self.max_separation, "diverged_at": self.diverged_at,
+            "parameters": {k: list(v) for k, v in sorted(self.parameters.items())},
+        }
+
+
+@dataclass(frozen=True)
+class RunSide:
+    """Which run one side of a diff is."""
+
+    path: str
+    title: str
+    variant: str | None
+    seed: int
+
+
+@dataclass(frozen=True)
+class RunDiff:
+    a: RunSide
+    b: RunSide
+    epsilon: float
+    humans: dict[str, HumanDiff]
+    notes: tuple[str, ...] = ()  # what else differs (the scenario, the map), said in words
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"a": vars(self.a), "b": vars(self.b), "epsilon": self.epsilon,
+                "humans": {n: h.to_dict() for n, h in sorted(self.humans.items())},
+                "notes": list(self.notes)}
+
+
+def diff_runs(a: LoggedRun, b: LoggedRun, *, epsilon: float = DEFAULT_EPSILON,
+              metrics_a: RunMetrics | None = None,
+              metrics_b: RunMetrics | None = None) -> RunDiff:
+    """Compare two runs human by human; InputError if their humans differ."""
+    if not (epsilon > 0 and math.isfinite(epsilon)):
+        raise InputError(f"epsilon must be a positive number of metres, got {epsilon!r}")
+    _check_same_humans(a, b)
+    metrics_a = metrics_a or compute_metrics(a)
+    metrics_b = metrics_b or compute_metrics(b)
+    humans = {}
+    for name in sorted(a.humans):
+        frechet, hausdorff = path_distances(a.humans[name].position, b.humans[name].position)
+        separation, diverged = divergence(a.humans[name], b.humans[name], epsilon)
+        humans[name] = HumanDiff(
+            name=name,
+            metrics=metric_deltas(metrics_a.humans[name], metrics_b.humans[name]),
+            frechet=frechet, hausdorff=hausdorff, max_separation=separation,
+            diverged_at=diverged,
+            parameters=parameter_changes(a.metadata.params.get(name, {}),
+                                         b.metadata.params.get(name, {})))
+    return RunDiff(_side(a), _side(b), epsilon, humans, _notes(a, b))
+
+
+def _side(run: LoggedRun) -> RunSide:
+    return RunSide(str(run.path), run.metadata.title, run.metadata.variant, run.metadata.seed)
+
+
+def _check_same_humans(a: LoggedRun, b: LoggedRun) -> None:
+    only_a, only_b = sorted(set(a.humans) - set(b.humans)), sorted(set(b.humans) - set(a.humans))
+    if not only_a and not only_b:
+        return
+    parts = [f"only in {run.path}: {', '.join(names)}"
+             for run, names in ((a, only_a), (b, only_b)) if names]
+    raise InputError(f"the runs have different humans ({'; '.join(parts)}): are they runs of "
+                     f"the same scenario? ('{a.metadata.title}' and '{b.metadata.title}')")
+
+
+def _notes(a: LoggedRun, b: LoggedRun) -> tuple[str, ...]:
+    notes = []
+    if a.metadata.source_sha256 != b.metadata.source_sha256:
+        notes.append(f"the scenario texts differ ('{a.metadata.title}' in A, "
+                     f"'{b.metadata.title}' in B)")
+    if a.grid.shape != b.grid.shape or not np.array_equal(a.grid.occupied, b.grid.occupied):
+        notes.append("the maps differ")
+    return tuple(notes)
+
+
+# ---- the pieces ---------------------------------------------------------------------------
+
+
+def _rounded(value: float) -> float:
+    return round(value, DECIMALS) + 0.0
+
+
+def _metric_values(metrics: HumanMetrics) -> dict[str, Scalar]:
+    values: dict[str, Scalar] = {}
+    for key, value in vars_of(metrics).items():
+        if isinstance(value, dict):
+            values.update({f"{key}.{inner}": v for inner, v in sorted(value.items())})
+        else:
+            assert isinstance(value, float | int | str)
+            values[key] = value
+    return values
+
+
+def _tidy(value: Scalar | None) -> Scalar | None:
+    return _rounded(value) if isinstance(value, float) else value
+
+
+def _order(name: str) -> tuple[int, str]:
+    return _ORDER.index(name.split(".", 1)[0]), name
+
+
+def metric_deltas(a: HumanMetrics, b: HumanMetrics) -> tuple[MetricDelta, ...]:
+    """Every metric either run has, in table order, with B - A where both are numbers."""
+    values_a, values_b = _metric_values(a), _metric_values(b)
+    rows = []
+    for name in sorted(set(values_a) | set(values_b), key=_order):
+        left, right = _tidy(values_a.get(name)), _tidy(values_b.get(name))
+        delta: float | int | None = None
+        if isinstance(left, int) and isinstance(right, int):
+            delta = right - left
+        elif isinstance(left, int | float) and isinstance(right, int | float):
+            delta = _rounded(float(right) - float(left))
+        rows.append(MetricDelta(name, left, right, delta))
+    return tuple(rows)
+
+
+def _line(position: FloatArray) -> shapely.LineString | None:
+    if len(position) == 0:
+        return None
+    points = position if len(position) > 1 else np.repeat(position, 2, axis=0)
+    return shapely.LineString(points)
+
+
+def path_distances(a: FloatArray, b: FloatArray) -> tuple[float | None, float | None]:
+    """Discrete Fréchet and Hausdorff distances between two paths (None if either is empty)."""
+    line_a, line_b = _line(a), _line(b)
+    if line_a is None or line_b is None:
+        return None, None
+    return (_rounded(float(shapely.frechet_distance(line_a, line_b))),
+            _rounded(float(shapely.hausdorff_distance(line_a, line_b))))
+
+
+def divergence(a: HumanTrack, b: HumanTrack,
+               epsilon: float) -> tuple[float | None, float | None]:
+    """(largest same-instant separation, first instant it exceeds epsilon) over the times both
+    runs logged; B's position is interpolated at A's frame times."""
+    if len(a.time) == 0 or len(b.time) == 0:
+        return None, None
+    both = (a.time >= b.time[0]) & (a.time <= b.time[-1])
+    times = a.time[both]
+    if len(times) == 0:
+        return None, None
+    where_b = np.column_stack([np.interp(times, b.time, b.position[:, axis]) for axis in (0, 1)])
+    gap = np.linalg.norm(where_b - a.position[both], axis=1)
+    apart = np.flatnonzero(gap > epsilon)
+    return _rounded(float(gap.max())), (_rounded(float(times[apart[0]])) if len(apart) else None)
+
+
+def describe_value(value: object) -> str:
+    if isinstance(value, Circle | Ellipse | Rectangle):
+        return describe_shape(value)
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value)
+
+
+def parameter_changes(a: dict[str, Any], b: dict[str, Any]) -> dict[str, tuple[str, str]]:
+    """Parameters with different values in the two runs: name -> (A's, B's), as text."""
+    missing = "(not set)"
+    return {key: (describe_value(a[key]) if key in a else missing,
+                  describe_value(b[key]) if key in b else missing)
+            for key in sorted(set(a) | set(b)) if a.get(key) != b.get(key)}
+
+
+# ---- sweeps -------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class IndexedRun:
+    """One entry of a sweep's index.json."""
+
+    variant: str | None
+    seed: int
+    status: str
+    reason: str
+    log: Path | None  # absolute (resolved against the sweep folder); None when not written
+    parameters: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class SweepIndex:
+    directory: Path
+    scenario: str
+    runs: tuple[IndexedRun, ...]
+
+
+@dataclass(frozen=True)
+class SweepComparison:
+    """One run of a sweep against the baseline of its seed; `diff` is None when it could not be
+    compared, and `note` says why."""
+
+    variant: str | None
+    seed: int
+    status: str
+    diff: RunDiff | None
+    note: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"variant": self.variant, "seed": self.seed, "status": self.status,
+                "note": self.note, "diff": self.diff.to_dict() if self.diff else None}
+
+
+@dataclass(frozen=True)
+class SweepDiff:
+    directory: str
+    scenario: str
+    baseline: str
+    epsilon: float
+    comparisons: tuple[SweepComparison, ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"directory": self.directory, "scenario": self.scenario,
+                "baseline": self.baseline, "epsilon": self.epsilon,
+                "comparisons": [c.to_dict() for c in self.comparisons]}
+
+
+def load_index(directory: str | Path) -> SweepIndex:
+    """Read DIR/index.json as `hubero sweep` writes it; InputError for anything else."""
+    directory = Path(directory)
+    path = directory / INDEX_NAME
+    if not directory.is_dir():
+        raise InputError(f"{directory} is not a directory of sweep results")
+    try:
+        index = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputError(f"{directory} has no {INDEX_NAME}: is it the output folder of "
+                         f"`hubero sweep`?") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InputError(f"{path} cannot be read as a sweep index: {exc}") from None
+    if not isinstance(index, dict) or not isinstance(index.get("runs"), list):
+        raise InputError(f"{path} is not a sweep index (no list of runs)")
+    if index.get("version", INDEX_VERSION) > INDEX_VERSION:
+        raise InputError(f"{path} has index version {index['version']}; this hubero reads "
+                         f"version {INDEX_VERSION}")
+    if not index["runs"]:
+        raise InputError(f"{path} lists no runs: the sweep is empty")
+    runs = tuple(_indexed_run(entry, directory, path) for entry in index["runs"])
+    return SweepIndex(directory, str(index.get("scenario", "")), runs)
+
+
+def _indexed_run(entry: Any, directory: Path, path: Path) -> IndexedRun:
+    try:
+        log = entry.get("log")
+        return IndexedRun(
+            variant=None if entry.get("variant") is None else str(entry["variant"]),
+            seed=int(entry["seed"]), status=str(entry.get("status", "")),
+            reason=str(entry.get("reason") or ""),
+            log=directory / str(log) if log else None,
+            parameters=dict(entry.get("parameters") or {}))
+    except (AttributeError, KeyError, TypeError, ValueError):
+        raise InputError(f"{path}: a run entry is malformed: {entry!r}") from None
+
+
+def diff_sweep(directory: str | Path, baseline: str, *,
+               epsilon: float = DEFAULT_EPSILON) -> SweepDiff:
+    """Every run of a sweep against the baseline variant's run of the same seed."""
+    from hubero_dsl.log.reader import load_run
+
+    index = load_index(directory)
+    variants = sorted({str(r.variant) for r in index.runs})
+    bases = {r.seed: r for r in index.runs if r.variant == baseline}
+    if not bases:
+        raise InputError(f"no run of the baseline variant '{baseline}' in {index.directory} "
+                         f"(variants: {', '.join(variants)})")
+    loaded: dict[Path, tuple[LoggedRun, RunMetrics]] = {}
+
+    def read(path: Path) -> tuple[LoggedRun, RunMetrics]:
+        if path not in loaded:
+            run = load_run(path)
+            loaded[path] = (run, compute_metrics(run))
+        return loaded[path]
+
+    comparisons = []
+    for run in sorted(index.runs, key=lambda r: (r.seed, str(r.variant))):
+        if run.variant == baseline:
+            continue
+        base = bases.get(run.seed)
+        note = _why_not_comparable(run, base)
+        if note:
+            comparisons.append(SweepComparison(run.variant, run.seed, run.status, None, note))
+            continue
+        assert base is not None and base.log is not None and run.log is not None
+        try:
+            (left, left_metrics), (right, right_metrics) = read(base.log), read(run.log)
+            diff = diff_runs(left, right, epsilon=epsilon, metrics_a=left_metrics,
+                             metrics_b=right_metrics)
+        except InputError as exc:  # one bad log spoils its row, not the whole table
+            comparisons.append(SweepComparison(run.variant, run.seed, run.status, None,
+                                               exc.message))
+            continue
+        comparisons.append(SweepComparison(run.variant, run.seed, run.status, diff))
+    return SweepDiff(str(index.directory), index.scenario, baseline, epsilon, tuple(comparisons))
+
+
+def _why_not_comparable(run: IndexedRun, base: IndexedRun | None) -> str:
+    if base is None:
+        return f"no baseline run with seed {run.seed}"
+    if base.log is None:
+        return f"the baseline run with seed {run.seed} wrote no log ({base.reason or base.status})"
+    if run.log is None:
+        return f"no log ({run.reason or run.status})"
+    return ""
