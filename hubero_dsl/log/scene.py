@@ -37,7 +37,7 @@ from hubero_dsl.world.personal_space import outline
 from hubero_dsl.world.shapes import Shape
 
 if TYPE_CHECKING:
-    from hubero_dsl.sim.engine import Engine
+    from hubero_dsl.log.frames import FrameState
 
 TIME_MARK = '"@time@"'   # where each snapshot's timestamp goes (no name can contain '@')
 OUTLINE_POINTS = 32
@@ -169,60 +169,61 @@ def robot_entity(name: str, radius: float) -> str:
 class SceneBuilder:
     """Keeps every entity's JSON and says, once per frame, whether the scene changed."""
 
-    def __init__(self, engine: Engine) -> None:
-        humans = engine.humans
-        self._names = list(humans.names)
-        count = len(self._names)
+    def __init__(self, humans: list[str], radius: list[float], shapes: list[Shape],
+                 robots: list[str], robot_radius: list[float]) -> None:
+        self._names = humans
+        self._radius = radius
+        self._shapes = shapes
+        count = len(humans)
         self._body: list[str] = [""] * count
         self._plan: list[str] = [""] * count
         self._body_key = np.full((count, 3), -1, dtype=np.int64)  # posture, status, removed
         self._cursor = np.full(count, -1, dtype=np.intp)
         self._end = np.full(count, -1, dtype=np.intp)
         self._goal = np.full((count, 2), np.inf)
-        robots = engine.robots
-        self._robots = [robot_entity(name, float(radius))
-                        for name, radius in zip(robots.names, robots.radius.tolist(),
-                                                strict=True)]
+        self._waypoints: list[npt.NDArray[np.float64]] = [np.zeros((0, 2))] * count
+        self._robots = [robot_entity(name, radius)
+                        for name, radius in zip(robots, robot_radius, strict=True)]
         # human/ < plan/ < robot/: bodies by name, then plans by name, then robots by name
-        self._order = sorted(range(count), key=lambda i: self._names[i])
-        self._robot_order = sorted(range(len(self._robots)), key=lambda i: robots.names[i])
+        self._order = sorted(range(count), key=lambda i: humans[i])
+        self._robot_order = sorted(range(len(robots)), key=lambda i: robots[i])
 
-    def snapshot(self, engine: Engine, status: npt.NDArray[np.int8]) -> str | None:
+    def snapshot(self, frame: FrameState, status: npt.NDArray[np.int8]) -> str | None:
         """The whole scene as SceneUpdate JSON (timestamp marks in place), or None if unchanged."""
-        bodies = self._update_bodies(engine, status)
-        plans = self._update_plans(engine)
+        bodies = self._update_bodies(frame, status)
+        plans = self._update_plans(frame)
         if not (bodies or plans):
             return None
         entities = [self._body[i] for i in self._order] + [self._plan[i] for i in self._order]
         entities += [self._robots[i] for i in self._robot_order]
         return '{"deletions":[],"entities":[' + ",".join(entities) + "]}"
 
-    def _update_bodies(self, engine: Engine, status: npt.NDArray[np.int8]) -> bool:
-        humans = engine.humans
-        removed = np.array([name in engine.removed for name in self._names], dtype=np.int64) \
-            if engine.removed else np.zeros(len(self._names), dtype=np.int64)
-        key = np.column_stack([humans.posture.astype(np.int64), status.astype(np.int64),
+    def _update_bodies(self, frame: FrameState, status: npt.NDArray[np.int8]) -> bool:
+        removed = np.zeros(len(self._names), dtype=np.int64)
+        if frame.removed:
+            removed[[i for i, name in enumerate(self._names) if name in frame.removed]] = 1
+        key = np.column_stack([frame.posture.astype(np.int64), status.astype(np.int64),
                                removed])
         changed = np.flatnonzero((key != self._body_key).any(axis=1))
         for i in changed.tolist():
             name = self._names[i]
             if removed[i]:
-                frame = human_frame(name)
-                self._body[i] = absent_entity(frame, frame, frame_locked=True)
+                self._body[i] = absent_entity(human_frame(name), human_frame(name),
+                                              frame_locked=True)
             else:
-                self._body[i] = named_body(name, float(humans.radius[i]), humans.shapes[i],
-                                           int(humans.posture[i]), STATUS_NAMES[status[i]])
+                self._body[i] = named_body(name, self._radius[i], self._shapes[i],
+                                           int(frame.posture[i]), STATUS_NAMES[status[i]])
         self._body_key = key
         return len(changed) > 0
 
-    def _update_plans(self, engine: Engine) -> bool:
-        paths, goal = engine.paths, engine.humans.goal
+    def _update_plans(self, frame: FrameState) -> bool:
+        for i, waypoints in frame.paths.items():
+            self._waypoints[i] = waypoints
+        goal = frame.goal
         same_goal = (goal == self._goal) | (np.isnan(goal) & np.isnan(self._goal))
-        changed = np.flatnonzero((paths.cursor != self._cursor) | (paths.end != self._end)
+        changed = np.flatnonzero((frame.cursor != self._cursor) | (frame.end != self._end)
                                  | ~same_goal.all(axis=1))
         for i in changed.tolist():
-            self._plan[i] = plan_entity(self._names[i], goal[i], paths.waypoints(i))
-        self._cursor = paths.cursor.copy()
-        self._end = paths.end.copy()
-        self._goal = goal.copy()
+            self._plan[i] = plan_entity(self._names[i], goal[i], self._waypoints[i])
+        self._cursor, self._end, self._goal = frame.cursor, frame.end, goal
         return len(changed) > 0

@@ -6,15 +6,21 @@
 
 The log is written to a temporary file beside the final one (`.NAME.PID.N.part`) and renamed
 over it only by `close()`: a run that fails, is interrupted or is killed never leaves a partial
-file under the final name (a killed run leaves its `.part` file). Leaving the `with` block
-through an exception deletes the temporary file.
+file under the final name. Leaving the `with` block through an exception deletes the temporary
+file (a killed run's writer process deletes it too; an in-process writer cannot).
 
-What is written (topics and schemas in `schemas.py`, the scene in `scene.py`): at the start the
-provenance metadata, the scenario source and its map (YAML and image) as attachments, `/map`
-and a first frame; a frame (`/tf`, `/humans/NAME/pose`, `/humans/NAME/state`, and `/scene`
-when it changed) each time the simulation clock passes a multiple of 1/rate_hz, plus one at the
-last tick; every task status change on `/tasks` as it happens; scenario events on `/log`; at
-the end how the run ended (`hubero.result` metadata). Log and publish times are simulation time.
+What is written (topics and schemas in `schemas.py`, frames in `frames.py`, the scene in
+`scene.py`): at the start the provenance metadata, the scenario source and its map (YAML and
+image) as attachments, `/map` and a first frame (the state before the first step); a frame
+(`/tf`, `/humans/NAME/pose`, `/humans/NAME/state`, and `/scene` when it changed) each time the
+simulation clock passes a multiple of 1/rate_hz, plus one at the last tick if that was not a
+sample; every task status change on `/tasks` as it happens; scenario events on `/log`; at the
+end how the run ended (`hubero.result` metadata). Log and publish times are simulation time.
+
+Where the work happens: `observe` only copies what changed out of the engine (`Update`s). The
+JSON and MCAP encoding (`encoder.py`) runs in a writer process forked at `open()` when the
+platform can fork and no other thread runs, so that it overlaps with the simulation on another
+core; otherwise, or with `writer_process=False`, in this process. Both write the same bytes.
 """
 
 from __future__ import annotations
@@ -23,40 +29,45 @@ import contextlib
 import hashlib
 import itertools
 import math
+import multiprocessing
 import os
+import signal
+import sys
+import threading
 from pathlib import Path
 from types import TracebackType
-from typing import TYPE_CHECKING, Any, BinaryIO
+from typing import TYPE_CHECKING, Any, Protocol
 
-import numpy as np
 import yaml
 
 from hubero_dsl import __version__
 from hubero_dsl.errors import LogError
 from hubero_dsl.log import schemas as s
-from hubero_dsl.log.container import McapContainer
-from hubero_dsl.log.frames import FrameEncoder
-from hubero_dsl.log.scene import TIME_MARK, SceneBuilder
-from hubero_dsl.sim.status import TaskStatus
+from hubero_dsl.log.encoder import LogEncoder, LogSetup, Update, discard_file
+from hubero_dsl.log.frames import Capturer
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle
 
 if TYPE_CHECKING:
-    from hubero_dsl.diagnostics import Span
+    from multiprocessing.connection import Connection
+
     from hubero_dsl.sim.run import RunResult
     from hubero_dsl.sim.simulation import Simulation
     from hubero_dsl.sim.status import TaskEvent
 
 SAMPLE_EPSILON = 1e-9  # tick * dt * rate lands a hair below an integer for some dt and rates
-MEDIA_TYPES = {".yaml": "application/yaml", ".yml": "application/yaml", ".hub": "text/plain",
+WRITER_JOIN_TIMEOUT = 30.0  # s to wait for the writer process to wind down after a failure
+MEDIA_TYPES = {".yaml": "application/yaml", ".yml": "application/yaml",
                ".pgm": "image/x-portable-graymap", ".png": "image/png", ".bmp": "image/bmp",
                ".jpg": "image/jpeg", ".jpeg": "image/jpeg", ".tif": "image/tiff",
                ".tiff": "image/tiff", ".gif": "image/gif", ".ppm": "image/x-portable-pixmap"}
+
 
 class RunLog:
     """An MCAP log of one run; a context manager whose `observe` is a run observer."""
 
     def __init__(self, path: str | Path, sim: Simulation, *, rate_hz: float = 10.0,
-                 compression: str = "zstd", chunk_size: int = 1 << 20) -> None:
+                 compression: str = "zstd", chunk_size: int = 4 << 20,
+                 writer_process: bool | None = None) -> None:
         if not (isinstance(rate_hz, int | float) and math.isfinite(rate_hz) and rate_hz > 0):
             raise LogError(f"the log rate must be a number of hertz above 0, got {rate_hz!r}")
         self.path = Path(path)
@@ -64,20 +75,14 @@ class RunLog:
         self._sim = sim
         self._compression = compression
         self._chunk_size = chunk_size
-        self._file: BinaryIO | None = None
-        self._temp: Path | None = None
-        self._mcap: McapContainer | None = None
+        self._writer_process = writer_process
+        self._sink: _Sink | None = None
         self._closed = False
-        engine = sim.engine
-        self._dt_ns = s.nanoseconds(engine.dt)
-        self._names = list(engine.humans.names)
-        self._frame = FrameEncoder(self._names, list(engine.robots.names))
-        self._source_lines = sim.program.source.text.splitlines()
-        self._events_written = 0
+        self._capturer = Capturer(sim.engine.humans.count)
+        self._events_sent = 0
         self._last_sample = -1
         self._last_frame_tick = -1
         self._frames = 0
-        self._scene = SceneBuilder(engine)
 
     # ---- the context manager ----------------------------------------------------------------
 
@@ -87,7 +92,7 @@ class RunLog:
 
     def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
                  trace: TracebackType | None) -> None:
-        if kind is None and not self._closed and self._mcap is not None:
+        if kind is None and not self._closed and self._sink is not None:
             self.close()
         else:
             self._discard()
@@ -95,59 +100,50 @@ class RunLog:
     # ---- the observer API -------------------------------------------------------------------
 
     def open(self) -> None:
-        """Create the temporary file and write the header, provenance, map and first frame."""
-        if self._file is not None:
+        """Create the temporary file, start the writer, and record the first frame."""
+        if self._sink is not None:
             raise LogError(f"log {self.path} is already open")
-        fd, self._temp = _create_temp(self.path)
-        self._file = os.fdopen(fd, "wb", buffering=1 << 20)
+        fd, temp = _create_temp(self.path)
         try:
-            self._start()
+            setup = self._setup(temp)
+            fork = can_fork() if self._writer_process is None else self._writer_process
+            self._sink = _ProcessSink(setup, fd) if fork else _LocalSink(setup, fd)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                os.close(fd)
+            discard_file(None, temp)
+            raise
+        try:
+            self.observe(self._sim)
         except BaseException:
             self._discard()
             raise
 
-    def _start(self) -> None:
-        assert self._file is not None
-        with self._writing():
-            self._mcap = McapContainer(self._file, library=f"hubero {__version__}",
-                                       compression=self._compression,
-                                       chunk_size=self._chunk_size, background=True)
-            self._define_channels()
-            self._write_provenance()
-            self._mcap.add_message(self._channel[s.MAP_TOPIC], 0,
-                                   s.dumps(s.grid_message(self._sim.program.grid)).encode())
-            self._log(s.LOG_INFO, self._start_message(), None)
-            self.observe(self._sim)
-
     def observe(self, sim: Simulation) -> None:
         """Record what happened since the last call; a frame when a sample time was passed."""
-        with self._writing():
-            engine = sim.engine
-            self._write_events(engine.events)
-            sample = math.floor(engine.tick * engine.dt * self.rate_hz + SAMPLE_EPSILON)
-            if sample > self._last_sample:
-                self._last_sample = sample
-                self._write_frame(sim)
+        assert self._sink is not None, "observe() before open()"
+        engine = sim.engine
+        sample = math.floor(engine.tick * engine.dt * self.rate_hz + SAMPLE_EPSILON)
+        frame = None
+        if sample > self._last_sample:
+            self._last_sample = sample
+            frame = self._capture(sim)
+        events = self._new_events(sim)
+        if events or frame is not None:
+            self._sink.send(Update(events, frame))
 
     def close(self, result: RunResult | None = None) -> Path:
-        """Write the last events, frame and the result, then move the file to its final name."""
+        """Record the last events and frame and the result; move the file to its final name."""
         if self._closed:
             return self.path
-        if self._mcap is None or self._file is None or self._temp is None:
+        if self._sink is None:
             raise LogError(f"log {self.path} was never opened")
         try:
-            with self._writing():
-                engine = self._sim.engine
-                self._write_events(engine.events)
-                if engine.tick != self._last_frame_tick:
-                    self._write_frame(self._sim)
-                if result is not None:
-                    self._write_result(result)
-                self._mcap.finish()
-                self._file.flush()
-                os.fsync(self._file.fileno())
-                self._file.close()
-                os.replace(self._temp, self.path)
+            engine = self._sim.engine
+            frame = self._capture(self._sim) if engine.tick != self._last_frame_tick else None
+            self._sink.send(Update(self._new_events(self._sim), frame))
+            self._sink.finish(_result_json(result) if result is not None else None,
+                              engine.tick)
         except BaseException:
             self._discard()
             raise
@@ -156,162 +152,249 @@ class RunLog:
 
     @property
     def frames(self) -> int:
-        """How many frames have been written so far."""
+        """How many frames have been recorded so far."""
         return self._frames
 
-    # ---- writing ----------------------------------------------------------------------------
+    # ---- capturing --------------------------------------------------------------------------
 
-    def _writing(self) -> _WriteGuard:
-        return _WriteGuard(self.path)
-
-    def _define_channels(self) -> None:
-        assert self._mcap is not None
-        names = sorted({*s.TOPIC_SCHEMAS.values(), s.POSE_IN_FRAME, s.HUMAN_STATE})
-        schema_id = {name: self._mcap.add_schema(name, s.schema_bytes(name)) for name in names}
-        self._channel = {topic: self._mcap.add_channel(topic, schema_id[name])
-                         for topic, name in s.TOPIC_SCHEMAS.items()}
-        self._pose_channels = [self._mcap.add_channel(s.human_pose_topic(n),
-                                                      schema_id[s.POSE_IN_FRAME])
-                               for n in self._names]
-        self._state_channels = [self._mcap.add_channel(s.human_state_topic(n),
-                                                       schema_id[s.HUMAN_STATE])
-                                for n in self._names]
-        self._frame_channels = np.array(self._pose_channels + self._state_channels,
-                                        dtype=np.uint16)
-
-    def _write_provenance(self) -> None:
-        assert self._mcap is not None
-        program, sim = self._sim.program, self._sim
-        source_name = Path(program.source.path).name or "scenario.hub"
-        source = program.source.text.encode("utf-8")
-        map_yaml, image_path, image = _read_map_files(program.map_path)
-        attachments = {"source": f"source/{source_name}",
-                       "map": f"map/{program.map_path.name}",
-                       "map_image": f"map/{image_path.name}"}
-        metadata = {
-            "format": s.FORMAT, "format_version": str(s.FORMAT_VERSION),
-            "hubero_version": __version__, "title": program.title,
-            "source_path": program.source.path,
-            "source_sha256": hashlib.sha256(source).hexdigest(),
-            "map_path": str(program.map_path),
-            "map_sha256": hashlib.sha256(map_yaml).hexdigest(),
-            "map_image_sha256": hashlib.sha256(image).hexdigest(),
-            "seed": str(sim.seed), "variant": sim.variant or "",
-            "variants": s.dumps(list(program.variants)),
-            "params": s.dumps(_params_json(sim.params)),
-            "step": repr(sim.engine.dt), "time_limit": repr(program.time_limit),
-            "on_failure": program.on_failure, "log_rate_hz": repr(self.rate_hz),
-            "humans": s.dumps(self._names),
-            "robots": s.dumps(list(sim.engine.robots.names)),
-            "attachments": s.dumps(attachments),
-        }
-        self._mcap.add_metadata(s.METADATA_NAME, metadata)
-        self._mcap.add_attachment(attachments["source"], "text/plain", source)
-        self._mcap.add_attachment(attachments["map"], "application/yaml", map_yaml)
-        self._mcap.add_attachment(attachments["map_image"],
-                                  MEDIA_TYPES.get(image_path.suffix.lower(),
-                                                  "application/octet-stream"), image)
-
-    def _write_frame(self, sim: Simulation) -> None:
-        assert self._mcap is not None
-        engine = sim.engine
-        ns = engine.tick * self._dt_ns
-        ts = s.timestamp_json(ns)
-        self._write_scene(engine, ns)
-        encoder = self._frame
-        self._mcap.add_message(self._channel[s.TF_TOPIC], ns, encoder.transforms(engine, ts))
-        self._mcap.add_messages(self._frame_channels, ns,
-                                encoder.poses(engine, ts) + encoder.states(engine, ts),
-                                self._frames)
+    def _capture(self, sim: Simulation) -> Any:
         self._frames += 1
-        self._last_frame_tick = engine.tick
+        self._last_frame_tick = sim.engine.tick
+        return self._capturer.capture(sim.engine)
 
-    def _write_scene(self, engine: Any, ns: int) -> None:
-        assert self._mcap is not None
-        scene = self._scene.snapshot(engine, self._frame.status)
-        if scene is not None:
-            payload = scene.replace(TIME_MARK, s.timestamp_json(ns))
-            self._mcap.add_message(self._channel[s.SCENE_TOPIC], ns, payload.encode())
+    def _new_events(self, sim: Simulation) -> list[tuple[TaskEvent, str]]:
+        """Task events since the last call, each with its task's description."""
+        engine = sim.engine
+        events = engine.events[self._events_sent:]
+        self._events_sent += len(events)
+        described = []
+        for event in events:
+            description = ""
+            if event.human in engine.humans.names:
+                handle = engine.handle[engine.index_of(event.human)]
+                if handle is not None and handle.task_id == event.task_id:
+                    description = handle.description
+            described.append((event, description))
+        return described
 
-    def _write_events(self, events: list[TaskEvent]) -> None:
-        assert self._mcap is not None
-        engine = self._sim.engine
-        for event in events[self._events_written:]:
-            ns = event.tick * self._dt_ns
-            self._mcap.add_message(self._channel[s.TASKS_TOPIC], ns,
-                                   s.dumps(self._task_event(event, ns)).encode())
-            self._frame.record_event(engine, event)
-            if event.status is TaskStatus.ABORTED:
-                self._log(s.LOG_WARNING, f"{event.human} {event.kind} aborted: {event.reason}",
-                          event.span, ns)
-        self._events_written = len(events)
-
-    def _task_event(self, event: TaskEvent, ns: int) -> dict[str, Any]:
-        span = event.span
-        return {"timestamp": s.timestamp(ns), "tick": event.tick, "task_id": event.task_id,
-                "human": event.human, "kind": event.kind, "status": event.status.value,
-                "reason": event.reason, "file": span.file if span else "",
-                "line": span.line if span else 0, "column": span.column if span else 0,
-                "end_line": span.end_line if span else 0,
-                "end_column": span.end_column if span else 0,
-                "source_line": self._source_line(span)}
-
-    def _source_line(self, span: Span | None) -> str:
-        if span is None or not 0 < span.line <= len(self._source_lines):
-            return ""
-        return self._source_lines[span.line - 1].strip()
-
-    def _log(self, level: int, message: str, span: Span | None, ns: int = 0) -> None:
-        assert self._mcap is not None
-        self._mcap.add_message(self._channel[s.LOG_TOPIC], ns, s.dumps({
-            "timestamp": s.timestamp(ns), "level": level, "message": message,
-            "name": "hubero", "file": span.file if span else self._sim.program.source.path,
-            "line": span.line if span else 0}).encode())
-
-    def _start_message(self) -> str:
-        sim = self._sim
+    def _setup(self, temp: Path) -> LogSetup:
+        sim, program, engine = self._sim, self._sim.program, self._sim.engine
+        humans, robots = engine.humans, engine.robots
         variant = f"variant '{sim.variant}'" if sim.variant else "no variant"
-        return (f"run of '{sim.program.title}' started: {variant}, seed {sim.seed}, "
-                f"{len(self._names)} humans, {sim.engine.robots.count} robots")
-
-    def _write_result(self, result: RunResult) -> None:
-        assert self._mcap is not None
-        ns = self._sim.engine.tick * self._dt_ns
-        level = s.LOG_INFO if result.succeeded else s.LOG_ERROR
-        reason = f": {result.reason}" if result.reason else ""
-        self._log(level, f"run {result.state.value}{reason}", None, ns)
-        expectations = []
-        for expectation in result.expectations:
-            verdict = "holds" if expectation.held else "fails"
-            decided = expectation.decided_at
-            when = f" (decided at {decided:g} s)" if decided is not None else ""
-            self._log(s.LOG_INFO if expectation.held else s.LOG_ERROR,
-                      f"expectation {verdict}: {expectation.text}{when}",
-                      expectation.decl.span, ns)
-            expectations.append({"text": expectation.text, "held": bool(expectation.held),
-                                 "decided_at": None if decided is None else s.number(decided),
-                                 "line": expectation.decl.span.line})
-        self._mcap.add_metadata(s.RESULT_METADATA_NAME, {
-            "state": result.state.value, "reason": result.reason,
-            "time": repr(result.time), "ticks": str(result.ticks),
-            "succeeded": "true" if result.succeeded else "false",
-            "expectations": s.dumps(expectations),
-            "humans": s.dumps([{"name": h.name, "tasks_done": h.tasks_done,
-                                "tasks_total": h.tasks_total, "last_status": h.last_status,
-                                "path_length": s.number(h.path_length),
-                                "busy_time": s.number(h.busy_time)} for h in result.humans])})
+        metadata, attachments = _provenance(sim, self.rate_hz)
+        return LogSetup(
+            final=self.path, temp=temp, library=f"hubero {__version__}",
+            compression=self._compression, chunk_size=self._chunk_size,
+            dt_ns=s.nanoseconds(engine.dt), humans=list(humans.names),
+            radius=[float(r) for r in humans.radius], shapes=list(humans.shapes),
+            robots=list(robots.names), robot_radius=[float(r) for r in robots.radius],
+            source_path=program.source.path, source_lines=program.source.text.splitlines(),
+            metadata=metadata, attachments=attachments,
+            grid=s.dumps(s.grid_message(program.grid)).encode(),
+            start_message=(f"run of '{program.title}' started: {variant}, seed {sim.seed}, "
+                           f"{humans.count} humans, {robots.count} robots"))
 
     def _discard(self) -> None:
-        """Drop the temporary file (after a failure or an interruption)."""
-        if self._mcap is not None:
-            self._mcap.abandon()
-        if self._file is not None:
-            with contextlib.suppress(OSError):
-                self._file.close()
-        if self._temp is not None and not self._closed:
-            with contextlib.suppress(OSError):
-                self._temp.unlink()
+        """Stop the writer and drop the temporary file (after a failure or an interruption)."""
+        if self._sink is not None and not self._closed:
+            self._sink.abort()
         self._closed = True
+
+
+def can_fork() -> bool:
+    """Whether a writer process can be forked safely: the platform forks and this process
+    runs no other thread (a lock another thread holds would stay locked in the child)."""
+    return "fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1
+
+
+# ---- where the encoding runs -------------------------------------------------------------------
+
+
+class _Sink(Protocol):
+    def send(self, update: Update) -> None: ...
+
+    def finish(self, result: dict[str, Any] | None, end_tick: int) -> None: ...
+
+    def abort(self) -> None: ...
+
+
+class _LocalSink:
+    """Encodes in this process (a thread compresses and writes chunks)."""
+
+    def __init__(self, setup: LogSetup, fd: int) -> None:
+        self._path = setup.final
+        stream = os.fdopen(fd, "wb", buffering=1 << 20)
+        try:
+            with _WriteGuard(self._path):
+                self._encoder = LogEncoder(setup, stream)
+        except BaseException:
+            discard_file(stream, setup.temp)
+            raise
+
+    def send(self, update: Update) -> None:
+        with _WriteGuard(self._path):
+            self._encoder.write(update)
+
+    def finish(self, result: dict[str, Any] | None, end_tick: int) -> None:
+        with _WriteGuard(self._path):
+            self._encoder.finish(result, end_tick)
+
+    def abort(self) -> None:
+        self._encoder.discard()
+
+
+class _ProcessSink:
+    """Encodes in a forked writer process; updates go to it through a pipe.
+
+    The writer ignores Ctrl-C (this process decides what an interruption means) and deletes
+    the temporary file when the pipe closes without a `finish`: also when this process is
+    killed. Its errors come back as messages and are raised here as LogErrors.
+    """
+
+    def __init__(self, setup: LogSetup, fd: int) -> None:
+        self._temp = setup.temp
+        context = multiprocessing.get_context("fork")
+        self._conn, child = context.Pipe(duplex=True)
+        for stream in (sys.stdout, sys.stderr):  # the child must not flush our buffers again
+            with contextlib.suppress(OSError, ValueError, AttributeError):
+                stream.flush()
+        self._process = context.Process(target=_serve, args=(setup, fd, child, self._conn),
+                                        name="hubero-log-writer", daemon=True)
+        self._process.start()
+        child.close()
+        os.close(fd)
+
+    def send(self, update: Update) -> None:
+        if self._conn.poll():
+            self._raise_reply()
+        try:
+            self._conn.send(update)
+        except (BrokenPipeError, ConnectionResetError, EOFError):
+            self._raise_reply()
+
+    def finish(self, result: dict[str, Any] | None, end_tick: int) -> None:
+        try:
+            self._conn.send(("finish", result, end_tick))
+            reply = self._conn.recv()
+        except (BrokenPipeError, ConnectionResetError, EOFError):
+            reply = ("error", "the log writer stopped unexpectedly")
+        self._conn.close()
+        self._process.join(WRITER_JOIN_TIMEOUT)
+        if reply[0] != "done":
+            raise LogError(reply[1])
+
+    def _raise_reply(self) -> None:
+        try:
+            reply = self._conn.recv()
+        except (EOFError, OSError):
+            reply = ("error", "the log writer stopped unexpectedly")
+        raise LogError(reply[1])
+
+    def abort(self) -> None:
+        with contextlib.suppress(OSError):
+            self._conn.close()
+        self._process.join(WRITER_JOIN_TIMEOUT)
+        if self._process.is_alive():
+            self._process.kill()
+            self._process.join()
+        discard_file(None, self._temp)
+
+
+def _serve(setup: LogSetup, fd: int, conn: Connection, parent_end: Connection) -> None:
+    """The writer process: encode updates until `finish` (rename) or a closed pipe (delete)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    parent_end.close()  # else the pipe would never report the run's end, even if it is killed
+    stream = os.fdopen(fd, "wb", buffering=1 << 20)
+    encoder: LogEncoder | None = None
+    failure: str | None = None
+    try:
+        encoder = LogEncoder(setup, stream)
+    except (LogError, OSError) as exc:
+        failure = _failure(setup.final, exc)
+    while True:
+        try:
+            item = conn.recv()
+        except (EOFError, OSError):
+            break
+        if failure is None and encoder is not None:
+            try:
+                if isinstance(item, Update):
+                    encoder.write(item)
+                    continue
+                encoder.finish(item[1], item[2])
+                conn.send(("done", ""))
+                return
+            except Exception as exc:  # reported to the run, which raises it as a LogError
+                failure = _failure(setup.final, exc)
+                conn.send(("error", failure))
+        elif not isinstance(item, Update):
+            conn.send(("error", failure or "the log writer failed"))
+            break
+    if encoder is not None:
+        encoder.discard()
+    else:
+        discard_file(stream, setup.temp)
+
+
+def _failure(final: Path, error: BaseException) -> str:
+    if isinstance(error, LogError):
+        return error.message
+    if isinstance(error, OSError):
+        return f"cannot write log {final}: {_reason(error)}"
+    return f"the log writer failed: {type(error).__name__}: {error}"
+
+
+# ---- provenance --------------------------------------------------------------------------------
+
+
+def _provenance(sim: Simulation, rate_hz: float
+                ) -> tuple[dict[str, str], list[tuple[str, str, bytes]]]:
+    """The metadata record and the attachments (scenario, map YAML, map image)."""
+    program = sim.program
+    source_name = Path(program.source.path).name or "scenario.hub"
+    source = program.source.text.encode("utf-8")
+    map_yaml, image_path, image = _read_map_files(program.map_path)
+    names = {"source": f"source/{source_name}", "map": f"map/{program.map_path.name}",
+             "map_image": f"map/{image_path.name}"}
+    metadata = {
+        "format": s.FORMAT, "format_version": str(s.FORMAT_VERSION),
+        "hubero_version": __version__, "title": program.title,
+        "source_path": program.source.path,
+        "source_sha256": hashlib.sha256(source).hexdigest(),
+        "map_path": str(program.map_path),
+        "map_sha256": hashlib.sha256(map_yaml).hexdigest(),
+        "map_image_sha256": hashlib.sha256(image).hexdigest(),
+        "seed": str(sim.seed), "variant": sim.variant or "",
+        "variants": s.dumps(list(program.variants)),
+        "params": s.dumps(_params_json(sim.params)),
+        "step": repr(sim.engine.dt), "time_limit": repr(program.time_limit),
+        "on_failure": program.on_failure, "log_rate_hz": repr(rate_hz),
+        "humans": s.dumps(list(sim.engine.humans.names)),
+        "robots": s.dumps(list(sim.engine.robots.names)),
+        "attachments": s.dumps(names),
+    }
+    media = MEDIA_TYPES.get(image_path.suffix.lower(), "application/octet-stream")
+    attachments = [(names["source"], "text/plain", source),
+                   (names["map"], "application/yaml", map_yaml),
+                   (names["map_image"], media, image)]
+    return metadata, attachments
+
+
+def _result_json(result: RunResult) -> dict[str, Any]:
+    """How the run ended, as plain values (the writer process gets a copy)."""
+    return {
+        "state": result.state.value, "reason": result.reason, "time": repr(result.time),
+        "ticks": str(result.ticks), "succeeded": result.succeeded,
+        "expectations": [
+            {"text": e.text, "held": bool(e.held), "line": e.decl.span.line,
+             "decided_at": None if e.decided_at is None else s.number(e.decided_at),
+             "span": e.decl.span} for e in result.expectations],
+        "humans": [{"name": h.name, "tasks_done": h.tasks_done, "tasks_total": h.tasks_total,
+                    "last_status": h.last_status, "path_length": s.number(h.path_length),
+                    "busy_time": s.number(h.busy_time)} for h in result.humans]}
+
+
+# ---- files -------------------------------------------------------------------------------------
 
 
 class _WriteGuard:

@@ -112,10 +112,11 @@ def world(tmp_path_factory: pytest.TempPathFactory) -> World:
 
 
 def write_log(scenario: Path, output: Path, *, variant: str | None = None,
-              seed: int | None = None, rate_hz: float = 10.0) -> RunResult:
+              seed: int | None = None, rate_hz: float = 10.0,
+              writer_process: bool | None = None) -> RunResult:
     """Run `scenario` in this process with a log, as `hubero run -o` does."""
     sim = Simulation(compile_file(scenario), variant=variant, seed=seed)
-    with RunLog(output, sim, rate_hz=rate_hz) as log:
+    with RunLog(output, sim, rate_hz=rate_hz, writer_process=writer_process) as log:
         result = run_program(sim, [log.observe])
         log.close(result)
     return result

@@ -1,0 +1,186 @@
+"""The writing side of a run log: turns updates from the run into MCAP records in a file.
+
+`RunLog` (writer.py) captures what happened at each tick as an `Update` (task events and, at
+sample times, a `FrameState`) and hands it to a `LogEncoder`, in this process or in a writer
+process of its own. Everything static is prepared beforehand as a `LogSetup` (reading the map
+and the scenario, which may fail with a LogError before anything is written). The encoder owns
+the file: it writes the header, schemas, channels, provenance and attachments at once, every
+update as it comes, and on `finish` the result, the summary, then renames the temporary file
+to the final name. Same setup and updates, same bytes, wherever it runs.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, BinaryIO
+
+from hubero_dsl.log import schemas as s
+from hubero_dsl.log.container import McapContainer
+from hubero_dsl.log.frames import FrameEncoder, FrameState
+from hubero_dsl.log.scene import TIME_MARK, SceneBuilder
+from hubero_dsl.sim.status import TaskStatus
+
+if TYPE_CHECKING:
+    from hubero_dsl.diagnostics import Span
+    from hubero_dsl.sim.status import TaskEvent
+    from hubero_dsl.world.shapes import Shape
+
+
+@dataclass
+class LogSetup:
+    """What a log needs that does not change during the run."""
+
+    final: Path
+    temp: Path
+    library: str
+    compression: str
+    chunk_size: int
+    dt_ns: int
+    humans: list[str]
+    radius: list[float]
+    shapes: list[Shape]
+    robots: list[str]
+    robot_radius: list[float]
+    source_path: str
+    source_lines: list[str]
+    metadata: dict[str, str]
+    attachments: list[tuple[str, str, bytes]]  # name, media type, data
+    grid: bytes                                 # the /map message
+    start_message: str
+
+
+@dataclass
+class Update:
+    """What happened since the last update: task events (with the task's description) and,
+    at sample times, the frame."""
+
+    events: list[tuple[TaskEvent, str]]
+    frame: FrameState | None
+
+
+class LogEncoder:
+    """Writes one log file from a setup and a sequence of updates."""
+
+    def __init__(self, setup: LogSetup, stream: BinaryIO, *, background: bool = True) -> None:
+        self._setup = setup
+        self._stream = stream
+        self._mcap = McapContainer(stream, library=setup.library,
+                                   compression=setup.compression,
+                                   chunk_size=setup.chunk_size, background=background)
+        self._scene = SceneBuilder(setup.humans, setup.radius, setup.shapes, setup.robots,
+                                   setup.robot_radius)
+        self._frames = 0
+        self._define_channels()
+        self._mcap.add_metadata(s.METADATA_NAME, setup.metadata)
+        for name, media_type, data in setup.attachments:
+            self._mcap.add_attachment(name, media_type, data)
+        self._mcap.add_message(self._channel[s.MAP_TOPIC], 0, setup.grid)
+        self._log(s.LOG_INFO, setup.start_message, None, 0)
+
+    def _define_channels(self) -> None:
+        names = sorted({*s.TOPIC_SCHEMAS.values(), s.POSE_IN_FRAME, s.HUMAN_STATE})
+        schema_id = {name: self._mcap.add_schema(name, s.schema_bytes(name)) for name in names}
+        self._channel = {topic: self._mcap.add_channel(topic, schema_id[name])
+                         for topic, name in s.TOPIC_SCHEMAS.items()}
+        humans = self._setup.humans
+        poses = [self._mcap.add_channel(s.human_pose_topic(n), schema_id[s.POSE_IN_FRAME])
+                 for n in humans]
+        states = [self._mcap.add_channel(s.human_state_topic(n), schema_id[s.HUMAN_STATE])
+                  for n in humans]
+        self._frame = FrameEncoder(humans, self._setup.robots, poses, states,
+                                   self._setup.dt_ns)
+
+    # ---- updates ----------------------------------------------------------------------------
+
+    def write(self, update: Update) -> None:
+        for event, description in update.events:
+            self._write_event(event, description)
+        if update.frame is not None:
+            self._write_frame(update.frame)
+
+    def _write_event(self, event: TaskEvent, description: str) -> None:
+        ns = event.tick * self._setup.dt_ns
+        span = event.span
+        self._mcap.add_message(self._channel[s.TASKS_TOPIC], ns, s.dumps({
+            "timestamp": s.timestamp(ns), "tick": event.tick, "task_id": event.task_id,
+            "human": event.human, "kind": event.kind, "status": event.status.value,
+            "reason": event.reason, "file": span.file if span else "",
+            "line": span.line if span else 0, "column": span.column if span else 0,
+            "end_line": span.end_line if span else 0,
+            "end_column": span.end_column if span else 0,
+            "source_line": self._source_line(span)}).encode())
+        self._frame.record_event(event, description)
+        if event.status is TaskStatus.ABORTED:
+            self._log(s.LOG_WARNING, f"{event.human} {event.kind} aborted: {event.reason}",
+                      span, ns)
+
+    def _source_line(self, span: Span | None) -> str:
+        lines = self._setup.source_lines
+        if span is None or not 0 < span.line <= len(lines):
+            return ""
+        return lines[span.line - 1].strip()
+
+    def _write_frame(self, frame: FrameState) -> None:
+        ns = frame.tick * self._setup.dt_ns
+        ts = s.timestamp_json(ns)
+        scene = self._scene.snapshot(frame, self._frame.status)
+        if scene is not None:
+            self._mcap.add_message(self._channel[s.SCENE_TOPIC], ns,
+                                   scene.replace(TIME_MARK, ts).encode())
+        encoder = self._frame
+        self._mcap.add_message(self._channel[s.TF_TOPIC], ns, encoder.transforms(frame))
+        if self._setup.humans:
+            for block in (encoder.poses(frame, self._frames),
+                          encoder.states(frame, self._frames)):
+                self._mcap.add_block(block.data, block.channels, block.offsets, ns)
+        self._frames += 1
+
+    def _log(self, level: int, message: str, span: Span | None, ns: int) -> None:
+        self._mcap.add_message(self._channel[s.LOG_TOPIC], ns, s.dumps({
+            "timestamp": s.timestamp(ns), "level": level, "message": message,
+            "name": "hubero", "file": span.file if span else self._setup.source_path,
+            "line": span.line if span else 0}).encode())
+
+    # ---- the end ----------------------------------------------------------------------------
+
+    def finish(self, result: dict[str, Any] | None, end_tick: int) -> None:
+        """Write the result (if any) and the summary, then give the file its final name."""
+        if result is not None:
+            self._write_result(result, end_tick * self._setup.dt_ns)
+        self._mcap.finish()
+        self._stream.flush()
+        os.fsync(self._stream.fileno())
+        self._stream.close()
+        os.replace(self._setup.temp, self._setup.final)
+
+    def _write_result(self, result: dict[str, Any], ns: int) -> None:
+        reason = f": {result['reason']}" if result["reason"] else ""
+        self._log(s.LOG_INFO if result["succeeded"] else s.LOG_ERROR,
+                  f"run {result['state']}{reason}", None, ns)
+        for expectation in result["expectations"]:
+            verdict = "holds" if expectation["held"] else "fails"
+            decided = expectation["decided_at"]
+            when = f" (decided at {decided:g} s)" if decided is not None else ""
+            self._log(s.LOG_INFO if expectation["held"] else s.LOG_ERROR,
+                      f"expectation {verdict}: {expectation['text']}{when}",
+                      expectation.pop("span"), ns)
+        self._mcap.add_metadata(s.RESULT_METADATA_NAME, {
+            "state": result["state"], "reason": result["reason"], "time": result["time"],
+            "ticks": result["ticks"], "succeeded": "true" if result["succeeded"] else "false",
+            "expectations": s.dumps(result["expectations"]), "humans": s.dumps(result["humans"])})
+
+    def discard(self) -> None:
+        """Stop and delete the temporary file (the run failed or was interrupted)."""
+        self._mcap.abandon()
+        discard_file(self._stream, self._setup.temp)
+
+
+def discard_file(stream: BinaryIO | None, temp: Path) -> None:
+    if stream is not None:
+        with contextlib.suppress(OSError, ValueError):
+            stream.close()
+    with contextlib.suppress(OSError):
+        temp.unlink()
