@@ -1,20 +1,36 @@
 """Circle crossing: N humans on a circle walk to the antipode, social force, open space.
 
-Runs a generated `.hub` file through the same code path as `hubero run` (compile, Simulation,
-run_program) and reports agent-steps per second for N = 10, 100, 1000, 3000. Start-up,
-compilation and the first plans cancel out: the cost of a short run of the same file is
-subtracted from the cost of a long one.
+hubero runs a generated `.hub` file through the same code path as `hubero run` (compile,
+Simulation, run_program); start-up, compilation and the first plans cancel out because the cost
+of a short run of the same scenario is subtracted from the cost of a long one. When they are
+installed (`pip install 'hubero[bench]'`), the same workload runs through the peers in the same
+process: JuPedSim's social force model (C++, dt = 0.01 s, which that model needs to stay
+stable) and PySocialForce (numpy + numba, O(N^2) per step). Everything is compared per
+agent-step: one agent advanced by one step of its simulator.
 
-    python benchmarks/crossing.py            # all sizes
-    python benchmarks/crossing.py 100 1000   # some sizes
+    python benchmarks/crossing.py                      # N = 10, 100, 1000, 3000, 3 repeats
+    python benchmarks/crossing.py 100 1000 --repeat 5
+    python benchmarks/crossing.py --no-peers
+
+Each cell of the table is the median of the repeats, with the spread (max / min - 1) beside it.
+Nobody reaches their goal while the clock runs (the circle is at least 9 m in radius), so every
+agent walks during every measured step, in every simulator.
 """
 
 from __future__ import annotations
 
+import argparse
+import contextlib
+import importlib.util
+import io
+import logging
 import math
+import os
+import statistics
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -26,13 +42,31 @@ from hubero_dsl.world.grid import OccupancyGrid
 from hubero_dsl.world.mapfile import save_map
 
 SIZES = (10, 100, 1000, 3000)
-SPACING = 0.8          # m between neighbours on the circle
-SHORT, LONG = 2.0, 12.0  # s of simulated time
+SPACING = 0.8            # m between neighbours on the circle
+MIN_RADIUS = 9.0         # m: nobody arrives (18 m at 1.29 m/s) before the long run ends
+SPEED = 1.29             # m/s, hubero's default walking speed, given to the peers too
+BODY_RADIUS = 0.2        # m, hubero's default body radius, given to the peers too
+SHORT, LONG = 2.0, 12.0  # s of simulated time (hubero)
+JUPEDSIM_DT = 0.01       # s
+WARM_UP, MEASURED = 2.0, 10.0  # s of simulated time (JuPedSim)
+PSF_STEPS = {10: 200, 100: 40, 1000: 4, 3000: 2}  # O(N^2): a few steps suffice at large N
+
+Rate = Callable[[int], float]
 
 
 def circle_radius(count: int) -> float:
-    return max(4.0, SPACING * count / (2 * math.pi))
+    return max(MIN_RADIUS, SPACING * count / (2 * math.pi))
 
+
+def circle(count: int) -> tuple[np.ndarray, np.ndarray]:
+    """Start points on the circle and their antipodes, (N, 2) each."""
+    radius = circle_radius(count)
+    angle = 2 * math.pi * np.arange(count) / count
+    start = np.column_stack([radius * np.cos(angle), radius * np.sin(angle)])
+    return start, -start
+
+
+# ---- hubero --------------------------------------------------------------------------------
 
 def write_open_map(folder: Path, radius: float) -> Path:
     """An empty square room just larger than the circle."""
@@ -46,17 +80,15 @@ def write_open_map(folder: Path, radius: float) -> Path:
 
 
 def scenario_text(count: int, map_path: Path, time_limit: float) -> str:
-    radius = circle_radius(count)
+    start, goal = circle(count)
     lines = [f'scenario "crossing {count}"', f'map "{map_path}"', "seed 1",
              f"time_limit {time_limit} s",
              "defaults { global_planner straight; personal_space circle(radius: 0.3 m) }"]
     steps = []
-    for i in range(count):
-        angle = 2 * math.pi * i / count
-        x, y = radius * math.cos(angle), radius * math.sin(angle)
-        heading = math.degrees(angle) + 180
+    for i, ((x, y), (gx, gy)) in enumerate(zip(start, goal, strict=True)):
+        heading = math.degrees(math.atan2(gy - y, gx - x))
         lines.append(f"human h{i} at ({x:.3f}, {y:.3f}) heading {heading:.1f} deg")
-        steps.append(f"    h{i} move_to ({-x:.3f}, {-y:.3f})")
+        steps.append(f"    h{i} move_to ({gx:.3f}, {gy:.3f})")
     lines += ["activity crossing {", "  parallel {", *steps, "  }", "}"]
     return "\n".join(lines) + "\n"
 
@@ -72,22 +104,136 @@ def run_seconds(folder: Path, count: int, time_limit: float) -> tuple[float, int
     return time.perf_counter() - start, result.ticks
 
 
-def agent_steps_per_second(count: int) -> float:
+def hubero_rate(count: int) -> float:
+    """Agent-steps per second of the long run minus the short one."""
     with tempfile.TemporaryDirectory() as folder:
         short_time, short_ticks = run_seconds(Path(folder), count, SHORT)
         long_time, long_ticks = run_seconds(Path(folder), count, LONG)
     return count * (long_ticks - short_ticks) / max(long_time - short_time, 1e-9)
 
 
-def main(argv: list[str]) -> None:
-    sizes = [int(a) for a in argv] or list(SIZES)
-    print(f"circle crossing, social force, dt 0.05 s, {LONG - SHORT:g} s of simulated time "
-          "measured (long run minus short run)")
-    print(f"{'N':>6} {'agent-steps/s':>15} {'us/agent-step':>14}")
-    for count in sizes:
-        rate = agent_steps_per_second(count)
-        print(f"{count:>6} {rate:>15,.0f} {1e6 / rate:>14.2f}")
+# ---- peers ---------------------------------------------------------------------------------
+
+def jupedsim_rate(count: int) -> float:
+    """JuPedSim's social force model: one exit stage at each antipode, one journey each."""
+    import jupedsim as jps
+    import shapely
+
+    start, goal = circle(count)
+    half = circle_radius(count) + 3.0
+    sim = jps.Simulation(model=jps.SocialForceModel(),
+                         geometry=shapely.box(-half, -half, half, half), dt=JUPEDSIM_DT)
+    for (x, y), (gx, gy) in zip(start, goal, strict=True):
+        stage = sim.add_exit_stage(shapely.box(gx - 0.3, gy - 0.3, gx + 0.3, gy + 0.3))
+        journey = sim.add_journey(jps.JourneyDescription([stage]))
+        length = math.hypot(gx - x, gy - y)
+        sim.add_agent(jps.SocialForceModelAgentParameters(
+            journey_id=journey, stage_id=stage, position=(float(x), float(y)),
+            orientation=((gx - x) / length, (gy - y) / length), desired_speed=SPEED,
+            radius=BODY_RADIUS))
+    sim.iterate(round(WARM_UP / JUPEDSIM_DT))
+    chunk, agent_steps = 50, 0
+    began = time.perf_counter()
+    for _ in range(round(MEASURED / JUPEDSIM_DT) // chunk):
+        agent_steps += sim.agent_count() * chunk
+        sim.iterate(chunk)
+    return agent_steps / (time.perf_counter() - began)
+
+
+@contextlib.contextmanager
+def _inside(folder: str) -> Iterator[None]:
+    here = os.getcwd()
+    os.chdir(folder)
+    try:
+        yield
+    finally:
+        os.chdir(here)
+
+
+def _quiet_pysocialforce() -> None:
+    """PySocialForce logs at DEBUG to the terminal and to ./file.log from the moment it is
+    imported: import it from a scratch folder and silence its logger (and numba's)."""
+    with tempfile.TemporaryDirectory() as folder, _inside(folder), \
+            contextlib.redirect_stderr(io.StringIO()):
+        import pysocialforce  # noqa: F401
+
+        root = logging.getLogger("root")
+        for handler in list(root.handlers):
+            root.removeHandler(handler)
+            handler.close()
+    root.setLevel(logging.WARNING)
+    logging.getLogger("numba").setLevel(logging.WARNING)
+
+
+def pysocialforce_rate(count: int) -> float:
+    """PySocialForce with hubero's step (0.05 s) and no groups; time per step after a warm-up
+    step (numba compiles on the first)."""
+    _quiet_pysocialforce()
+    import pysocialforce as psf
+
+    start, goal = circle(count)
+    direction = (goal - start) / np.linalg.norm(goal - start, axis=1, keepdims=True)
+    state = np.column_stack([start, direction * SPEED, goal])
+    with tempfile.TemporaryDirectory() as folder:
+        config = Path(folder) / "crossing.toml"
+        config.write_text("[scene]\nenable_group = false\nagent_radius = 0.35\n"
+                          "step_width = 0.05\nmax_speed_multiplier = 1.3\ntau = 0.5\n"
+                          "resolution = 10\n", encoding="utf-8")
+        sim = psf.Simulator(state, config_file=str(config))
+    sim.step(1)
+    steps = PSF_STEPS.get(count, max(2, 200_000 // max(count, 1) ** 2))
+    began = time.perf_counter()
+    sim.step(steps)
+    return count * steps / (time.perf_counter() - began)
+
+
+PEERS: dict[str, tuple[str, Rate]] = {
+    "JuPedSim": ("jupedsim", jupedsim_rate),
+    "PySocialForce": ("pysocialforce", pysocialforce_rate),
+}
+
+
+# ---- the table -----------------------------------------------------------------------------
+
+def measure(rate: Rate, count: int, repeat: int) -> tuple[float, float]:
+    """Median agent-steps per second of `repeat` runs, and their spread (max / min - 1)."""
+    rates = [rate(count) for _ in range(repeat)]
+    return statistics.median(rates), max(rates) / min(rates) - 1.0
+
+
+def main(argv: list[str]) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("sizes", nargs="*", type=int, default=list(SIZES))
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--no-peers", action="store_true", help="measure hubero only")
+    args = parser.parse_args(argv)
+    peers = {} if args.no_peers else {
+        name: rate for name, (module, rate) in PEERS.items()
+        if importlib.util.find_spec(module) is not None}
+    missing = sorted(set(PEERS) - set(peers)) if not args.no_peers else []
+    print(f"circle crossing, social force, open space; hubero dt 0.05 s, {LONG - SHORT:g} s "
+          f"measured (long run minus short run); JuPedSim dt {JUPEDSIM_DT} s; median of "
+          f"{args.repeat} (spread max/min - 1)")
+    if missing:
+        print(f"not installed, skipped: {', '.join(missing)} (pip install 'hubero[bench]')")
+    header = f"{'N':>5} {'hubero':>17} {'us/step':>7}"
+    for name in peers:
+        header += f" {name:>19} {'hubero/' + name[:3]:>10}"
+    print(header)
+    per_step: dict[int, float] = {}
+    for count in args.sizes:
+        ours, spread = measure(hubero_rate, count, args.repeat)
+        per_step[count] = 1e6 / ours
+        line = f"{count:>5} {ours:>11,.0f} ({spread:>3.0%}) {per_step[count]:>7.2f}"
+        for rate in peers.values():
+            theirs, their_spread = measure(rate, count, args.repeat)
+            line += f" {theirs:>13,.0f} ({their_spread:>3.0%}) {ours / theirs:>9.2f}x"
+        print(line, flush=True)
+    if 100 in per_step and 3000 in per_step:
+        print(f"hubero cost per agent-step, N = 3000 vs N = 100: "
+              f"{per_step[3000] / per_step[100]:.2f}x")
+    return 0
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    sys.exit(main(sys.argv[1:]))

@@ -32,6 +32,7 @@ NEVER = np.iinfo(np.int64).max
 LOOKAHEAD = 0.6         # m: a waypoint this close counts as passed
 ALIGNED = math.radians(3.0)
 PROGRESS = 0.5          # m a walking human must make within `stuck_time`
+_STANDING = int(Posture.STANDING)  # an int compares with the posture array faster than an enum
 
 
 class Engine:
@@ -53,6 +54,12 @@ class Engine:
         self._local = local_planners              # by name
         self._local_mask = {name: np.array([n == name for n in local_planner_of], dtype=bool)
                             for name in sorted(local_planners)}
+        # the common case: one local planner steers everyone, so no mask is needed
+        self._only_local = (local_planner_of[0] if len(set(local_planner_of)) == 1
+                            and local_planner_of[0] in local_planners else None)
+        self._not_robot = np.zeros(humans.count, dtype=bool)
+        self._not_robot.setflags(write=False)
+        self._crowd_shapes: tuple[ShapeArrays, ShapeArrays, ShapeArrays] | None = None
         self._rng_for = rng_for
         self._rngs: dict[tuple[str, int], np.random.Generator] = {}
         count = humans.count
@@ -251,12 +258,14 @@ class Engine:
         velocity = self._velocities()
         old = humans.position
         moved = old + velocity * dt
-        movable = humans.posture == Posture.STANDING
-        moved[~movable] = old[~movable]
+        movable = humans.posture == _STANDING
+        if not movable.all():
+            moved[~movable] = old[~movable]
         moved = self._separate(moved, movable)
         moved = physics.keep_out_of_walls(self.grid, old, moved, humans.radius)
-        humans.velocity = (moved - old) / dt
-        humans.path_length += np.linalg.norm(moved - old, axis=1)
+        step = moved - old
+        humans.velocity = step / dt
+        humans.path_length += np.linalg.norm(step, axis=1)
         humans.position = moved
         self._turn(dt)
         self.tick += 1
@@ -269,18 +278,30 @@ class Engine:
         if len(rows):
             self.paths.advance(humans.position, LOOKAHEAD)
             crowd = self.crowd()
-            for name, mask in self._local_mask.items():
-                steer = np.flatnonzero(mask & humans.moving)
+            if self._only_local is not None:
+                steering = [(self._only_local, rows)]
+            else:
+                steering = [(name, np.flatnonzero(mask & humans.moving))
+                            for name, mask in self._local_mask.items()]
+            for name, steer in steering:
                 if len(steer):
                     velocity[steer] = self._local[name].velocities(crowd, self._drive(steer),
                                                                    self.dt)
-        teleop = np.flatnonzero(humans.teleop)
-        if len(teleop):
+        if humans.teleop.any():
+            teleop = np.flatnonzero(humans.teleop)
             velocity[teleop] = humans.teleop_velocity[teleop]
         return velocity
 
     def _drive(self, rows: IntArray) -> Drive:
         h = self.humans
+        if len(rows) == h.count:  # everyone: the arrays themselves (planners never write them)
+            return Drive(index=rows, target=self.paths.current_targets(rows),
+                         desired_speed=h.desired_speed,
+                         max_speed=np.maximum(h.max_speed, h.desired_speed),
+                         relaxation_time=h.relaxation_time, goal_strength=h.goal_strength,
+                         avoidance_strength=h.avoidance_strength,
+                         obstacle_strength=h.obstacle_strength,
+                         interaction_range=h.interaction_range, field_of_view=h.field_of_view)
         return Drive(index=rows, target=self.paths.current_targets(rows),
                      desired_speed=h.desired_speed[rows],
                      max_speed=np.maximum(h.max_speed[rows], h.desired_speed[rows]),
@@ -291,26 +312,39 @@ class Engine:
                      field_of_view=h.field_of_view[rows])
 
     def crowd(self) -> Crowd:
-        """Every body now: humans, then robots (which planners treat as moving obstacles)."""
+        """Every body now: humans, then robots (which planners treat as moving obstacles).
+
+        Without robots the humans' own arrays are the crowd (planners never write them).
+        """
         h, r = self.humans, self.robots
-        shapes = h.personal_space
-        if r.count:
-            robot_shapes = r.personal_space
-            shapes = ShapeArrays(np.concatenate([shapes.kind, robot_shapes.kind]),
-                                 np.concatenate([shapes.a, robot_shapes.a]),
-                                 np.concatenate([shapes.b, robot_shapes.b]),
-                                 np.concatenate([shapes.offset, robot_shapes.offset]))
+        if not r.count:
+            return Crowd(position=h.position, velocity=h.velocity, heading=h.heading,
+                         radius=h.radius, personal_space=h.personal_space,
+                         is_robot=self._not_robot)
         return Crowd(position=np.concatenate([h.position, r.position]),
                      velocity=np.concatenate([h.velocity, r.velocity]),
                      heading=np.concatenate([h.heading, r.heading]),
                      radius=np.concatenate([h.radius, r.radius]),
-                     personal_space=shapes,
+                     personal_space=self._everyones_shapes(),
                      is_robot=np.concatenate([np.zeros(h.count, bool), np.ones(r.count, bool)]))
+
+    def _everyones_shapes(self) -> ShapeArrays:
+        """Humans' then robots' personal spaces, joined once for as long as neither changes."""
+        h, r = self.humans.personal_space, self.robots.personal_space
+        cached = self._crowd_shapes
+        if cached is None or cached[0] is not h or cached[1] is not r:
+            joined = ShapeArrays(np.concatenate([h.kind, r.kind]), np.concatenate([h.a, r.a]),
+                                 np.concatenate([h.b, r.b]),
+                                 np.concatenate([h.offset, r.offset]))
+            cached = self._crowd_shapes = (h, r, joined)
+        return cached[2]
 
     def _separate(self, moved: FloatArray, movable: np.ndarray) -> FloatArray:
         r = self.robots
         if self.humans.count + r.count < 2:
             return moved
+        if not r.count:
+            return physics.separate_bodies(moved, self.humans.radius, movable)
         everyone = np.concatenate([moved, r.position])
         radius = np.concatenate([self.humans.radius, r.radius])
         can_move = np.concatenate([movable, np.zeros(r.count, bool)])
@@ -320,27 +354,41 @@ class Engine:
         h = self.humans
         speed = np.linalg.norm(h.velocity, axis=1)
         walking = (speed > 0.1) & (h.moving | h.teleop)
-        aligning = ~np.isnan(h.heading_goal) & ~walking
+        turning = walking | ~np.isnan(h.heading_goal)
+        if not turning.any():
+            return
+        # rows that do not turn keep their heading whatever `wanted` holds for them
         wanted = np.where(walking, np.arctan2(h.velocity[:, 1], h.velocity[:, 0]),
-                          np.nan_to_num(h.heading_goal))
-        h.heading = physics.turn_towards(h.heading, wanted, walking | aligning, dt)
+                          h.heading_goal)
+        h.heading = physics.turn_towards(h.heading, wanted, turning, dt)
 
     # ---- events --------------------------------------------------------------------------
 
     def _dispatch_events(self) -> None:
         h = self.humans
-        gap = np.linalg.norm(h.position - np.nan_to_num(h.goal), axis=1)
-        arrived = h.moving & (gap <= h.stop_distance)
-        turning = ~np.isnan(h.heading_goal) & ~h.moving
-        aligned = turning & (np.abs(physics.wrap_angle(h.heading - h.heading_goal)) < ALIGNED)
+        moving = h.moving
+        # a walking human always has a goal; NaN goals (nobody walking) compare False
+        arrived = moving & (np.linalg.norm(h.position - h.goal, axis=1) <= h.stop_distance)
+        wake = arrived | (self.wake_tick <= self.tick)
+        turning = ~np.isnan(h.heading_goal) & ~moving
+        aligned = None
+        if turning.any():
+            aligned = turning & (np.abs(physics.wrap_angle(h.heading - h.heading_goal))
+                                 < ALIGNED)
+            wake |= aligned
         progressed = np.linalg.norm(h.position - self.anchor, axis=1) > PROGRESS
-        self.anchor[progressed] = h.position[progressed]
-        self.anchor_tick[progressed | ~h.moving] = self.tick
-        stuck = h.moving & (self.tick - self.anchor_tick > self.ticks(self.stuck_time))
+        if progressed.any():
+            self.anchor[progressed] = h.position[progressed]
+        self.anchor_tick[progressed | ~moving] = self.tick
+        stuck = moving & (self.tick - self.anchor_tick > self.ticks(self.stuck_time))
+        wake |= stuck
+        if not wake.any():
+            return
         timer = self.wake_tick <= self.tick
-        for index in np.flatnonzero(arrived | aligned | stuck | timer):
-            self._wake(int(index), bool(arrived[index]), bool(aligned[index]),
-                       bool(stuck[index]), bool(timer[index]))
+        for index in np.flatnonzero(wake):
+            self._wake(int(index), bool(arrived[index]),
+                       aligned is not None and bool(aligned[index]), bool(stuck[index]),
+                       bool(timer[index]))
 
     def _wake(self, index: int, arrived: bool, aligned: bool, stuck: bool, timer: bool) -> None:
         h = self.humans

@@ -144,9 +144,29 @@ class OccupancyGrid:
 
     def _fractional_cells(self, points: FloatArray) -> FloatArray:
         """(..., 2) continuous (row, col) coordinates; cell (r, c) spans [r, r+1) x [c, c+1)."""
+        row, col = self._fractional_rows_cols(points)
+        return np.stack((row, col), axis=-1)
+
+    def _fractional_rows_cols(self, points: FloatArray) -> tuple[FloatArray, FloatArray]:
         col = (points[..., 0] - self.origin[0]) / self.resolution
         row = (points[..., 1] - self.origin[1]) / self.resolution
-        return np.stack((row, col), axis=-1)
+        return row, col
+
+    def _locate(self, points: FloatArray) -> tuple[IntArray, IntArray, BoolArray]:
+        """Row and column of each point's cell clipped into the grid, and whether it is inside.
+
+        The per-tick form of `world_to_cell` + `_clipped` + `_inside`: the same cells, without
+        the intermediate arrays (non-finite coordinates are outside; their clipped cell is an
+        edge cell, which callers never read without checking `inside`).
+        """
+        row, col = self._fractional_rows_cols(points)
+        row, col = np.floor(row), np.floor(col)
+        rows, cols = self.occupied.shape
+        inside: BoolArray = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
+        # fmax / fmin map NaN to the bound, so the cast below never sees a NaN
+        row_index = np.fmin(np.fmax(row, 0.0), rows - 1).astype(np.intp)
+        col_index = np.fmin(np.fmax(col, 0.0), cols - 1).astype(np.intp)
+        return row_index, col_index, inside
 
     def world_to_cell(self, xy: ArrayLike) -> IntArray:
         """(..., 2) world points -> (..., 2) cells as (row, col); may be out of range."""
@@ -177,13 +197,12 @@ class OccupancyGrid:
 
     def contains(self, xy: ArrayLike) -> BoolArray:
         """Whether each point lies inside the map rectangle."""
-        return self._inside(self.world_to_cell(xy))
+        return self._locate(_points(xy))[2]
 
     def is_free(self, xy: ArrayLike) -> BoolArray:
         """Whether each point lies inside the map on a free cell (outside counts as occupied)."""
-        cells = self.world_to_cell(xy)
-        row, col = self._clipped(cells)
-        free: BoolArray = self._inside(cells) & ~self.occupied[row, col]
+        row, col, inside = self._locate(_points(xy))
+        free: BoolArray = inside & ~self.occupied[row, col]
         return free
 
     # --- distance fields ------------------------------------------------------------------
@@ -218,19 +237,44 @@ class OccupancyGrid:
     def clearance_at(self, xy: ArrayLike) -> FloatArray:
         """Clearance at each point, bilinear between cell centres; 0 off free cells."""
         points = _points(xy)
+        row, col = self._fractional_rows_cols(points)
         # Shift so cell centres sit on integer coordinates, as map_coordinates expects.
-        coords = np.nan_to_num(self._fractional_cells(points) - 0.5, nan=0.0, posinf=0.0,
-                               neginf=0.0)
-        flat = coords.reshape(-1, 2).T
-        values = _ndimage().map_coordinates(self.clearance, flat, order=1, mode="nearest")
-        values = values.reshape(points.shape[:-1])
-        result: FloatArray = np.where(self.is_free(points), values, 0.0)
+        coords = np.empty((2, row.size))
+        np.subtract(row.reshape(-1), 0.5, out=coords[0])
+        np.subtract(col.reshape(-1), 0.5, out=coords[1])
+        if not np.isfinite(coords).all():
+            coords = np.nan_to_num(coords, nan=0.0, posinf=0.0, neginf=0.0)
+        values = _ndimage().map_coordinates(self.clearance, coords, order=1, mode="nearest")
+        result: FloatArray = np.where(self.is_free(points), values.reshape(row.shape), 0.0)
         return result
+
+    def surely_clear(self, xy: ArrayLike, distance: FloatArray | float) -> BoolArray:
+        """True where `clearance_at(xy) >= distance` holds for certain (`distance` > 0).
+
+        A cheap lower bound for bodies far from walls: the clearance of the point's cell less
+        the distance to the farthest cell centre the interpolation reads (one cell diagonal),
+        clearance being 1-Lipschitz. False is no verdict: ask `clearance_at`. Points off the map
+        read an edge cell, whose bound is negative, so they are never surely clear.
+        """
+        row, col, _ = self._locate(_points(xy))
+        clear: BoolArray = self._clearance_floor[row, col] >= distance
+        return clear
+
+    @cached_property
+    def _clearance_floor(self) -> FloatArray:
+        """Clearance of each cell less one cell diagonal (and a rounding margin)."""
+        margin = math.sqrt(2.0) * self.resolution * (1.0 + 1e-9) + 1e-12
+        return _read_only(self.clearance - margin)
 
     def _cell_squares(self, cells: npt.NDArray[np.int32]) -> tuple[FloatArray, FloatArray]:
         """(2, ...) cells -> (..., 2) lower-left and upper-right world corners of each cell."""
-        lower = self.cell_to_world(np.moveaxis(cells, 0, -1)) - 0.5 * self.resolution
-        return lower, lower + self.resolution
+        res = self.resolution
+        lower = np.empty((*cells.shape[1:], 2))
+        # the arithmetic of cell_to_world, then half a cell down
+        lower[..., 0] = self.origin[0] + (cells[1] + 0.5) * res
+        lower[..., 1] = self.origin[1] + (cells[0] + 0.5) * res
+        lower -= 0.5 * res
+        return lower, lower + res
 
     def obstacle_direction_at(self, xy: ArrayLike) -> FloatArray:
         """(..., 2) unit vectors pointing away from the nearest occupied cell.
@@ -241,23 +285,28 @@ class OccupancyGrid:
         the map. Zero where no direction exists (a fully occupied map).
         """
         points = _points(xy)
-        cells = self.world_to_cell(points)
-        row, col = self._clipped(cells)
-        centres = self.cell_to_world(np.stack((row, col), axis=-1))
-        lower, upper = self._cell_squares(self._obstacle_field[1][:, row, col])
-        away = points - np.clip(points, lower, upper)
+        row, col, inside = self._locate(points)
+        free = inside & ~self.occupied[row, col]
+        nearest = self._obstacle_field[1]
+        lower, upper = self._cell_squares(np.stack((nearest[0][row, col], nearest[1][row, col])))
+        away = points - np.minimum(np.maximum(points, lower), upper)
         # A point on the obstacle's very edge falls back to the cell-to-cell direction.
-        on_edge = ~np.any(away != 0.0, axis=-1, keepdims=True)
-        away = np.where(on_edge, centres - 0.5 * (lower + upper), away)
-        towards_free = np.zeros_like(points)
-        if self._free_field is not None:
-            lower, upper = self._cell_squares(self._free_field[:, row, col])
-            towards_free = np.clip(points, lower, upper) - points
-        xmin, ymin, xmax, ymax = self.bounds
-        towards_map = np.clip(points, (xmin, ymin), (xmax, ymax)) - points
-        free = self.is_free(points)[..., None]
-        inside = self._inside(cells)[..., None]
-        direction = np.where(free, away, np.where(inside, towards_free, towards_map))
+        on_edge = ~np.any(away != 0.0, axis=-1)
+        if on_edge.any():
+            centres = self._cell_squares(np.stack((row, col)))[0] + 0.5 * self.resolution
+            away = np.where(on_edge[..., None], centres - 0.5 * (lower + upper), away)
+        direction = away
+        if not free.all():
+            towards_free = np.zeros_like(points)
+            blocked = inside & ~free
+            # the free field is a whole distance transform: computed only once it is needed
+            if blocked.any() and self._free_field is not None:
+                lower, upper = self._cell_squares(self._free_field[:, row, col])
+                towards_free = np.minimum(np.maximum(points, lower), upper) - points
+            xmin, ymin, xmax, ymax = self.bounds
+            towards_map = np.clip(points, (xmin, ymin), (xmax, ymax)) - points
+            direction = np.where(free[..., None], away,
+                                 np.where(inside[..., None], towards_free, towards_map))
         return _unit_vectors(direction)
 
     # --- where a body fits ----------------------------------------------------------------
