@@ -202,9 +202,11 @@ class RunLog:
 
 
 def can_fork() -> bool:
-    """Whether a writer process can be forked safely: the platform forks and this process
-    runs no other thread (a lock another thread holds would stay locked in the child)."""
-    return "fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1
+    """Whether a writer process can be forked safely: the platform forks, this process runs no
+    other thread (a lock another thread holds would stay locked in the child) and is not a
+    daemonic worker (which may have no children)."""
+    return ("fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1
+            and not multiprocessing.current_process().daemon)
 
 
 # ---- where the encoding runs -------------------------------------------------------------------
