@@ -1,0 +1,124 @@
+"""A replay of a run as an animated GIF (matplotlib's animation with the Pillow writer).
+
+    animate_run(load_run("run.mcap"), "run.gif", max_frames=120, fps=10)
+
+Each frame shows the map, every human's path so far, its body and its personal space in its
+shape and heading, robots, and the time. At most `max_frames` frames are drawn, spread evenly
+over the run, so a long run gives a file of bounded size; `fps` sets the replay speed.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import numpy.typing as npt
+from matplotlib.artist import Artist
+from matplotlib.lines import Line2D
+from matplotlib.patches import Circle as CirclePatch
+from matplotlib.patches import Polygon
+
+from hubero_dsl.analysis.plot import View, colours, draw_map, personal_space_of, short_shape
+from hubero_dsl.errors import InputError
+from hubero_dsl.world.personal_space import outline
+
+if TYPE_CHECKING:
+    from hubero_dsl.log.reader import LoggedRun
+
+FloatArray = npt.NDArray[np.float64]
+
+MAX_FRAMES = 120
+FPS = 10
+GIF_DPI = 70
+
+
+def frame_times(run: LoggedRun, max_frames: int) -> FloatArray:
+    """Instants to draw: the logged frames, thinned evenly to at most `max_frames`."""
+    times = [track.time for track in run.humans.values() if len(track.time)]
+    times += [track.time for track in run.robots.values() if len(track.time)]
+    if not times:
+        return np.zeros(1)
+    every = np.unique(np.concatenate(times))
+    if len(every) <= max_frames:
+        return every
+    return np.linspace(every[0], every[-1], max_frames)
+
+
+def _at(time: FloatArray, values: FloatArray, when: float) -> FloatArray:
+    """Position (or heading) at `when`: the last logged frame not after it."""
+    index = max(int(np.searchsorted(time, when, side="right")) - 1, 0)
+    return np.asarray(values[index])
+
+
+class _Scene:
+    """The artists of one replay, moved to each instant in turn."""
+
+    def __init__(self, run: LoggedRun, axes: Any) -> None:
+        self.run = run
+        self.palette = colours(list(run.humans))
+        self.trails: dict[str, Line2D] = {}
+        self.bodies: dict[str, CirclePatch] = {}
+        self.spaces: dict[str, Polygon] = {}
+        self.robots: dict[str, CirclePatch] = {}
+        for name in sorted(run.humans):
+            colour = self.palette[name]
+            self.trails[name], = axes.plot([], [], color=colour, linewidth=1.6, zorder=3,
+                                           label=f"{name}: "
+                                                 f"{short_shape(personal_space_of(run, name))}")
+            self.spaces[name] = axes.add_patch(Polygon(np.zeros((3, 2)), closed=True,
+                                                       facecolor=colour, edgecolor=colour,
+                                                       alpha=0.25, zorder=2))
+            radius = run.metadata.params.get(name, {}).get("radius", 0.2)
+            self.bodies[name] = axes.add_patch(CirclePatch(
+                (0.0, 0.0), float(radius) if isinstance(radius, int | float) else 0.2,
+                facecolor=colour, edgecolor="black", zorder=4))
+        for name in sorted(run.robots):
+            self.robots[name] = axes.add_patch(CirclePatch((0.0, 0.0), 0.3, facecolor="black",
+                                                           zorder=4))
+        self.clock = axes.text(0.02, 0.97, "", transform=axes.transAxes, va="top",
+                               fontsize=11, bbox={"facecolor": "white", "alpha": 0.8})
+
+    def show(self, when: float) -> list[Artist]:
+        for name, track in self.run.humans.items():
+            if len(track.time) == 0:
+                continue
+            shown = track.time <= when
+            self.trails[name].set_data(track.position[shown, 0], track.position[shown, 1])
+            where = _at(track.time, track.position, when)
+            heading = float(_at(track.time, track.heading, when))
+            self.spaces[name].set_xy(outline(personal_space_of(self.run, name), where, heading))
+            self.bodies[name].set_center((float(where[0]), float(where[1])))
+        for name, robot in self.run.robots.items():
+            if len(robot.time):
+                where = _at(robot.time, robot.position, when)
+                self.robots[name].set_center((float(where[0]), float(where[1])))
+        self.clock.set_text(f"t = {when:5.1f} s")
+        return [*self.trails.values(), *self.spaces.values(), *self.bodies.values(),
+                *self.robots.values(), self.clock]
+
+
+def animate_run(run: LoggedRun, out: str | Path, *, max_frames: int = MAX_FRAMES,
+                fps: int = FPS, whole_map: bool = False) -> Path:
+    """Write a GIF replay of the run; InputError if it cannot be written."""
+    from matplotlib.animation import FuncAnimation, PillowWriter
+
+    if max_frames < 1 or fps < 1:
+        raise InputError("an animation needs at least one frame and one frame per second")
+    figure, axes = View.around([run], whole_map).figure(legend=True)
+    figure.set_dpi(GIF_DPI)
+    draw_map(axes, run.grid)
+    axes.set_title(f"{run.metadata.title}"
+                   + (f" [{run.metadata.variant}]" if run.metadata.variant else ""), fontsize=11)
+    scene = _Scene(run, axes)
+    box = axes.get_position()
+    figure.legend(loc="upper left", bbox_to_anchor=(box.x1 + 0.01, box.y1), fontsize=9,
+                  borderaxespad=0.0)
+    times = frame_times(run, max_frames)
+    animation = FuncAnimation(figure, scene.show, frames=list(times), blit=False)
+    out = Path(out)
+    try:
+        animation.save(str(out), writer=PillowWriter(fps=fps), dpi=GIF_DPI)
+    except OSError as exc:
+        raise InputError(f"{out}: cannot be written ({exc.strerror or exc})") from None
+    return out

@@ -1,0 +1,292 @@
+"""Pictures of runs, drawn with matplotlib's Agg canvas (no display, no pyplot state).
+
+    plot_run(load_run("run.mcap"), "run.png")          # map, paths, starts, goals, personal spaces
+    plot_overlay(run_a, run_b, "diff.png", epsilon=0.1)  # two runs of a scenario on one map
+
+The map is drawn in grey (free space white, obstacles grey, unknown cells light grey). Every
+human gets one colour; its personal space is drawn in its own shape and heading at points spaced
+`spacing` metres apart along its path (as in the HuBeRo paper's figures), plus where it starts
+and ends. Goals are where its navigation tasks (move_to, run_to, sit_down, lie_down) finished.
+Robots' paths are dotted black. The view is the region the actors used, with a margin, unless
+`whole_map` is asked for.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import numpy.typing as npt
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Polygon
+
+from hubero_dsl.errors import InputError
+from hubero_dsl.sim.status import TaskStatus
+from hubero_dsl.world.personal_space import outline
+from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, Shape
+
+if TYPE_CHECKING:
+    from hubero_dsl.log.reader import HumanTrack, LoggedRun
+    from hubero_dsl.world.grid import OccupancyGrid
+
+FloatArray = npt.NDArray[np.float64]
+
+DPI = 120
+MAP_INCHES = (8.0, 9.0)  # the largest the map is drawn (width, height)
+LEGEND_INCHES = 2.6      # a column to the right of the map
+MARGIN = 1.5        # metres of map shown around what the actors used
+SPACING = 1.5       # metres along a path between two drawn personal spaces
+FREE, OCCUPIED, UNKNOWN = 1.0, 0.55, 0.82  # grey levels of the map
+_NAVIGATION = ("move_to", "run_to", "sit_down", "lie_down")
+
+
+def colours(names: Sequence[str]) -> dict[str, Any]:
+    """One distinct colour per human, in sorted-name order, the same in every picture."""
+    from matplotlib import colormaps
+
+    palette = colormaps["tab10"](np.arange(10))
+    return {name: palette[i % len(palette)] for i, name in enumerate(sorted(names))}
+
+
+@dataclass(frozen=True)
+class View:
+    """The map rectangle shown: (xmin, xmax, ymin, ymax) in metres."""
+
+    x0: float
+    x1: float
+    y0: float
+    y1: float
+
+    @staticmethod
+    def around(runs: Sequence[LoggedRun], whole_map: bool, margin: float = MARGIN) -> View:
+        bx0, by0, bx1, by1 = runs[0].grid.bounds
+        points = [position for run in runs for position in _positions(run) if len(position)]
+        if whole_map or not points:
+            return View(bx0, bx1, by0, by1)
+        low, high = np.vstack(points).min(axis=0), np.vstack(points).max(axis=0)
+        return View(max(bx0, low[0] - margin), min(bx1, high[0] + margin),
+                    max(by0, low[1] - margin), min(by1, high[1] + margin))
+
+    def figure(self, legend: bool = True) -> tuple[Figure, Axes]:
+        """A figure sized to the view, so the map keeps equal aspect with no blank bands, and a
+        column on the right for the legend."""
+        width, height = max(self.x1 - self.x0, 1e-3), max(self.y1 - self.y0, 1e-3)
+        scale = min(MAP_INCHES[0] / width, MAP_INCHES[1] / height)
+        map_w, map_h = width * scale, height * scale
+        left, right, bottom, top = 0.8, 0.25, 0.6, 0.45
+        extra = LEGEND_INCHES if legend else 0.0
+        fig_w, fig_h = left + map_w + right + extra, bottom + map_h + top
+        figure = Figure(figsize=(fig_w, fig_h), dpi=DPI)
+        axes = figure.add_axes((left / fig_w, bottom / fig_h, map_w / fig_w, map_h / fig_h))
+        axes.set_xlim(self.x0, self.x1)
+        axes.set_ylim(self.y0, self.y1)
+        axes.set_aspect("equal", adjustable="box")
+        axes.set_xlabel("x [m]")
+        axes.set_ylabel("y [m]")
+        return figure, axes
+
+
+def _positions(run: LoggedRun) -> list[FloatArray]:
+    return ([track.position for track in run.humans.values()]
+            + [track.position for track in run.robots.values()])
+
+
+def draw_map(axes: Axes, grid: OccupancyGrid) -> None:
+    shade = np.where(grid.occupied, OCCUPIED, FREE)
+    if grid.unknown is not None:
+        shade = np.where(grid.unknown, UNKNOWN, shade)
+    x0, y0, x1, y1 = grid.bounds
+    axes.imshow(shade, cmap="gray", vmin=0.0, vmax=1.0, origin="lower",
+                extent=(x0, x1, y0, y1), interpolation="nearest", zorder=0)
+
+
+def personal_space_of(run: LoggedRun, name: str) -> Shape:
+    shape = run.metadata.params.get(name, {}).get("personal_space")
+    if isinstance(shape, Circle | Ellipse | Rectangle):
+        return shape
+    radius = run.metadata.params.get(name, {}).get("radius", 0.2)
+    return Circle(float(radius) if isinstance(radius, int | float) else 0.2)
+
+
+def spaced_frames(position: FloatArray, spacing: float) -> npt.NDArray[np.intp]:
+    """Frames about `spacing` metres apart along the path, with the first and the last."""
+    if len(position) == 0:
+        return np.zeros(0, dtype=np.intp)
+    steps = np.linalg.norm(np.diff(position, axis=0), axis=1)
+    travelled = np.concatenate([[0.0], np.cumsum(steps)])
+    marks = np.arange(0.0, travelled[-1], spacing)
+    frames = np.searchsorted(travelled, marks)
+    return np.unique(np.concatenate([frames, [len(position) - 1]]).astype(np.intp))
+
+
+def goal_frames(run: LoggedRun, track: HumanTrack) -> npt.NDArray[np.intp]:
+    """Frames at which the human's navigation tasks succeeded."""
+    times = [e.time for e in run.events if e.human == track.name and e.kind in _NAVIGATION
+             and e.status is TaskStatus.SUCCEEDED]
+    if not times or len(track.time) == 0:
+        return np.zeros(0, dtype=np.intp)
+    frames = np.searchsorted(track.time, np.array(times) - 1e-9)
+    return np.unique(np.minimum(frames, len(track.time) - 1)).astype(np.intp)
+
+
+def draw_human(axes: Axes, run: LoggedRun, name: str, colour: Any, *, spacing: float,
+               dashed: bool = False, spaces: bool = True) -> None:
+    track = run.humans[name]
+    if len(track.position) == 0:
+        return
+    style = (0, (5, 3)) if dashed else "-"
+    axes.plot(track.position[:, 0], track.position[:, 1], color=colour, linestyle=style,
+              linewidth=1.8, zorder=3)
+    if spaces:
+        shape = personal_space_of(run, name)
+        for frame in spaced_frames(track.position, spacing):
+            ring = outline(shape, track.position[frame], float(track.heading[frame]), n=48)
+            axes.add_patch(Polygon(ring, closed=True, facecolor=colour,
+                                   alpha=0.10 if not dashed else 0.0, zorder=2))
+            axes.add_patch(Polygon(ring, closed=True, fill=False, edgecolor=colour,
+                                   linewidth=0.9, linestyle=style, alpha=0.8, zorder=2))
+    start, end = track.position[0], track.position[-1]
+    axes.plot(*start, marker="o", markersize=8, color=colour, markeredgecolor="black", zorder=5)
+    goals = track.position[goal_frames(run, track)]
+    if len(goals) == 0:
+        goals = end[None, :]
+    axes.plot(goals[:, 0], goals[:, 1], linestyle="none", marker="*", markersize=13,
+              color=colour, markeredgecolor="black", zorder=5)
+
+
+def draw_robots(axes: Axes, run: LoggedRun, dashed: bool = False) -> None:
+    for robot in run.robots.values():
+        if len(robot.position):
+            axes.plot(robot.position[:, 0], robot.position[:, 1], color="black",
+                      linestyle=":" if not dashed else (0, (1, 3)), linewidth=1.4, zorder=3)
+            axes.plot(*robot.position[0], marker="s", markersize=7, color="black", zorder=5)
+
+
+def _marker_handles() -> list[Line2D]:
+    return [Line2D([], [], linestyle="none", marker="o", color="white", markeredgecolor="black",
+                   markersize=8, label="start"),
+            Line2D([], [], linestyle="none", marker="*", color="white", markeredgecolor="black",
+                   markersize=12, label="goal reached")]
+
+
+def _human_handles(run: LoggedRun, palette: dict[str, Any]) -> list[Any]:
+    return [Line2D([], [], color=palette[name], linewidth=2.5,
+                   label=f"{name}: {short_shape(personal_space_of(run, name))}")
+            for name in sorted(run.humans)]
+
+
+def short_shape(shape: Shape) -> str:
+    """A legend-sized description: `circle r 0.2 m`, `ellipse 1.1 x 0.8 m`, `square 0.25 m`."""
+    if isinstance(shape, Circle):
+        return f"circle r {shape.radius:g} m"
+    if isinstance(shape, Ellipse):
+        behind = f", {shape.offset:g} m back" if shape.offset else ""
+        return f"ellipse {shape.semi_major:g} x {shape.semi_minor:g} m{behind}"
+    if shape.length == shape.width:
+        return f"square {shape.length:g} m"
+    return f"rectangle {shape.length:g} x {shape.width:g} m"
+
+
+def _robot_handles(run: LoggedRun) -> list[Line2D]:
+    return [Line2D([], [], color="black", linestyle=":", marker="s", markersize=6,
+                   label=f"robot {name}") for name in sorted(run.robots)]
+
+
+def _legend(figure: Figure, axes: Axes, handles: list[Any]) -> None:
+    box = axes.get_position()
+    figure.legend(handles=handles, loc="upper left", bbox_to_anchor=(box.x1 + 0.01, box.y1),
+                  fontsize=9, frameon=True, labelspacing=0.8, handlelength=2.6,
+                  borderaxespad=0.0)
+
+
+def _title(run: LoggedRun) -> str:
+    variant = f" [{run.metadata.variant}]" if run.metadata.variant else ""
+    return f"{run.metadata.title}{variant}, seed {run.metadata.seed}"
+
+
+def save(figure: Figure, out: str | Path) -> Path:
+    """Write the figure as PNG; InputError if the file cannot be written."""
+    out = Path(out)
+    try:
+        figure.savefig(out, format="png", dpi=DPI)
+    except OSError as exc:
+        raise InputError(f"{out}: cannot be written ({exc.strerror or exc})") from None
+    return out
+
+
+def plot_run(run: LoggedRun, out: str | Path, *, spacing: float = SPACING,
+             whole_map: bool = False) -> Path:
+    """The run on its map: paths, starts, goals and personal spaces along the paths."""
+    _check_spacing(spacing)
+    figure, axes = View.around([run], whole_map).figure()
+    draw_map(axes, run.grid)
+    palette = colours(list(run.humans))
+    for name in sorted(run.humans):
+        draw_human(axes, run, name, palette[name], spacing=spacing)
+    draw_robots(axes, run)
+    axes.set_title(_title(run), fontsize=11)
+    _legend(figure, axes, [*_human_handles(run, palette), *_robot_handles(run), *_marker_handles()])
+    return save(figure, out)
+
+
+def plot_overlay(a: LoggedRun, b: LoggedRun, out: str | Path, *, epsilon: float | None = None,
+                 spacing: float = SPACING, whole_map: bool = False,
+                 labels: tuple[str, str] | None = None, humans: Sequence[str] | None = None
+                 ) -> Path:
+    """Two runs on one map: A solid with filled personal spaces, B dashed with outlines. With
+    `epsilon`, a cross marks where each human's two paths first part by more than it.
+    `humans` limits the picture to those humans (default: all)."""
+    from hubero_dsl.analysis.diff import divergence
+
+    _check_spacing(spacing)
+    chosen = sorted(humans) if humans is not None else sorted(a.humans)
+    figure, axes = View.around([a, b], whole_map).figure()
+    draw_map(axes, a.grid)
+    palette = colours(list(a.humans))
+    label_a, label_b = labels or (_side_label(a, "A"), _side_label(b, "B"))
+    for name in chosen:
+        draw_human(axes, a, name, palette[name], spacing=spacing)
+        if name in b.humans:
+            draw_human(axes, b, name, palette[name], spacing=spacing, dashed=True)
+            if epsilon is not None:
+                _mark_divergence(axes, a.humans[name], b.humans[name], epsilon, palette[name],
+                                 divergence)
+    draw_robots(axes, a)
+    draw_robots(axes, b, dashed=True)
+    axes.set_title(f"{a.metadata.title}: {label_a} vs {label_b}", fontsize=11)
+    handles: list[Any] = [Line2D([], [], color=palette[n], linewidth=2.5, label=n)
+                          for n in chosen]
+    handles += [Line2D([], [], color="dimgray", linewidth=1.8, label=f"{label_a} (solid)"),
+                Line2D([], [], color="dimgray", linewidth=1.8, linestyle=(0, (5, 3)),
+                       label=f"{label_b} (dashed)")]
+    handles += _marker_handles()
+    if epsilon is not None:
+        handles.append(Line2D([], [], linestyle="none", marker="X", color="white",
+                              markeredgecolor="black", markersize=9,
+                              label=f"paths > {epsilon:g} m apart"))
+    _legend(figure, axes, handles)
+    return save(figure, out)
+
+
+def _side_label(run: LoggedRun, fallback: str) -> str:
+    return run.metadata.variant or f"{fallback} (seed {run.metadata.seed})"
+
+
+def _mark_divergence(axes: Axes, a: HumanTrack, b: HumanTrack, epsilon: float, colour: Any,
+                     divergence: Any) -> None:
+    _, when = divergence(a, b, epsilon)
+    if when is None:
+        return
+    frame = int(np.searchsorted(a.time, when - 1e-9))
+    x, y = a.position[min(frame, len(a.position) - 1)]
+    axes.plot(x, y, marker="X", markersize=11, color=colour, markeredgecolor="black", zorder=6)
+
+
+def _check_spacing(spacing: float) -> None:
+    if not spacing > 0:
+        raise InputError(f"the spacing of personal spaces must be positive, got {spacing!r}")

@@ -1,0 +1,266 @@
+"""`hubero diff A.mcap B.mcap`: compare two runs human by human; `hubero diff DIR --baseline V`
+compares every run of a sweep with the baseline variant's run of the same seed.
+
+    hubero diff circle.mcap ellipse.mcap
+    hubero diff circle.mcap ellipse.mcap --json
+    hubero diff circle.mcap ellipse.mcap --plot overlay.png --human actor1
+    hubero diff sweep_out/ --baseline "speed=1.0 m/s,avoidance_strength=0.5"
+
+Per human: every metric of both runs with B - A, the discrete Fréchet and Hausdorff distances
+between the two paths, the largest distance between the two at the same instant, the first
+instant they are more than --epsilon apart, and the parameters that differ. Exit 0 when the
+comparison was made, 2 for unreadable logs, runs of different scenarios or a missing baseline.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from rich.console import Console
+
+    from hubero_dsl.analysis.diff import HumanDiff, MetricDelta, RunDiff, SweepDiff
+
+_UNITS = {"path_length": "m", "duration": "s", "mean_speed": "m/s", "max_speed": "m/s",
+          "min_distance": "m", "personal_space_intrusion_time": "s", "collisions": "",
+          "task_finish_times": "s", "final_status": ""}
+_LABELS = {"personal_space_intrusion_time": "personal space intruded",
+           "mean_speed": "mean speed (moving)"}
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    parser: argparse.ArgumentParser = subparsers.add_parser(
+        "diff", help="compare two runs, or a sweep's runs with a baseline", description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("first", metavar="A", help="a run log (.mcap), or a sweep's folder")
+    parser.add_argument("second", metavar="B", nargs="?", help="the run log to compare with A")
+    parser.add_argument("--baseline", metavar="VARIANT",
+                        help="with a sweep folder: the variant the others are compared with")
+    parser.add_argument("--epsilon", metavar="M", type=float, default=0.1,
+                        help="paths further apart than this have diverged (default 0.1 m)")
+    parser.add_argument("--human", metavar="NAME", action="append",
+                        help="show only this human (repeat for more)")
+    parser.add_argument("--json", action="store_true", help="print JSON instead of tables")
+    parser.add_argument("--plot", metavar="OUT.png", type=Path,
+                        help="draw both runs on the map into a PNG")
+    return parser
+
+
+def run(args: argparse.Namespace) -> int:
+    from hubero_dsl.errors import InputError
+
+    if not args.epsilon > 0:
+        raise InputError(f"--epsilon must be a positive distance in metres, got {args.epsilon}")
+    if args.plot is not None:
+        check_writable(args.plot)
+    if Path(args.first).is_dir():
+        return _sweep(args)
+    if args.second is None:
+        raise InputError("give two run logs (hubero diff A.mcap B.mcap), or a sweep folder "
+                         "and --baseline VARIANT")
+    if args.baseline is not None:
+        raise InputError("--baseline goes with a sweep folder, not with two logs")
+    return _pair(args)
+
+
+def check_writable(path: Path) -> None:
+    """Fail before any work when OUT cannot be a file: a folder, or in a missing folder."""
+    from hubero_dsl.errors import InputError
+
+    if path.is_dir():
+        raise InputError(f"{path}: cannot be written (it is a directory)")
+    if not path.parent.is_dir():
+        raise InputError(f"{path}: cannot be written ({path.parent} does not exist)")
+
+
+def _pair(args: argparse.Namespace) -> int:
+    from hubero_dsl.analysis.diff import diff_runs
+    from hubero_dsl.log.reader import load_run
+
+    a, b = load_run(args.first), load_run(args.second)
+    diff = diff_runs(a, b, epsilon=args.epsilon)
+    humans = _chosen(args.human, sorted(diff.humans))
+    if args.plot is not None:
+        from hubero_dsl.analysis.plot import plot_overlay
+
+        plot_overlay(a, b, args.plot, epsilon=args.epsilon, humans=humans)
+    if args.json:
+        data = diff.to_dict()
+        data["humans"] = {n: h for n, h in data["humans"].items() if n in humans}
+        print(json.dumps(data, indent=2))
+    else:
+        _print_pair(diff, humans, _console())
+    return 0
+
+
+def _chosen(wanted: list[str] | None, known: list[str]) -> list[str]:
+    from hubero_dsl.errors import InputError
+
+    if not wanted:
+        return known
+    unknown = sorted(set(wanted) - set(known))
+    if unknown:
+        raise InputError(f"no human {', '.join(unknown)} in these runs "
+                         f"(humans: {', '.join(known)})")
+    return sorted(set(wanted))
+
+
+def _sweep(args: argparse.Namespace) -> int:
+    from hubero_dsl.analysis.diff import diff_sweep
+    from hubero_dsl.errors import InputError
+
+    if args.baseline is None:
+        raise InputError(f"{args.first} is a folder: compare a sweep's runs with "
+                         f"--baseline VARIANT")
+    if args.second is not None:
+        raise InputError("give a sweep folder alone, or two run logs")
+    if args.plot is not None:
+        raise InputError("--plot draws two runs: give two logs (A.mcap B.mcap)")
+    sweep = diff_sweep(args.first, args.baseline, epsilon=args.epsilon)
+    if args.json:
+        print(json.dumps(sweep.to_dict(), indent=2))
+    else:
+        _print_sweep(sweep, set(args.human or ()), _console())
+    return 0
+
+
+# ---- rendering ----------------------------------------------------------------------------
+
+
+def _console() -> Console:
+    from rich.console import Console
+
+    return Console(highlight=False)
+
+
+def _unit(metric: str) -> str:
+    return _UNITS.get(metric.split(".", 1)[0], "")
+
+
+def _value(value: object, unit: str) -> str:
+    if value is None:
+        return "-"
+    if isinstance(value, float):
+        return f"{value:.3f} {unit}".rstrip()
+    return f"{value} {unit}".rstrip()
+
+
+def _delta(value: float | int | None, unit: str) -> str:
+    if value is None:
+        return ""
+    if value == 0:
+        return "[dim]0[/]"
+    text = f"{value:+.3f}" if isinstance(value, float) else f"{value:+d}"
+    return f"{text} {unit}".rstrip()
+
+
+def _side(label: str, side: Any) -> str:
+    from rich.markup import escape
+
+    variant = f" [{side.variant}]" if side.variant else ""
+    return escape(f"{label}: {side.path}  {side.title}{variant}, seed {side.seed}")
+
+
+def _print_pair(diff: RunDiff, humans: list[str], console: Console) -> None:
+    from rich.markup import escape
+
+    console.print(_side("A", diff.a))
+    console.print(_side("B", diff.b))
+    for note in diff.notes:
+        console.print(f"[yellow]note:[/] {escape(note)}")
+    for name in humans:
+        console.print(_human_table(diff.humans[name], diff.epsilon))
+
+
+def _human_table(human: HumanDiff, epsilon: float) -> Any:
+    from rich.markup import escape
+    from rich.table import Table
+
+    changed = "; ".join(f"{name} {a} → {b}" for name, (a, b) in human.parameters.items())
+    title = f"[bold]{escape(human.name)}[/]" + (f"  {escape(changed)}" if changed else "")
+    table = Table(title=title, title_justify="left")
+    table.add_column("metric", no_wrap=True)
+    for column in ("A", "B", "Δ (B - A)"):
+        table.add_column(column, justify="right", no_wrap=True)
+    for metric in human.metrics:
+        table.add_row(*_metric_row(metric))
+    table.add_section()
+    table.add_row("path Fréchet distance", "", "", _value(human.frechet, "m"))
+    table.add_row("path Hausdorff distance", "", "", _value(human.hausdorff, "m"))
+    table.add_row("largest same-time gap", "", "", _value(human.max_separation, "m"))
+    diverged = "never" if human.diverged_at is None else f"t = {human.diverged_at:.2f} s"
+    table.add_row(f"first > {epsilon:g} m apart", "", "", diverged)
+    return table
+
+
+def metric_label(name: str) -> str:
+    """`min_distance.actor2` -> `closest to actor2`, `task_finish_times.invite` -> `invite done`."""
+    group, _, key = name.partition(".")
+    if group == "min_distance":
+        return f"closest to {key}"
+    if group == "task_finish_times":
+        kind, at, place = key.partition("@")
+        return f"{kind} (line {place.split(':')[0]}) done at" if at else f"{key} done at"
+    return _LABELS.get(group, group.replace("_", " "))
+
+
+def _metric_row(metric: MetricDelta) -> tuple[str, str, str, str]:
+    from rich.markup import escape
+
+    unit = _unit(metric.name)
+    return (escape(metric_label(metric.name)), escape(_value(metric.a, unit)),
+            escape(_value(metric.b, unit)), _delta(metric.delta, unit))
+
+
+def _closest(human: HumanDiff) -> tuple[float | None, float | None]:
+    """The closest approach to anyone, in A and in B."""
+    rows = [m for m in human.metrics if m.name.startswith("min_distance.")]
+    left = [float(m.a) for m in rows if isinstance(m.a, int | float)]
+    right = [float(m.b) for m in rows if isinstance(m.b, int | float)]
+    return (min(left) if left else None), (min(right) if right else None)
+
+
+def _change(human: HumanDiff, name: str, unit: str) -> str:
+    metric = human.metric(name)
+    return _delta(metric.delta, unit) if metric is not None else ""
+
+
+def _print_sweep(sweep: SweepDiff, humans: set[str], console: Console) -> None:
+    from rich.markup import escape
+    from rich.table import Table
+
+    console.print(escape(f"{sweep.scenario or sweep.directory}: every run against "
+                         f"'{sweep.baseline}' (same seed), paths apart by > {sweep.epsilon:g} m"))
+    table = Table()
+    for column in ("variant", "seed", "human", "Δ path", "Δ duration", "closest (base → run)",
+                   "Δ intrusion", "Δ collisions", "Fréchet", "Hausdorff", "apart from",
+                   "parameters changed"):
+        table.add_column(column, justify="left" if column in (
+            "variant", "human", "parameters changed") else "right")
+    for comparison in sweep.comparisons:
+        variant = escape(str(comparison.variant))
+        if comparison.diff is None:
+            table.add_row(variant, str(comparison.seed), "", *[""] * 8,
+                          f"[yellow]not compared:[/] {escape(comparison.note)}")
+            continue
+        for name, human in sorted(comparison.diff.humans.items()):
+            if humans and name not in humans:
+                continue
+            table.add_row(variant, str(comparison.seed), escape(name), *_sweep_cells(human))
+    console.print(table)
+
+
+def _sweep_cells(human: HumanDiff) -> list[str]:
+    from rich.markup import escape
+
+    base, run = _closest(human)
+    closest = f"{_value(base, '')} → {_value(run, 'm')}"
+    apart = "never" if human.diverged_at is None else f"{human.diverged_at:.2f} s"
+    changed = ", ".join(f"{k}: {a} → {b}" for k, (a, b) in human.parameters.items())
+    return [_change(human, "path_length", "m"), _change(human, "duration", "s"), closest,
+            _change(human, "personal_space_intrusion_time", "s"),
+            _change(human, "collisions", ""), _value(human.frechet, "m"),
+            _value(human.hausdorff, "m"), apart, escape(changed)]
