@@ -1,0 +1,191 @@
+"""Where a sweep's runs execute: three `concurrent.futures.Executor`s behind one interface.
+
+    with open_executor("process", jobs=4) as executor:      # or "serial", or "dask"
+        future = executor.submit(execute_run, task)
+
+- `SerialExecutor` runs each call inline when it is submitted: no processes, easy to debug.
+- `ProcessExecutor` is a `ProcessPoolExecutor` (forkserver where the platform has it, else
+  spawn: never fork, which copies the parent's threads and locks) whose workers leave Ctrl-C
+  to the parent and stop cleanly on SIGTERM.
+- `DaskExecutor` submits to a Dask distributed scheduler through `Client.get_executor()`;
+  `distributed` is the optional extra `hubero[dask]` and is imported only here, only when asked.
+
+Each has `slots` (how many runs it executes at once, to size the queue of submitted runs) and
+`terminate()` (stop now: cancel what has not started, stop what is running where possible),
+which the sweep calls when it is interrupted.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import os
+import threading
+from collections.abc import Callable, Iterator
+from concurrent.futures import Executor, Future, ProcessPoolExecutor
+from typing import Any, Literal, ParamSpec, TypeVar
+
+from hubero_dsl.errors import InputError
+
+ExecutorKind = Literal["serial", "process", "dask"]
+EXECUTOR_KINDS: tuple[ExecutorKind, ...] = ("serial", "process", "dask")
+DEFAULT_CONNECT_TIMEOUT = 5.0  # s before an unreachable Dask scheduler is reported
+TERMINATE_TIMEOUT = 10.0  # s to wait for worker processes to end after SIGTERM
+
+WORKER_MODULES = ("hubero_dsl.sweep.worker", "hubero_dsl.lang.compile", "hubero_dsl.sim.run",
+                  "hubero_dsl.sim.simulation", "hubero_dsl.log.writer", "hubero_dsl.log.reader",
+                  "hubero_dsl.analysis.metrics")
+
+P = ParamSpec("P")
+T = TypeVar("T")
+
+
+def available_cores() -> int:
+    """The cores this process may use (the affinity mask where the platform has one)."""
+    with contextlib.suppress(AttributeError, OSError):
+        return max(1, len(os.sched_getaffinity(0)))
+    return max(1, os.cpu_count() or 1)
+
+
+class SerialExecutor(Executor):
+    """Runs each call inline in `submit` and returns a finished future."""
+
+    slots = 1
+
+    def __init__(self) -> None:
+        self._shutdown = False
+        self._lock = threading.Lock()
+
+    def submit(self, fn: Callable[P, T], /, *args: P.args, **kwargs: P.kwargs) -> Future[T]:
+        with self._lock:
+            if self._shutdown:
+                raise RuntimeError("cannot schedule new futures after shutdown")
+        future: Future[T] = Future()
+        future.set_running_or_notify_cancel()
+        try:
+            future.set_result(fn(*args, **kwargs))
+        except Exception as exc:  # KeyboardInterrupt and the like go on up, as inline code does
+            future.set_exception(exc)
+        return future
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        with self._lock:
+            self._shutdown = True
+
+    def terminate(self) -> None:
+        self.shutdown()
+
+
+class ProcessExecutor(ProcessPoolExecutor):
+    """A process pool whose workers ignore Ctrl-C and can be stopped at once."""
+
+    def __init__(self, jobs: int) -> None:
+        from hubero_dsl.sweep.worker import install_worker_signals
+
+        context: Any
+        if "forkserver" in multiprocessing.get_all_start_methods():
+            context = multiprocessing.get_context("forkserver")
+            # Import the simulator once in the fork server; every worker forked from it then
+            # starts at once instead of importing numpy, scipy and shapely again.
+            context.set_forkserver_preload(list(WORKER_MODULES))
+        else:
+            context = multiprocessing.get_context("spawn")
+        super().__init__(max_workers=jobs, mp_context=context,
+                         initializer=install_worker_signals)
+        self.slots = jobs
+
+    def terminate(self) -> None:
+        """Cancel the queued runs and stop the running ones (their logs are not kept)."""
+        workers = list((getattr(self, "_processes", None) or {}).values())
+        self.shutdown(wait=False, cancel_futures=True)
+        for process in workers:
+            with contextlib.suppress(OSError, ValueError):
+                process.terminate()  # SIGTERM: the worker's handler cleans up and exits
+        for process in workers:
+            with contextlib.suppress(OSError, ValueError, AssertionError):
+                process.join(TERMINATE_TIMEOUT)
+                if process.is_alive():
+                    process.kill()
+                    process.join()
+
+
+class DaskExecutor(Executor):
+    """Runs calls on a Dask distributed cluster, through the client's own executor."""
+
+    def __init__(self, address: str, *, connect_timeout: float = DEFAULT_CONNECT_TIMEOUT
+                 ) -> None:
+        self._client = connect_dask(address, connect_timeout)
+        # pure=False: every run is its own task, never merged with an equal-looking one
+        self._executor = self._client.get_executor(pure=False)
+        threads = self._client.nthreads()
+        self.slots = max(1, sum(threads.values())) if threads else 1
+
+    def submit(self, fn: Callable[P, T], /, *args: P.args, **kwargs: P.kwargs) -> Future[T]:
+        future: Future[T] = self._executor.submit(fn, *args, **kwargs)
+        return future
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        self._executor.shutdown(wait=wait and not cancel_futures)
+        self._client.close()
+
+    def terminate(self) -> None:
+        """Cancel every run not finished; a run already on a worker may still finish there."""
+        self.shutdown(wait=False, cancel_futures=True)
+
+
+def connect_dask(address: str, timeout: float) -> Any:
+    """A `distributed.Client` for the scheduler at `address`; InputError when it cannot be."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise InputError("the Dask executor needs the 'distributed' package: "
+                         "pip install 'hubero[dask]'") from None
+    try:
+        return Client(address, timeout=timeout, set_as_default=False)
+    except (OSError, TimeoutError) as exc:
+        raise InputError(f"cannot reach the Dask scheduler at {address} within {timeout:g} s "
+                         f"({exc}); is it running, and is the address right "
+                         "(tcp://HOST:8786)?") from None
+    except (ValueError, TypeError) as exc:
+        raise InputError(f"bad Dask scheduler address '{address}': {exc}") from None
+
+
+@contextlib.contextmanager
+def open_executor(kind: ExecutorKind, *, jobs: int = 1, scheduler: str | None = None,
+                  connect_timeout: float = DEFAULT_CONNECT_TIMEOUT) -> Iterator[Executor]:
+    """The executor of this kind, shut down on the way out (waiting for its runs)."""
+    executor: Executor
+    if kind == "serial":
+        executor = SerialExecutor()
+    elif kind == "process":
+        if jobs < 1:
+            raise InputError(f"--jobs must be at least 1, got {jobs}")
+        executor = ProcessExecutor(jobs)
+    elif kind == "dask":
+        if not scheduler:
+            raise InputError("the Dask executor needs a scheduler address: "
+                             "--scheduler tcp://HOST:8786")
+        executor = DaskExecutor(scheduler, connect_timeout=connect_timeout)
+    else:
+        raise InputError(f"unknown executor '{kind}' (executors: {', '.join(EXECUTOR_KINDS)})")
+    try:
+        yield executor
+    except BaseException:
+        terminate(executor)  # interrupted or failed: do not wait for the runs in flight
+        raise
+    executor.shutdown(wait=True)
+
+
+def executor_slots(executor: Executor) -> int:
+    """How many runs the executor works on at once (1 when it does not say)."""
+    slots = getattr(executor, "slots", 1)
+    return slots if isinstance(slots, int) and slots > 0 else 1
+
+
+def terminate(executor: Executor) -> None:
+    """Stop the executor now: `terminate()` where it has one, else cancel what is queued."""
+    stop = getattr(executor, "terminate", None)
+    if callable(stop):
+        stop()
+    else:
+        executor.shutdown(wait=False, cancel_futures=True)

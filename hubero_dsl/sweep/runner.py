@@ -1,0 +1,147 @@
+"""Running a planned sweep on an executor: submit, collect, survive failures and Ctrl-C.
+
+    with open_executor("process", jobs=2) as executor:
+        outcome = run_sweep(plan, out_dir, executor, on_done=show_progress)
+    write_index(out_dir, plan, outcome)
+
+`run_sweep` keeps a bounded queue of runs submitted (twice the executor's slots, so a sweep of
+100,000 runs is not 100,000 futures and an interruption has little to cancel) and collects
+records as runs finish, in whatever order; the outcome lists them in the plan's order, so it
+is the same whichever executor ran them. A run that fails, raises in the worker or loses its
+worker process is recorded as such and the sweep goes on. On Ctrl-C the executor is stopped
+and the outcome holds the runs that had finished (`complete=False`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from collections.abc import Callable, Iterator
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
+from dataclasses import dataclass
+from pathlib import Path
+
+from hubero_dsl.errors import LogError
+from hubero_dsl.sweep.executors import executor_slots, terminate
+from hubero_dsl.sweep.plan import SweepPlan
+from hubero_dsl.sweep.worker import (
+    MetricsFunction,
+    RunRecord,
+    RunTask,
+    error_record,
+    execute_run,
+    standard_metrics,
+)
+
+OnDone = Callable[[RunRecord], None]
+
+
+@dataclass(frozen=True)
+class SweepOutcome:
+    records: tuple[RunRecord, ...]  # in the plan's order; only finished runs if interrupted
+    complete: bool                  # False when the sweep was interrupted
+
+    @property
+    def succeeded(self) -> bool:
+        """Every planned run finished, completed, and met its expectations."""
+        return self.complete and all(record.succeeded for record in self.records)
+
+
+def prepare_out_dir(plan: SweepPlan, out_dir: str | Path) -> Path:
+    """Create the output folders, check they are writable, and remove the logs of an earlier
+    sweep at this sweep's log paths (so a log the index names is always this sweep's)."""
+    from hubero_dsl.log.writer import ensure_directory
+
+    folder = ensure_directory(out_dir)
+    try:
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        raise LogError(f"cannot write into {folder}: {exc.strerror or exc}") from None
+    for spec in plan.runs:
+        log = folder / spec.log
+        if not log.parent.is_dir():
+            ensure_directory(log.parent)
+        if log.is_file() or log.is_symlink():
+            with contextlib.suppress(FileNotFoundError):
+                log.unlink()
+    return folder
+
+
+def build_tasks(plan: SweepPlan, out_dir: str | Path, *, log_rate: float = 10.0,
+                metrics: MetricsFunction | None = standard_metrics) -> list[RunTask]:
+    """One picklable task per planned run, with absolute paths (workers' folders differ)."""
+    folder = os.path.abspath(out_dir)
+    return [RunTask(plan.scenario_path, plan.source, spec.variant, spec.seed,
+                    os.path.join(folder, *spec.log.split("/")), spec.log, log_rate, metrics)
+            for spec in plan.runs]
+
+
+def run_sweep(plan: SweepPlan, out_dir: str | Path, executor: Executor, *,
+              log_rate: float = 10.0, metrics: MetricsFunction | None = standard_metrics,
+              on_done: OnDone | None = None, window: int | None = None) -> SweepOutcome:
+    """Run every planned run on the executor; the records in plan order."""
+    tasks = build_tasks(plan, out_dir, log_rate=log_rate, metrics=metrics)
+    limit = window if window is not None else 2 * executor_slots(executor)
+    records: dict[int, RunRecord] = {}
+    pending: dict[Future[RunRecord], int] = {}
+    queue = iter(enumerate(tasks))
+
+    def collect(index: int, record: RunRecord) -> None:
+        records[index] = record
+        if on_done is not None:
+            on_done(record)
+
+    try:
+        _submit(executor, queue, tasks, pending, collect, max(1, limit))
+        while pending:
+            finished, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for future in sorted(finished, key=pending.__getitem__):
+                index = pending.pop(future)
+                collect(index, _record_of(future, tasks[index]))
+            _submit(executor, queue, tasks, pending, collect, max(1, limit))
+    except KeyboardInterrupt:
+        terminate(executor)
+        _harvest(pending, records)
+        return SweepOutcome(tuple(records[i] for i in sorted(records)), complete=False)
+    return SweepOutcome(tuple(records[i] for i in sorted(records)), complete=True)
+
+
+def _submit(executor: Executor, queue: Iterator[tuple[int, RunTask]], tasks: list[RunTask],
+            pending: dict[Future[RunRecord], int], collect: Callable[[int, RunRecord], None],
+            limit: int) -> None:
+    """Top the queue of submitted runs up to `limit` (a serial executor runs each here)."""
+    while len(pending) < limit:
+        item = next(queue, None)
+        if item is None:
+            return
+        index, task = item
+        try:
+            future = executor.submit(execute_run, task)
+        except Exception as exc:  # a broken pool refuses new work: record it, go on
+            collect(index, error_record(task.variant, task.seed, _worker_failure(exc)))
+            continue
+        if future.done():
+            collect(index, _record_of(future, task))
+        else:
+            pending[future] = index
+
+
+def _record_of(future: Future[RunRecord], task: RunTask) -> RunRecord:
+    """The worker's record, or an error record when the worker itself failed."""
+    try:
+        return future.result()
+    except Exception as exc:  # the worker process died, a pickling error, Dask lost it
+        return error_record(task.variant, task.seed, _worker_failure(exc))
+
+
+def _worker_failure(exc: BaseException) -> str:
+    return f"the worker failed: {type(exc).__name__}: {exc}".rstrip(": ")
+
+
+def _harvest(pending: dict[Future[RunRecord], int], records: dict[int, RunRecord]) -> None:
+    """Keep the runs that finished while the sweep was being stopped."""
+    for future, index in pending.items():
+        if future.done() and not future.cancelled() and future.exception() is None:
+            records[index] = future.result()

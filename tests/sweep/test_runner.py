@@ -1,0 +1,176 @@
+"""Running sweeps: the same bytes whichever executor ran them, failures recorded, Ctrl-C."""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from hubero_dsl.lang.compile import compile_file
+from hubero_dsl.log.reader import LoggedRun, load_run
+from hubero_dsl.sweep.executors import SerialExecutor, open_executor
+from hubero_dsl.sweep.index import write_index
+from hubero_dsl.sweep.plan import SweepPlan, plan_sweep
+from hubero_dsl.sweep.runner import SweepOutcome, prepare_out_dir, run_sweep
+from hubero_dsl.sweep.worker import RunRecord
+from tests.sweep.conftest import ABORTED, OUTCOMES, SWEPT, Write
+
+
+def plan_for(path: Path, seeds: tuple[int, ...] | None = None, variants: list[str] | None = None
+             ) -> SweepPlan:
+    program = compile_file(path)
+    chosen: list[str | None] = list(variants or program.variants) or [None]
+    return plan_sweep(path, program, chosen, seeds or (program.seed,))
+
+
+def sweep(plan: SweepPlan, out: Path, kind: str = "serial", **options: Any) -> SweepOutcome:
+    prepare_out_dir(plan, out)
+    with open_executor(kind, **options) as executor:  # type: ignore[arg-type]
+        outcome = run_sweep(plan, out, executor)
+    write_index(out, plan, outcome)
+    return outcome
+
+
+def tree(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.fixture(scope="module")
+def dask_scheduler() -> Iterator[str]:
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster:
+        yield cluster.scheduler_address
+
+
+def test_serial_process_and_dask_write_the_same_bytes(write_scenario: Write, tmp_path: Path,
+                                                      dask_scheduler: str) -> None:
+    plan = plan_for(write_scenario(SWEPT), seeds=(1, 2))
+    serial = sweep(plan, tmp_path / "serial")
+    sweep(plan, tmp_path / "process", "process", jobs=2)
+    sweep(plan, tmp_path / "dask", "dask", scheduler=dask_scheduler)
+    assert serial.complete and serial.succeeded and len(serial.records) == 4
+    expected = tree(tmp_path / "serial")
+    assert sorted(expected) == [
+        "index.csv", "index.json",
+        "runs/slow,avoidance_strength=0.5/seed-1.mcap",
+        "runs/slow,avoidance_strength=0.5/seed-2.mcap",
+        "runs/slow,avoidance_strength=1.5/seed-1.mcap",
+        "runs/slow,avoidance_strength=1.5/seed-2.mcap"]
+    assert tree(tmp_path / "process") == expected
+    assert tree(tmp_path / "dask") == expected
+    # the seed is what differs between the runs of one variant (speed is drawn per seed)
+    logs = expected["runs/slow,avoidance_strength=0.5/seed-1.mcap"], \
+        expected["runs/slow,avoidance_strength=0.5/seed-2.mcap"]
+    assert logs[0] != logs[1]
+
+
+def test_records_hold_outcomes_metrics_and_logs(write_scenario: Write, tmp_path: Path) -> None:
+    plan = plan_for(write_scenario(OUTCOMES), seeds=(1,))
+    outcome = sweep(plan, tmp_path / "out")
+    quick, late, slow = outcome.records
+    assert (quick.status, quick.succeeded, quick.failed_expectations) == ("completed", True, ())
+    assert (late.status, late.succeeded) == ("completed", False)
+    assert late.failed_expectations == ("a reaches (2, 1) within 1.5 s",)
+    assert (slow.status, slow.reason, slow.duration) == (
+        "timed_out", "time limit of 3 s reached", 3.0)
+    assert not outcome.succeeded
+    run = load_run(tmp_path / "out" / quick.log)  # type: ignore[operator]
+    assert (run.metadata.variant, run.metadata.seed) == ("quick", 1)
+    assert quick.metrics is not None and quick.flat_metrics is not None
+    assert quick.metrics["humans"]["a"]["final_status"] == "SUCCEEDED"
+    assert quick.flat_metrics["a.final_status"] == "SUCCEEDED"
+
+
+def test_an_aborted_scenario_is_failed_with_its_reason(write_scenario: Write,
+                                                       tmp_path: Path) -> None:
+    (record,) = sweep(plan_for(write_scenario(ABORTED)), tmp_path / "out").records
+    assert record.status == "failed" and "within 0.5 s" in record.reason
+    assert record.log == "runs/default/seed-0.mcap" and record.metrics is not None
+
+
+def test_an_exception_in_the_worker_is_an_error_and_the_sweep_goes_on(
+        write_scenario: Write, tmp_path: Path) -> None:
+    plan = plan_for(write_scenario(OUTCOMES), seeds=(1, 2), variants=["quick"])
+    out = tmp_path / "out"
+    prepare_out_dir(plan, out)
+    (out / "runs" / "quick" / "seed-1.mcap").mkdir()  # the worker cannot write this log
+    with open_executor("process", jobs=2) as executor:
+        outcome = run_sweep(plan, out, executor)
+    broken, fine = outcome.records
+    assert broken.status == "error" and "is a directory" in broken.reason
+    assert (broken.log, broken.metrics, broken.duration) == (None, None, None)
+    assert fine.status == "completed" and fine.succeeded
+    assert outcome.complete and not outcome.succeeded
+    assert not [p for p in out.rglob("*") if p.name.endswith(".part")]
+
+
+def die(run: LoggedRun) -> Any:
+    """A metrics function that kills its worker process."""
+    os._exit(9)
+
+
+def explode(run: LoggedRun) -> Any:
+    raise ZeroDivisionError("metrics went wrong")
+
+
+def test_a_worker_process_that_dies_is_an_error(write_scenario: Write, tmp_path: Path) -> None:
+    plan = plan_for(write_scenario(OUTCOMES), seeds=(1,), variants=["quick"])
+    prepare_out_dir(plan, tmp_path)
+    with open_executor("process", jobs=1) as executor:
+        (record,) = run_sweep(plan, tmp_path, executor, metrics=die).records
+    assert record.status == "error"
+    assert record.reason.startswith("the worker failed: BrokenProcessPool")
+
+
+def test_failing_metrics_are_an_error_but_the_log_is_kept(write_scenario: Write,
+                                                          tmp_path: Path) -> None:
+    plan = plan_for(write_scenario(OUTCOMES), seeds=(1,), variants=["quick"])
+    prepare_out_dir(plan, tmp_path)
+    (record,) = run_sweep(plan, tmp_path, SerialExecutor(), metrics=explode).records
+    assert record.status == "error"
+    assert record.reason == "computing the metrics failed: ZeroDivisionError: metrics went wrong"
+    assert record.log is not None and (tmp_path / record.log).is_file()
+    assert record.duration == 1.1
+
+
+def test_stale_logs_of_an_earlier_sweep_are_removed(write_scenario: Write,
+                                                    tmp_path: Path) -> None:
+    plan = plan_for(write_scenario(OUTCOMES), seeds=(1,), variants=["quick"])
+    stale = tmp_path / "runs" / "quick" / "seed-1.mcap"
+    stale.parent.mkdir(parents=True)
+    stale.write_bytes(b"old")
+    prepare_out_dir(plan, tmp_path)
+    assert not stale.exists()
+
+
+@pytest.mark.parametrize("kind", ["serial", "process"])
+def test_ctrl_c_keeps_the_finished_runs_and_stops_the_workers(
+        kind: str, write_scenario: Write, tmp_path: Path) -> None:
+    plan = plan_for(write_scenario(OUTCOMES), seeds=(1, 2, 3))
+    prepare_out_dir(plan, tmp_path)
+    seen: list[RunRecord] = []
+
+    def interrupt_after_two(record: RunRecord) -> None:
+        seen.append(record)
+        if len(seen) == 2:
+            raise KeyboardInterrupt
+
+    with open_executor(kind, jobs=2) as executor:  # type: ignore[arg-type]
+        outcome = run_sweep(plan, tmp_path, executor, on_done=interrupt_after_two)
+        workers = list((getattr(executor, "_processes", None) or {}).values())
+    assert not outcome.complete and not outcome.succeeded
+    assert 2 <= len(outcome.records) < len(plan.runs)
+    assert all(not process.is_alive() for process in workers)
+    write_index(tmp_path, plan, outcome)
+    index = json.loads((tmp_path / "index.json").read_text())
+    assert index["complete"] is False and len(index["runs"]) == len(outcome.records)
+    order = [(r.variant, r.seed) for r in plan.runs]
+    listed = [(r["variant"], r["seed"]) for r in index["runs"]]
+    assert listed == sorted(listed, key=order.index)
+    assert not [p for p in tmp_path.rglob("*") if p.name.endswith((".part", ".tmp"))]
