@@ -166,11 +166,13 @@ class LogEncoder:
             when = f" (decided at {decided:g} s)" if decided is not None else ""
             self._log(s.LOG_INFO if expectation["held"] else s.LOG_ERROR,
                       f"expectation {verdict}: {expectation['text']}{when}",
-                      expectation.pop("span"), ns)
+                      expectation["span"], ns)
+        expectations = [{key: value for key, value in expectation.items() if key != "span"}
+                        for expectation in result["expectations"]]
         self._mcap.add_metadata(s.RESULT_METADATA_NAME, {
             "state": result["state"], "reason": result["reason"], "time": result["time"],
             "ticks": result["ticks"], "succeeded": "true" if result["succeeded"] else "false",
-            "expectations": s.dumps(result["expectations"]), "humans": s.dumps(result["humans"])})
+            "expectations": s.dumps(expectations), "humans": s.dumps(result["humans"])})
 
     def discard(self) -> None:
         """Stop and delete the temporary file (the run failed or was interrupted)."""
