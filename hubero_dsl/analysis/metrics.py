@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -52,6 +52,7 @@ BoolArray = npt.NDArray[np.bool_]
 
 MOVING_SPEED = 0.05  # m/s: slower than this is standing (turning on the spot, numerical drift)
 DECIMALS = 6  # floats in to_dict/flat are rounded to 1e-6 so runs compare exactly
+NO_STATUS = "IDLE"  # the status a log shows before a human's first task
 DEFAULT_HUMAN_RADIUS = 0.2
 DEFAULT_ROBOT_RADIUS = 0.3
 _DONE = (TaskStatus.SUCCEEDED, TaskStatus.PREEMPTED)
@@ -89,7 +90,7 @@ class RunMetrics:
     humans: dict[str, HumanMetrics]
     robots: dict[str, RobotMetrics]
 
-    def to_dict(self) -> dict[str, object]:
+    def to_dict(self) -> dict[str, Any]:
         """JSON-safe, keys sorted, floats rounded to 1e-6 (so executors agree exactly)."""
         return {
             "humans": {name: _clean(vars_of(m)) for name, m in sorted(self.humans.items())},
@@ -166,7 +167,7 @@ def compute_metrics(run: LoggedRun) -> RunMetrics:
             min_distance=min_distances(actor, others),
             personal_space_intrusion_time=intrusion_time(actor, track.heading, shape, others),
             collisions=collisions(actor, others),
-            final_status=str(track.status[-1]) if len(track.status) else TaskStatus.PENDING.value)
+            final_status=str(track.status[-1]) if len(track.status) else NO_STATUS)
     robots = {}
     for name in sorted(run.robots):
         actor = actors[name]

@@ -121,7 +121,7 @@ def spaced_frames(position: FloatArray, spacing: float) -> npt.NDArray[np.intp]:
     travelled = np.concatenate([[0.0], np.cumsum(steps)])
     marks = np.arange(0.0, travelled[-1], spacing)
     frames = np.searchsorted(travelled, marks)
-    return np.unique(np.concatenate([frames, [len(position) - 1]]).astype(np.intp))
+    return np.unique(np.concatenate([[0], frames, [len(position) - 1]]).astype(np.intp))
 
 
 def goal_frames(run: LoggedRun, track: HumanTrack) -> npt.NDArray[np.intp]:

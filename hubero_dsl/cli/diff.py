@@ -133,7 +133,10 @@ def _sweep(args: argparse.Namespace) -> int:
 def _console() -> Console:
     from rich.console import Console
 
-    return Console(highlight=False)
+    console = Console(highlight=False)
+    if not console.is_terminal:  # a file or a pipe: no terminal to fit, keep tables whole
+        console = Console(highlight=False, width=max(console.width, 132))
+    return console
 
 
 def _unit(metric: str) -> str:
@@ -223,44 +226,69 @@ def _closest(human: HumanDiff) -> tuple[float | None, float | None]:
     return (min(left) if left else None), (min(right) if right else None)
 
 
-def _change(human: HumanDiff, name: str, unit: str) -> str:
+def _number(value: float | int | None, signed: bool = False) -> str:
+    if value is None:
+        return "-"
+    if value == 0:
+        return "0"
+    if isinstance(value, int):
+        return f"{value:+d}" if signed else str(value)
+    return f"{value:+.3f}" if signed else f"{value:.3f}"
+
+
+def _change(human: HumanDiff, name: str) -> str:
     metric = human.metric(name)
-    return _delta(metric.delta, unit) if metric is not None else ""
+    return _number(metric.delta, signed=True) if metric is not None else ""
+
+
+_SWEEP_COLUMNS = ("variant", "seed", "human", "Δ path\nm", "Δ duration\ns",
+                  "closest\nbase m", "closest\nrun m", "Δ intruded\ns", "Δ\ncollisions",
+                  "Fréchet\nm", "Hausdorff\nm", "apart at\ns")
 
 
 def _print_sweep(sweep: SweepDiff, humans: set[str], console: Console) -> None:
+    from rich import box
     from rich.markup import escape
     from rich.table import Table
 
-    console.print(escape(f"{sweep.scenario or sweep.directory}: every run against "
-                         f"'{sweep.baseline}' (same seed), paths apart by > {sweep.epsilon:g} m"))
-    table = Table()
-    for column in ("variant", "seed", "human", "Δ path", "Δ duration", "closest (base → run)",
-                   "Δ intrusion", "Δ collisions", "Fréchet", "Hausdorff", "apart from",
-                   "parameters changed"):
-        table.add_column(column, justify="left" if column in (
-            "variant", "human", "parameters changed") else "right")
+    console.print(escape(f"{sweep.scenario or sweep.directory}: each run against the baseline "
+                         f"'{sweep.baseline}' of the same seed"))
+    for variant, changes in _variant_changes(sweep).items():
+        console.print(escape(f"  {variant}: {changes or 'no parameter differs'}"))
+    table = Table(box=box.SIMPLE_HEAD, pad_edge=False)
+    for column in _SWEEP_COLUMNS:
+        text = column in ("variant", "human")
+        table.add_column(column, justify="left" if text else "right", no_wrap=not text,
+                         max_width=24 if column == "variant" else None)
     for comparison in sweep.comparisons:
         variant = escape(str(comparison.variant))
         if comparison.diff is None:
-            table.add_row(variant, str(comparison.seed), "", *[""] * 8,
+            table.add_row(variant, str(comparison.seed),
                           f"[yellow]not compared:[/] {escape(comparison.note)}")
             continue
         for name, human in sorted(comparison.diff.humans.items()):
-            if humans and name not in humans:
-                continue
-            table.add_row(variant, str(comparison.seed), escape(name), *_sweep_cells(human))
+            if not humans or name in humans:
+                table.add_row(variant, str(comparison.seed), escape(name), *_sweep_cells(human))
     console.print(table)
+    console.print(f"apart at: the first instant a human is more than {sweep.epsilon:g} m from "
+                  f"where it was at that time in the baseline run")
+
+
+def _variant_changes(sweep: SweepDiff) -> dict[str, str]:
+    """Each compared variant -> the parameters that differ from the baseline, in words."""
+    changes: dict[str, dict[str, str]] = {}
+    for comparison in sweep.comparisons:
+        listed = changes.setdefault(str(comparison.variant), {})
+        for human in (comparison.diff.humans.values() if comparison.diff else ()):
+            for name, (left, right) in human.parameters.items():
+                listed.setdefault(name, f"{name} {left} → {right}")
+    return {variant: "; ".join(texts.values()) for variant, texts in changes.items()}
 
 
 def _sweep_cells(human: HumanDiff) -> list[str]:
-    from rich.markup import escape
-
     base, run = _closest(human)
-    closest = f"{_value(base, '')} → {_value(run, 'm')}"
-    apart = "never" if human.diverged_at is None else f"{human.diverged_at:.2f} s"
-    changed = ", ".join(f"{k}: {a} → {b}" for k, (a, b) in human.parameters.items())
-    return [_change(human, "path_length", "m"), _change(human, "duration", "s"), closest,
-            _change(human, "personal_space_intrusion_time", "s"),
-            _change(human, "collisions", ""), _value(human.frechet, "m"),
-            _value(human.hausdorff, "m"), apart, escape(changed)]
+    apart = "never" if human.diverged_at is None else f"{human.diverged_at:.2f}"
+    return [_change(human, "path_length"), _change(human, "duration"),
+            _number(base), _number(run),
+            _change(human, "personal_space_intrusion_time"), _change(human, "collisions"),
+            _number(human.frechet), _number(human.hausdorff), apart]

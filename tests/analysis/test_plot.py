@@ -1,0 +1,138 @@
+"""Pictures of runs: real PNGs and GIFs of the expected size, with the map and the paths drawn."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from hubero_dsl.analysis.animate import animate_run, frame_times
+from hubero_dsl.analysis.plot import (
+    DPI,
+    View,
+    colours,
+    plot_overlay,
+    plot_run,
+    short_shape,
+    spaced_frames,
+)
+from hubero_dsl.errors import InputError
+from hubero_dsl.log.reader import LoggedRun, load_run
+from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, Square
+
+Factory = Callable[..., Any]
+
+
+def expected_size(runs: list[LoggedRun], whole_map: bool = False) -> tuple[int, int]:
+    figure, _ = View.around(runs, whole_map).figure()
+    width, height = figure.get_size_inches() * DPI
+    return round(width), round(height)
+
+
+def pixels(path: Path) -> np.ndarray:
+    with Image.open(path) as image:
+        assert image.format == "PNG"
+        return np.asarray(image.convert("RGB"), dtype=np.int16)
+
+
+def share_of_colour(image: np.ndarray, rgb: tuple[int, int, int], tolerance: int = 12) -> float:
+    close = np.abs(image - np.array(rgb)).max(axis=2) <= tolerance
+    return float(close.mean())
+
+
+def tab10(name: str, names: list[str]) -> tuple[int, int, int]:
+    r, g, b, _ = colours(names)[name]
+    return round(r * 255), round(g * 255), round(b * 255)
+
+
+def test_plot_run_png(tmp_path: Path, living_room_logs: dict[str, Path]) -> None:
+    run = load_run(living_room_logs["ellipse"])
+    out = plot_run(run, tmp_path / "run.png")
+    image = pixels(out)
+    assert (image.shape[1], image.shape[0]) == expected_size([run])
+    not_white = (image < 245).any(axis=2).mean()
+    assert not_white > 0.15  # map, paths, personal spaces and text, not a blank page
+    assert share_of_colour(image, (140, 140, 140)) > 0.02  # obstacles in grey
+    for name in ("actor1", "actor2"):  # each human's colour is there
+        assert share_of_colour(image, tab10(name, ["actor1", "actor2"])) > 0.001
+
+
+def test_whole_map_is_larger_view(tmp_path: Path, living_room_logs: dict[str, Path]) -> None:
+    run = load_run(living_room_logs["circle"])
+    cropped, whole = View.around([run], False), View.around([run], True)
+    assert whole.x1 - whole.x0 >= cropped.x1 - cropped.x0
+    x0, y0, x1, y1 = run.grid.bounds
+    assert (whole.x0, whole.x1, whole.y0, whole.y1) == (x0, x1, y0, y1)
+    image = pixels(plot_run(run, tmp_path / "whole.png", whole_map=True))
+    assert (image.shape[1], image.shape[0]) == expected_size([run], whole_map=True)
+
+
+def test_overlay_png(tmp_path: Path, living_room_logs: dict[str, Path]) -> None:
+    a, b = (load_run(living_room_logs[v]) for v in ("circle", "ellipse"))
+    out = plot_overlay(a, b, tmp_path / "overlay.png", epsilon=0.1)
+    image = pixels(out)
+    assert (image.shape[1], image.shape[0]) == expected_size([a, b])
+    assert (image < 245).any(axis=2).mean() > 0.15
+    only_one = pixels(plot_overlay(a, b, tmp_path / "one.png", humans=["actor1"]))
+    actor2 = tab10("actor2", ["actor1", "actor2"])
+    assert share_of_colour(only_one, actor2) < share_of_colour(image, actor2) / 5
+
+
+def test_synthetic_run_with_robot(tmp_path: Path, build_run: Factory, track: Factory,
+                                  robot: Factory) -> None:
+    run = build_run([track("h", [0.0, 1.0, 2.0], [(0, 0), (1, 0), (2, 1)], [0.0, 0.0, 0.8])],
+                    robots=[robot("bot", [0.0, 2.0], [(-2, -2), (-2, 2)])],
+                    params={"h": {"personal_space": Rectangle(1.0, 0.6)}})
+    image = pixels(plot_run(run, tmp_path / "s.png", spacing=0.5))
+    assert (image.shape[1], image.shape[0]) == expected_size([run])
+    assert share_of_colour(image, (0, 0, 0), tolerance=30) > 0.001  # the robot's path
+
+
+def test_unwritable_output(tmp_path: Path, build_run: Factory, track: Factory) -> None:
+    run = build_run([track("h", [0.0], [(0, 0)])])
+    with pytest.raises(InputError, match="cannot be written"):
+        plot_run(run, tmp_path / "missing" / "x.png")
+    with pytest.raises(InputError, match="cannot be written"):
+        plot_run(run, tmp_path)
+
+
+def test_bad_spacing(tmp_path: Path, build_run: Factory, track: Factory) -> None:
+    run = build_run([track("h", [0.0], [(0, 0)])])
+    with pytest.raises(InputError, match="spacing"):
+        plot_run(run, tmp_path / "x.png", spacing=0.0)
+
+
+def test_spaced_frames() -> None:
+    path = np.column_stack([np.linspace(0.0, 5.0, 51), np.zeros(51)])  # 0.1 m apart
+    assert spaced_frames(path, 2.0).tolist() == [0, 20, 40, 50]
+    standing = np.zeros((10, 2))
+    assert spaced_frames(standing, 1.0).tolist() == [0, 9]
+    assert spaced_frames(np.zeros((0, 2)), 1.0).tolist() == []
+
+
+def test_short_shapes() -> None:
+    assert short_shape(Circle(0.2)) == "circle r 0.2 m"
+    assert short_shape(Ellipse(1.1, 0.8)) == "ellipse 1.1 x 0.8 m"
+    assert short_shape(Ellipse(1.1, 0.8, 0.2)) == "ellipse 1.1 x 0.8 m, 0.2 m back"
+    assert short_shape(Square(0.25)) == "square 0.25 m"
+    assert short_shape(Rectangle(1.2, 0.8)) == "rectangle 1.2 x 0.8 m"
+
+
+def test_animation_gif(tmp_path: Path, build_run: Factory, track: Factory) -> None:
+    times = np.arange(0.0, 10.0, 0.1)
+    run = build_run([track("h", times, np.column_stack([times * 0.5 - 2, np.zeros_like(times)]))],
+                    params={"h": {"personal_space": Ellipse(0.8, 0.5)}})
+    assert len(frame_times(run, 6)) == 6
+    out = animate_run(run, tmp_path / "run.gif", max_frames=6, fps=5)
+    with Image.open(out) as image:
+        assert image.format == "GIF"
+        assert image.n_frames == 6
+        image.seek(5)
+        last = np.asarray(image.convert("RGB"), dtype=np.int16)
+    assert share_of_colour(last, tab10("h", ["h"])) > 0.002  # the body and its space
+    with pytest.raises(InputError, match="cannot be written"):
+        animate_run(run, tmp_path / "no" / "x.gif", max_frames=2)
