@@ -59,9 +59,12 @@ def goal_acceleration(position: FloatArray, velocity: FloatArray, drive: Drive,
     speed = drive.desired_speed
     ramp = np.maximum(arrival_radius, 4.0 * speed * dt)
     slowing = distance < ramp
-    desired_speed = np.where(slowing, speed * distance / ramp, speed)
     rate = drive.goal_strength / drive.relaxation_time
-    rate = np.where(slowing, np.maximum(rate, 4.0 * speed / ramp), rate)
+    if slowing.any():
+        desired_speed = np.where(slowing, speed * distance / ramp, speed)
+        rate = np.where(slowing, np.maximum(rate, 4.0 * speed / ramp), rate)
+    else:
+        desired_speed = speed
     rate = np.minimum(rate, 1.0 / dt)
     desired = heading_to_target * desired_speed[:, None]
     return np.asarray((desired - velocity) * rate[:, None], dtype=np.float64)
@@ -91,10 +94,13 @@ def params_as(model: type[ModelT], params: list[PlannerParams], planner: str) ->
 
 def check_drive(crowd: Crowd, drive: Drive, rows_with_params: int) -> None:
     """Raise SimulationError when the drive names rows the crowd or the parameters lack."""
-    if drive.index.size and (drive.index.min() < 0 or drive.index.max() >= crowd.count):
+    if not drive.index.size:
+        return
+    lowest, highest = int(drive.index.min()), int(drive.index.max())
+    if lowest < 0 or highest >= crowd.count:
         raise SimulationError(f"a drive names crowd rows outside 0..{crowd.count - 1}")
-    if drive.index.size and drive.index.max() >= rows_with_params:
-        raise SimulationError(f"a drive names crowd row {int(drive.index.max())} but the planner "
+    if highest >= rows_with_params:
+        raise SimulationError(f"a drive names crowd row {highest} but the planner "
                               f"was given parameters for {rows_with_params} bodies")
 
 

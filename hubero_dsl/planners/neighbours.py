@@ -9,10 +9,15 @@ Each pair can act in two directions (the first body reacting to the second, and 
 the first); a direction counts only when the other body lies within the receiver's own
 interaction range. Geometry is computed once per pair and shared by both directions, which
 halves the work of the planners that use it.
+
+A crowd of at most `_SMALL` bodies fits in one leaf of the k-d tree, whose pair query returns
+every close pair in row order, (0, 1), (0, 2), ..., (1, 2), ...: for such crowds every pair is a
+candidate, in that same order, and no tree is built.
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,6 +27,8 @@ from scipy.spatial import cKDTree
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
 BoolArray = npt.NDArray[np.bool_]
+
+_SMALL = 16  # scipy's default leaf size: the tree of a crowd this small is a single leaf
 
 
 @dataclass(frozen=True, slots=True)
@@ -67,6 +74,8 @@ class PairFinder:
         query_radius = float(reach.max()) if count else 0.0
         if count < 2 or query_radius <= 0.0:
             return _no_pairs()
+        if count <= _SMALL:
+            return _pairs_within(position, reach, query_radius, *_all_pairs(count))
         if self._stale(position, query_radius):
             tree = cKDTree(position, balanced_tree=False, compact_nodes=False)
             found = tree.query_pairs(query_radius + self.skin, output_type="ndarray")
@@ -83,6 +92,16 @@ class PairFinder:
         moved = position - built_at
         furthest_squared = float(np.max(moved[:, 0] * moved[:, 0] + moved[:, 1] * moved[:, 1]))
         return bool(furthest_squared > (self.skin / 2.0) ** 2)
+
+
+@functools.cache
+def _all_pairs(count: int) -> tuple[IntArray, IntArray]:
+    """Every pair of `count` rows, in the order a one-leaf k-d tree reports them."""
+    first, second = np.triu_indices(count, 1)
+    first, second = first.astype(np.intp), second.astype(np.intp)
+    first.setflags(write=False)
+    second.setflags(write=False)
+    return first, second
 
 
 def close_pairs(position: FloatArray, reach: FloatArray) -> NeighbourPairs:

@@ -49,7 +49,6 @@ are clipped to max_speed in any case.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, fields, replace
 from typing import TYPE_CHECKING, ClassVar
 
@@ -221,7 +220,6 @@ class SocialForcePlanner:
         self._params = _RowParams.from_models(models or [SocialForceParams()])
         self._padded = self._params
         self._pair_finder = PairFinder()
-        self._near_wall_rasters: dict[float, BoolArray] = {}
 
     def velocities(self, crowd: Crowd, drive: Drive, dt: float) -> FloatArray:
         """(K, 2) new velocities for the humans in `drive`, never faster than max_speed."""
@@ -232,16 +230,25 @@ class SocialForcePlanner:
         pairs = self._pair_finder.find(crowd.position, self._reach(crowd, drive))
         acceleration = goal_acceleration(crowd.position[rows], velocity, drive,
                                          _at(params.arrival_radius, rows), dt)
-        per_row = _social_acceleration(crowd, drive, params, pairs)
-        per_row += _contact_acceleration(crowd, params, pairs, dt)
-        acceleration += per_row[rows]
+        # Terms that are zero are skipped rather than added; adding 0.0 once keeps the sums
+        # bit for bit what adding every term gives (it turns -0.0 into 0.0, as they would).
+        if pairs.count:
+            per_row = _social_acceleration(crowd, drive, params, pairs)
+            contact = _contact_acceleration(crowd, params, pairs, dt)
+            if contact is not None:
+                per_row += contact
+            acceleration += per_row[rows]
+        else:
+            acceleration += 0.0
         walls = self._nearby_walls(crowd, rows, params)
-        acceleration += _wall_acceleration(crowd, drive, params, walls, dt)
+        if walls.slot.size:
+            acceleration[walls.slot] += _wall_acceleration(crowd, drive, params, walls, dt)
         new_velocity = clip_speed(velocity + acceleration * dt, drive.max_speed)
         new_velocity = _stop_at_walls(new_velocity, walls, dt)
         # robots follow their scripts: a drive that names one leaves it as it is
-        robots = crowd.is_robot[rows]
-        new_velocity[robots] = velocity[robots]
+        if crowd.is_robot.any():
+            robots = crowd.is_robot[rows]
+            new_velocity[robots] = velocity[robots]
         return new_velocity
 
     def _params_for(self, count: int) -> _RowParams:
@@ -255,53 +262,41 @@ class SocialForcePlanner:
         """How far each row looks; rows nobody steers look as far as the furthest (their
         reactions are computed with the rest and then dropped, which is cheaper than masking).
         """
-        ranges = np.where(crowd.is_robot[drive.index], 0.0, drive.interaction_range)
+        ranges = drive.interaction_range
+        if crowd.is_robot.any():
+            ranges = np.where(crowd.is_robot[drive.index], 0.0, ranges)
         reach = np.full(crowd.count, float(ranges.max()) if ranges.size else 0.0)
         reach[drive.index] = ranges
         return reach
 
     def _nearby_walls(self, crowd: Crowd, rows: IntArray, params: _RowParams) -> _NearbyWalls:
         """The steered humans with a wall close enough to matter, and where it is."""
-        nothing = _NearbyWalls(np.zeros(0, dtype=np.intp), np.zeros((0, 2)), np.zeros(0))
         if rows.size == 0:
-            return nothing
+            return _NO_WALLS
         position = crowd.position[rows]
-        reach = _WALL_REACH_IN_B / _at(params.inverse_wall_decay, rows) + crowd.radius[rows]
+        radius = crowd.radius[rows]
+        reach = _WALL_REACH_IN_B / _at(params.inverse_wall_decay, rows) + radius
         maybe = np.flatnonzero(self._maybe_near_a_wall(position, float(np.max(reach))))
         if maybe.size == 0:
-            return nothing
-        clearance = np.asarray(self.grid.clearance_at(position[maybe]), dtype=np.float64)
+            return _NO_WALLS
+        clearance, away = self.grid.clearance_and_direction_at(position[maybe])
         # clearance runs to the centre of the nearest occupied cell; its face is half a cell
         # nearer
-        gap = clearance - 0.5 * self.grid.resolution - crowd.radius[rows[maybe]]
-        close = np.flatnonzero(gap < reach[maybe] - crowd.radius[rows[maybe]])
+        gap = clearance - 0.5 * self.grid.resolution - radius[maybe]
+        close = np.flatnonzero(gap < reach[maybe] - radius[maybe])
         if close.size == 0:
-            return nothing
-        near = maybe[close]
-        away = np.asarray(self.grid.obstacle_direction_at(position[near]),
-                          dtype=np.float64).reshape(-1, 2)
-        return _NearbyWalls(near, away, gap[close])
+            return _NO_WALLS
+        return _NearbyWalls(maybe[close], away[close], gap[close])
 
     def _maybe_near_a_wall(self, position: FloatArray, reach: float) -> BoolArray:
-        """A cheap first cut: False only where the map is certainly clear for `reach` metres.
+        """A cheap first cut: False only where no wall can be within `reach` of the body.
 
-        Reads a raster of the grid's clearance field thresholded once per reach (rounded up
-        to 0.25 m), so most humans in open space never reach the interpolating queries.
+        The exact test below keeps a human when its clearance is under reach plus half a cell;
+        a cell whose clearance bound already exceeds that (with a margin for rounding) is
+        skipped, so humans in open space never reach the interpolating queries.
         """
         grid = self.grid
-        key = math.ceil(reach / 0.25) * 0.25
-        raster = self._near_wall_rasters.get(key)
-        if raster is None:
-            # two cells of margin cover interpolation and the point's place within its cell
-            raster = np.asarray(grid.clearance < key + 2.5 * grid.resolution)
-            self._near_wall_rasters[key] = raster
-        rows, cols = raster.shape
-        col = np.floor((position[:, 0] - grid.origin[0]) / grid.resolution)
-        row = np.floor((position[:, 1] - grid.origin[1]) / grid.resolution)
-        inside = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
-        row_index = np.clip(np.nan_to_num(row), 0, rows - 1).astype(np.intp)
-        col_index = np.clip(np.nan_to_num(col), 0, cols - 1).astype(np.intp)
-        return np.asarray(~inside | raster[row_index, col_index], dtype=np.bool_)
+        return ~grid.surely_clear(position, reach + 0.5 * grid.resolution + 1e-6)
 
 
 @dataclass(frozen=True, slots=True)
@@ -313,12 +308,13 @@ class _NearbyWalls:
     gap: FloatArray    # (W,) clearance minus body radius, negative when touching
 
 
+_NO_WALLS = _NearbyWalls(np.zeros(0, dtype=np.intp), np.zeros((0, 2)), np.zeros(0))
+
+
 def _wall_acceleration(crowd: Crowd, drive: Drive, params: _RowParams, walls: _NearbyWalls,
                        dt: float) -> FloatArray:
-    """Exponential push from the nearest obstacle plus contact once the body touches it."""
-    acceleration = np.zeros((drive.index.shape[0], 2))
-    if walls.slot.size == 0:
-        return acceleration
+    """(W, 2) exponential push from the nearest obstacle plus contact once the body touches
+    it, for the humans in `walls`."""
     near, away, gap = walls.slot, walls.away, walls.gap
     rows = drive.index[near]
     push = (_at(params.A_wall, rows) * drive.obstacle_strength[near]
@@ -328,8 +324,8 @@ def _wall_acceleration(crowd: Crowd, drive: Drive, params: _RowParams, walls: _N
     tangent = np.column_stack([-away[:, 1], away[:, 0]])
     sliding = np.einsum("ij,ij->i", crowd.velocity[rows], tangent)
     friction = _capped(_at(params.kappa, rows) * overlap * dt, _FRICTION_STEP_CAP) / dt
-    acceleration[near] = away * push[:, None] - tangent * (friction * sliding)[:, None]
-    return acceleration
+    return np.asarray(away * push[:, None] - tangent * (friction * sliding)[:, None],
+                      dtype=np.float64)
 
 
 def _stop_at_walls(velocity: FloatArray, walls: _NearbyWalls, dt: float) -> FloatArray:
@@ -461,16 +457,17 @@ def _sum_both_ways(pairs: NeighbourPairs, on_first: tuple[FloatArray, FloatArray
 
 
 def _contact_acceleration(crowd: Crowd, params: _RowParams, pairs: NeighbourPairs,
-                          dt: float) -> FloatArray:
-    """(N, 2) Helbing's body compression and sliding friction for overlapping bodies."""
+                          dt: float) -> FloatArray | None:
+    """(N, 2) Helbing's body compression and sliding friction for overlapping bodies; None
+    when no two bodies touch."""
     count = crowd.count
     if pairs.count == 0:
-        return np.zeros((count, 2))
+        return None
     radius = crowd.radius
     overlap = radius[pairs.first] + radius[pairs.second] - pairs.distance
     touching = np.flatnonzero(overlap > 0.0)
     if touching.size == 0:
-        return np.zeros((count, 2))
+        return None
     pairs = _subset(pairs, touching)
     overlap = overlap[touching]
     unit_x, unit_y = pairs.offset_x / pairs.distance, pairs.offset_y / pairs.distance

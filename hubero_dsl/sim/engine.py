@@ -60,6 +60,7 @@ class Engine:
         self._not_robot = np.zeros(humans.count, dtype=bool)
         self._not_robot.setflags(write=False)
         self._crowd_shapes: tuple[ShapeArrays, ShapeArrays, ShapeArrays] | None = None
+        self._separation = physics.BodySeparation()
         self._rng_for = rng_for
         self._rngs: dict[tuple[str, int], np.random.Generator] = {}
         count = humans.count
@@ -344,11 +345,11 @@ class Engine:
         if self.humans.count + r.count < 2:
             return moved
         if not r.count:
-            return physics.separate_bodies(moved, self.humans.radius, movable)
+            return self._separation(moved, self.humans.radius, movable)
         everyone = np.concatenate([moved, r.position])
         radius = np.concatenate([self.humans.radius, r.radius])
         can_move = np.concatenate([movable, np.zeros(r.count, bool)])
-        return physics.separate_bodies(everyone, radius, can_move)[: self.humans.count]
+        return self._separation(everyone, radius, can_move)[: self.humans.count]
 
     def _turn(self, dt: float) -> None:
         h = self.humans

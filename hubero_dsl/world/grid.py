@@ -159,7 +159,10 @@ class OccupancyGrid:
         the intermediate arrays (non-finite coordinates are outside; their clipped cell is an
         edge cell, which callers never read without checking `inside`).
         """
-        row, col = self._fractional_rows_cols(points)
+        return self._locate_fractional(*self._fractional_rows_cols(points))
+
+    def _locate_fractional(self, row: FloatArray, col: FloatArray
+                           ) -> tuple[IntArray, IntArray, BoolArray]:
         row, col = np.floor(row), np.floor(col)
         rows, cols = self.occupied.shape
         inside: BoolArray = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
@@ -236,8 +239,16 @@ class OccupancyGrid:
 
     def clearance_at(self, xy: ArrayLike) -> FloatArray:
         """Clearance at each point, bilinear between cell centres; 0 off free cells."""
-        points = _points(xy)
+        return self._probe(_points(xy), direction=False)[0]
+
+    def clearance_and_direction_at(self, xy: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """`clearance_at` and `obstacle_direction_at` in one pass over the cell lookups."""
+        return self._probe(_points(xy), direction=True)
+
+    def _probe(self, points: FloatArray, *, direction: bool) -> tuple[FloatArray, FloatArray]:
         row, col = self._fractional_rows_cols(points)
+        row_index, col_index, inside = self._locate_fractional(row, col)
+        free: BoolArray = inside & ~self.occupied[row_index, col_index]
         # Shift so cell centres sit on integer coordinates, as map_coordinates expects.
         coords = np.empty((2, row.size))
         np.subtract(row.reshape(-1), 0.5, out=coords[0])
@@ -245,8 +256,10 @@ class OccupancyGrid:
         if not np.isfinite(coords).all():
             coords = np.nan_to_num(coords, nan=0.0, posinf=0.0, neginf=0.0)
         values = _ndimage().map_coordinates(self.clearance, coords, order=1, mode="nearest")
-        result: FloatArray = np.where(self.is_free(points), values.reshape(row.shape), 0.0)
-        return result
+        clearance: FloatArray = np.where(free, values.reshape(row.shape), 0.0)
+        if not direction:
+            return clearance, clearance
+        return clearance, self._direction(points, row_index, col_index, inside, free)
 
     def surely_clear(self, xy: ArrayLike, distance: FloatArray | float) -> BoolArray:
         """True where `clearance_at(xy) >= distance` holds for certain (`distance` > 0).
@@ -266,15 +279,18 @@ class OccupancyGrid:
         margin = math.sqrt(2.0) * self.resolution * (1.0 + 1e-9) + 1e-12
         return _read_only(self.clearance - margin)
 
+    def _cell_centres(self, row: npt.NDArray[Any], col: npt.NDArray[Any]) -> FloatArray:
+        """(..., 2) world centres of cells, with exactly the arithmetic of `cell_to_world`."""
+        centres = np.empty((*row.shape, 2))
+        centres[..., 0] = self.origin[0] + (col + 0.5) * self.resolution
+        centres[..., 1] = self.origin[1] + (row + 0.5) * self.resolution
+        return centres
+
     def _cell_squares(self, cells: npt.NDArray[np.int32]) -> tuple[FloatArray, FloatArray]:
         """(2, ...) cells -> (..., 2) lower-left and upper-right world corners of each cell."""
-        res = self.resolution
-        lower = np.empty((*cells.shape[1:], 2))
-        # the arithmetic of cell_to_world, then half a cell down
-        lower[..., 0] = self.origin[0] + (cells[1] + 0.5) * res
-        lower[..., 1] = self.origin[1] + (cells[0] + 0.5) * res
-        lower -= 0.5 * res
-        return lower, lower + res
+        lower = self._cell_centres(cells[0], cells[1])
+        lower -= 0.5 * self.resolution
+        return lower, lower + self.resolution
 
     def obstacle_direction_at(self, xy: ArrayLike) -> FloatArray:
         """(..., 2) unit vectors pointing away from the nearest occupied cell.
@@ -287,20 +303,23 @@ class OccupancyGrid:
         points = _points(xy)
         row, col, inside = self._locate(points)
         free = inside & ~self.occupied[row, col]
+        return self._direction(points, row, col, inside, free)
+
+    def _direction(self, points: FloatArray, row: IntArray, col: IntArray, inside: BoolArray,
+                   free: BoolArray) -> FloatArray:
         nearest = self._obstacle_field[1]
         lower, upper = self._cell_squares(np.stack((nearest[0][row, col], nearest[1][row, col])))
         away = points - np.minimum(np.maximum(points, lower), upper)
         # A point on the obstacle's very edge falls back to the cell-to-cell direction.
         on_edge = ~np.any(away != 0.0, axis=-1)
         if on_edge.any():
-            centres = self._cell_squares(np.stack((row, col)))[0] + 0.5 * self.resolution
+            centres = self._cell_centres(row, col)
             away = np.where(on_edge[..., None], centres - 0.5 * (lower + upper), away)
         direction = away
         if not free.all():
             towards_free = np.zeros_like(points)
-            blocked = inside & ~free
             # the free field is a whole distance transform: computed only once it is needed
-            if blocked.any() and self._free_field is not None:
+            if (inside & ~free).any() and self._free_field is not None:
                 lower, upper = self._cell_squares(self._free_field[:, row, col])
                 towards_free = np.minimum(np.maximum(points, lower), upper) - points
             xmin, ymin, xmax, ymax = self.bounds

@@ -1,0 +1,131 @@
+"""The grid's per-tick queries give exactly what their straightforward definitions give.
+
+`clearance_at`, `is_free`, `contains` and `obstacle_direction_at` were rewritten to spare numpy
+calls; the references below are the plain formulations (world_to_cell, clip, map_coordinates
+over the fractional cells, cell_to_world of the nearest obstacle). Results must agree bit for
+bit, including points on cell borders, on obstacle edges, inside walls, off the map and
+non-finite ones. `surely_clear` must never claim more clearance than `clearance_at` reports.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from hubero_dsl.world.grid import OccupancyGrid
+
+
+def reference_is_free(grid: OccupancyGrid, points: np.ndarray) -> np.ndarray:
+    cells = grid.world_to_cell(points)
+    row, col = grid._clipped(cells)
+    return grid._inside(cells) & ~grid.occupied[row, col]
+
+
+def reference_clearance_at(grid: OccupancyGrid, points: np.ndarray) -> np.ndarray:
+    coords = np.nan_to_num(grid._fractional_cells(points) - 0.5, nan=0.0, posinf=0.0,
+                           neginf=0.0)
+    values = ndimage.map_coordinates(grid.clearance, coords.reshape(-1, 2).T, order=1,
+                                     mode="nearest").reshape(points.shape[:-1])
+    return np.where(reference_is_free(grid, points), values, 0.0)
+
+
+def reference_direction(grid: OccupancyGrid, points: np.ndarray) -> np.ndarray:
+    def squares(cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        lower = grid.cell_to_world(np.moveaxis(cells, 0, -1)) - 0.5 * grid.resolution
+        return lower, lower + grid.resolution
+
+    cells = grid.world_to_cell(points)
+    row, col = grid._clipped(cells)
+    centres = grid.cell_to_world(np.stack((row, col), axis=-1))
+    lower, upper = squares(grid._obstacle_field[1][:, row, col])
+    away = points - np.clip(points, lower, upper)
+    on_edge = ~np.any(away != 0.0, axis=-1, keepdims=True)
+    away = np.where(on_edge, centres - 0.5 * (lower + upper), away)
+    towards_free = np.zeros_like(points)
+    if grid._free_field is not None:
+        lower, upper = squares(grid._free_field[:, row, col])
+        towards_free = np.clip(points, lower, upper) - points
+    xmin, ymin, xmax, ymax = grid.bounds
+    towards_map = np.clip(points, (xmin, ymin), (xmax, ymax)) - points
+    free = reference_is_free(grid, points)[..., None]
+    inside = grid._inside(cells)[..., None]
+    direction = np.where(free, away, np.where(inside, towards_free, towards_map))
+    norms = np.linalg.norm(direction, axis=-1, keepdims=True)
+    return np.divide(direction, norms, out=np.zeros_like(direction), where=norms > 0.0)
+
+
+def furnished(seed: int, resolution: float = 0.05) -> OccupancyGrid:
+    """A room with random boxes, pillars and unknown cells."""
+    rng = np.random.default_rng(seed)
+    occupied = np.zeros((60, 80), dtype=bool)
+    for _ in range(8):
+        r, c = rng.integers(0, 55), rng.integers(0, 75)
+        occupied[r:r + rng.integers(1, 6), c:c + rng.integers(1, 6)] = True
+    unknown = np.zeros_like(occupied)
+    unknown[:3, :10] = True
+    return OccupancyGrid(occupied, resolution, (-1.3, 0.7), unknown=unknown)
+
+
+def awkward_points(grid: OccupancyGrid, seed: int) -> np.ndarray:
+    """Random points, points on cell borders and corners, off the map, and non-finite ones."""
+    rng = np.random.default_rng(seed)
+    xmin, ymin, xmax, ymax = grid.bounds
+    inside = rng.uniform((xmin - 0.5, ymin - 0.5), (xmax + 0.5, ymax + 0.5), size=(400, 2))
+    rows, cols = grid.shape
+    corners = grid.cell_to_world(np.column_stack([rng.integers(-1, rows + 1, 100),
+                                                  rng.integers(-1, cols + 1, 100)]))
+    corners -= 0.5 * grid.resolution
+    borders = corners + np.column_stack([rng.uniform(0, grid.resolution, 100), np.zeros(100)])
+    odd = np.array([[np.nan, 0.0], [0.0, np.nan], [np.inf, 1.0], [-np.inf, 1.0], [1.0, np.inf],
+                    [1e12, -1e12], [xmin, ymin], [xmax, ymax]])
+    return np.concatenate([inside, corners, borders, odd])
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_queries_equal_their_reference_formulations_bit_for_bit(seed: int) -> None:
+    grid = furnished(seed)
+    points = awkward_points(grid, seed)
+    with np.errstate(invalid="ignore"):
+        expected_direction = reference_direction(grid, points)
+    np.testing.assert_array_equal(grid.is_free(points), reference_is_free(grid, points))
+    np.testing.assert_array_equal(grid.contains(points), grid._inside(grid.world_to_cell(points)))
+    np.testing.assert_array_equal(grid.clearance_at(points), reference_clearance_at(grid, points))
+    with np.errstate(invalid="ignore"):
+        direction = grid.obstacle_direction_at(points)
+        both = grid.clearance_and_direction_at(points)
+    np.testing.assert_array_equal(direction, expected_direction)
+    np.testing.assert_array_equal(both[0], reference_clearance_at(grid, points))
+    np.testing.assert_array_equal(both[1], expected_direction)
+
+
+def test_queries_keep_the_shape_of_a_grid_of_points() -> None:
+    grid = furnished(1)
+    points = awkward_points(grid, 1)[:400].reshape(20, 20, 2)
+    assert grid.clearance_at(points).shape == (20, 20)
+    np.testing.assert_array_equal(grid.clearance_at(points),
+                                  reference_clearance_at(grid, points))
+    np.testing.assert_array_equal(grid.obstacle_direction_at(points),
+                                  reference_direction(grid, points))
+
+
+@pytest.mark.parametrize("resolution", [0.02, 0.05, 0.5])
+def test_surely_clear_never_claims_more_than_the_interpolated_clearance(
+        resolution: float) -> None:
+    grid = furnished(3, resolution)
+    points = awkward_points(grid, 3)
+    finite = points[np.isfinite(points).all(axis=1)]
+    clearance = grid.clearance_at(finite)
+    for distance in (1e-9, 0.5 * resolution, 0.12, 0.3, 1.0, 2.5):
+        sure = grid.surely_clear(finite, distance)
+        assert np.all(clearance[sure] >= distance)
+    # the bound is not idle: open space far from walls is recognised
+    assert grid.surely_clear(finite, 1e-9).sum() > 0.3 * len(finite)
+    assert not grid.surely_clear(points[~np.isfinite(points).all(axis=1)], 1e-9).any()
+
+
+def test_off_map_points_are_never_surely_clear() -> None:
+    grid = OccupancyGrid(np.zeros((40, 40), dtype=bool), 0.1, (0.0, 0.0))
+    outside = np.array([[-0.05, 2.0], [4.2, 2.0], [2.0, -3.0], [2.0, 40.0]])
+    assert not grid.surely_clear(outside, 1e-9).any()
+    assert grid.surely_clear(np.array([[2.0, 2.0]]), 1.5).all()
