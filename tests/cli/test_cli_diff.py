@@ -1,0 +1,218 @@
+"""`hubero diff`: tables, JSON, overlay plots, sweeps against a baseline, and every kind of bad
+input ending in exit 2 with a message and no traceback."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+from mcap.writer import Writer
+from PIL import Image
+
+from hubero_dsl.cli.run import run_one
+from hubero_dsl.lang.compile import compile_file
+from tests.cli.conftest import REPO_ROOT, Outcome
+
+MAP = REPO_ROOT / "maps" / "living_room.yaml"
+
+# Two people swap places in the living room; the variants change their personal space.
+SWAP = f"""\
+scenario "swap"
+map "{MAP}"
+time_limit 20 s
+human a at (1, 1) heading 0 deg
+human b at (4, 1.2) heading 180 deg
+variant near {{ personal_space circle(radius: 0.2 m) }}
+variant far {{ personal_space ellipse(semi_major: 1.1 m, semi_minor: 0.8 m) }}
+activity {{
+    parallel {{
+        go: a move_to (4, 1)
+        b move_to (1, 1.2)
+    }}
+}}
+"""
+
+ALONE = f"""\
+scenario "alone"
+map "{MAP}"
+time_limit 5 s
+human a at (1, 1)
+human c at (2, 2)
+activity {{ a move_to (2, 1) }}
+"""
+
+Cli = Callable[..., Outcome]
+
+
+@pytest.fixture(scope="module")
+def logs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    folder = tmp_path_factory.mktemp("diff")
+    (folder / "swap.hub").write_text(SWAP, encoding="utf-8")
+    (folder / "alone.hub").write_text(ALONE, encoding="utf-8")
+    swap = compile_file(folder / "swap.hub")
+    made = {}
+    for variant in ("near", "far"):
+        made[variant] = folder / f"{variant}.mcap"
+        run_one(swap, variant, None, made[variant], 10.0, quiet=True)
+    made["alone"] = folder / "alone.mcap"
+    run_one(compile_file(folder / "alone.hub"), None, None, made["alone"], 10.0, quiet=True)
+    return made
+
+
+def test_two_runs_table(cli: Cli, logs: dict[str, Path]) -> None:
+    outcome = cli("diff", str(logs["near"]), str(logs["far"]))
+    assert outcome.status == 0, outcome.err
+    for text in ("[near]", "[far]", "path length", "closest to b", "go done at",
+                 "path Fréchet distance", "personal_space circle(radius: 0.2 m) → ellipse"):
+        assert text in outcome.out
+    assert outcome.err == ""
+
+
+def test_json(cli: Cli, logs: dict[str, Path]) -> None:
+    outcome = cli("diff", str(logs["near"]), str(logs["far"]), "--json", "--epsilon", "0.05")
+    data = json.loads(outcome.out)
+    assert data["epsilon"] == 0.05
+    assert sorted(data["humans"]) == ["a", "b"]
+    a = data["humans"]["a"]
+    assert a["frechet"] > 0 and a["hausdorff"] > 0
+    assert a["parameters"]["personal_space"][0] == "circle(radius: 0.2 m)"
+    assert a["metrics"]["task_finish_times.go"]["delta"] == pytest.approx(
+        a["metrics"]["task_finish_times.go"]["b"] - a["metrics"]["task_finish_times.go"]["a"],
+        abs=1e-6)
+    only_b = json.loads(cli("diff", str(logs["near"]), str(logs["far"]), "--json",
+                            "--human", "b").out)
+    assert list(only_b["humans"]) == ["b"]
+
+
+def test_a_run_against_itself(cli: Cli, logs: dict[str, Path]) -> None:
+    data = json.loads(cli("diff", str(logs["far"]), str(logs["far"]), "--json").out)
+    for human in data["humans"].values():
+        assert (human["frechet"], human["hausdorff"], human["diverged_at"]) == (0.0, 0.0, None)
+        assert human["parameters"] == {}
+        assert {m["delta"] for m in human["metrics"].values()} <= {0, None}
+
+
+def test_overlay_plot(cli: Cli, logs: dict[str, Path], tmp_path: Path) -> None:
+    out = tmp_path / "overlay.png"
+    outcome = cli("diff", str(logs["near"]), str(logs["far"]), "--plot", str(out))
+    assert outcome.status == 0
+    with Image.open(out) as image:
+        assert image.format == "PNG" and image.width > 500 and image.height > 300
+
+
+@pytest.mark.parametrize("name", ["missing/overlay.png", "."])
+def test_unwritable_plot(cli: Cli, logs: dict[str, Path], tmp_path: Path, name: str) -> None:
+    outcome = cli("diff", str(logs["near"]), str(logs["far"]), "--plot", str(tmp_path / name))
+    assert outcome.status == 2
+    assert "cannot be written" in outcome.err
+
+
+def test_different_scenarios_name_the_humans(cli: Cli, logs: dict[str, Path]) -> None:
+    outcome = cli("diff", str(logs["near"]), str(logs["alone"]))
+    assert outcome.status == 2
+    assert "only in" in outcome.err and ": b" in outcome.err and ": c" in outcome.err
+    assert "'swap' and 'alone'" in outcome.err
+
+
+def write_other_mcap(path: Path) -> Path:
+    with path.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="", library="someone else")
+        schema = writer.register_schema(name="x", encoding="jsonschema", data=b"{}")
+        channel = writer.register_channel(topic="/x", message_encoding="json", schema_id=schema)
+        writer.add_message(channel, log_time=0, data=b"{}", publish_time=0)
+        writer.finish()
+    return path
+
+
+@pytest.mark.parametrize(("make", "message"), [
+    (lambda p, log: p.write_bytes(b"hello, not a log"), "not a readable hubero run log"),
+    (lambda p, log: p.write_bytes(b""), "the file is empty"),
+    (lambda p, log: p.write_bytes(log.read_bytes()[: log.stat().st_size // 2]),
+     "not a readable hubero run log"),
+    (lambda p, log: write_other_mcap(p), "not a hubero run log"),
+    (lambda p, log: None, "No such file"),
+])
+def test_bad_logs(cli: Cli, logs: dict[str, Path], tmp_path: Path, make: Callable[..., object],
+                  message: str) -> None:
+    bad = tmp_path / "bad.mcap"
+    make(bad, logs["near"])
+    outcome = cli("diff", str(logs["near"]), str(bad))
+    assert outcome.status == 2
+    assert message in outcome.err
+
+
+@pytest.mark.parametrize(("extra", "message"), [
+    ((), "give two run logs"),
+    (("{far}", "--baseline", "near"), "--baseline goes with a sweep folder"),
+    (("{far}", "--epsilon", "0"), "--epsilon must be a positive"),
+    (("{far}", "--human", "zed"), "no human zed in these runs (humans: a, b)"),
+])
+def test_usage_errors(cli: Cli, logs: dict[str, Path], extra: tuple[str, ...],
+                      message: str) -> None:
+    argv = [arg.format(far=logs["far"]) for arg in extra]
+    outcome = cli("diff", str(logs["near"]), *argv)
+    assert outcome.status == 2
+    assert message in outcome.err
+
+
+# ---- sweeps -------------------------------------------------------------------------------
+
+
+def sweep_folder(folder: Path, logs: dict[str, Path], runs: list[tuple[str, int]]) -> Path:
+    (folder / "runs").mkdir(parents=True)
+    entries = []
+    for variant, seed in runs:
+        log = folder / "runs" / f"{variant}-{seed}.mcap"
+        log.symlink_to(logs[variant])
+        entries.append({"variant": variant, "seed": seed, "parameters": {},
+                        "status": "completed", "reason": "", "duration": 3.0, "metrics": {},
+                        "log": f"runs/{log.name}"})
+    index = {"version": 1, "scenario": "swap.hub", "runs": entries}
+    (folder / "index.json").write_text(json.dumps(index), encoding="utf-8")
+    return folder
+
+
+def test_sweep_table(cli: Cli, logs: dict[str, Path], tmp_path: Path) -> None:
+    folder = sweep_folder(tmp_path / "out", logs,
+                          [("near", 1), ("far", 1), ("near", 2), ("far", 2)])
+    outcome = cli("diff", str(folder), "--baseline", "near")
+    assert outcome.status == 0, outcome.err
+    assert "far: personal_space circle(radius: 0.2 m) → ellipse" in outcome.out
+    rows = [row for row in (line.split() for line in outcome.out.splitlines())
+            if row[:1] == ["far"] and row[1].isdigit()]
+    assert [(row[1], row[2]) for row in rows] == [("1", "a"), ("1", "b"), ("2", "a"), ("2", "b")]
+    data = json.loads(cli("diff", str(folder), "--baseline", "near", "--json").out)
+    assert [(c["variant"], c["seed"]) for c in data["comparisons"]] == [("far", 1), ("far", 2)]
+
+
+@pytest.mark.parametrize(("index", "argv", "message"), [
+    (None, ("--baseline", "near"), "has no index.json"),
+    ('{"version": 1, "runs": []}', ("--baseline", "near"), "lists no runs"),
+    ("[1, 2", ("--baseline", "near"), "cannot be read as a sweep index"),
+    ("sweep", ("--baseline", "square"), "no run of the baseline variant 'square'"),
+    ("sweep", (), "--baseline VARIANT"),
+    ("sweep", ("--baseline", "near", "--plot", "x.png"), "--plot draws two runs"),
+])
+def test_bad_sweeps(cli: Cli, logs: dict[str, Path], tmp_path: Path, index: str | None,
+                    argv: tuple[str, ...], message: str) -> None:
+    folder = tmp_path / "out"
+    if index == "sweep":
+        sweep_folder(folder, logs, [("near", 1), ("far", 1)])
+    else:
+        folder.mkdir()
+        if index is not None:
+            (folder / "index.json").write_text(index, encoding="utf-8")
+    outcome = cli("diff", str(folder), *(a if a != "x.png" else str(tmp_path / a) for a in argv))
+    assert outcome.status == 2
+    assert message in outcome.err
+
+
+def test_exit_status_in_a_real_process(cli_subprocess: Cli, tmp_path: Path) -> None:
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(b"\x89MCAP0\r\n truncated")
+    outcome = cli_subprocess("diff", str(bad), str(bad))
+    assert outcome.status == 2
+    assert "error" in outcome.err and "bad.mcap" in outcome.err

@@ -1,0 +1,101 @@
+"""`hubero plot`: a PNG of a run, a GIF replay, and exit 2 for bad logs and unwritable outputs."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image, ImageSequence
+
+from hubero_dsl.cli.run import run_one
+from hubero_dsl.lang.compile import compile_file
+from tests.cli.conftest import REPO_ROOT, Outcome
+
+MAP = REPO_ROOT / "maps" / "living_room.yaml"
+
+WALK = f"""\
+scenario "walk"
+map "{MAP}"
+time_limit 10 s
+human a at (1, 1) heading 0 deg {{ personal_space ellipse(semi_major: 1.1 m, semi_minor: 0.8 m) }}
+human b at (2, -1) heading 90 deg {{ personal_space square(side: 0.5 m) }}
+activity {{
+    parallel {{
+        a move_to (4, 1)
+        b move_to (2, 0.5)
+    }}
+}}
+"""
+
+Cli = Callable[..., Outcome]
+
+
+@pytest.fixture(scope="module")
+def log(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("plot")
+    (folder / "walk.hub").write_text(WALK, encoding="utf-8")
+    out = folder / "walk.mcap"
+    run_one(compile_file(folder / "walk.hub"), None, None, out, 10.0, quiet=True)
+    return out
+
+
+def test_png(cli: Cli, log: Path, tmp_path: Path) -> None:
+    out = tmp_path / "walk.png"
+    outcome = cli("plot", str(log), "-o", str(out))
+    assert outcome.status == 0, outcome.err
+    assert outcome.out == "" and outcome.err == ""
+    with Image.open(out) as image:
+        assert image.format == "PNG"
+        assert image.width > 600 and image.height > 300
+        pixels = np.asarray(image.convert("RGB"))
+    assert (pixels < 245).any(axis=2).mean() > 0.1
+
+
+def test_gif_and_png_together(cli: Cli, log: Path, tmp_path: Path) -> None:
+    png, gif = tmp_path / "walk.png", tmp_path / "walk.gif"
+    outcome = cli("plot", str(log), "-o", str(png), "--animate", str(gif), "--frames", "4",
+                  "--fps", "4", "--spacing", "0.5", "--whole-map")
+    assert outcome.status == 0, outcome.err
+    assert png.stat().st_size > 0
+    with Image.open(gif) as image:
+        assert image.format == "GIF"
+        assert sum(1 for _ in ImageSequence.Iterator(image)) == 4
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    ((), "say where to draw"),
+    (("-o", "{tmp}/missing/x.png"), "cannot be written"),
+    (("-o", "{tmp}"), "cannot be written (it is a directory)"),
+    (("--animate", "{tmp}/missing/x.gif"), "cannot be written"),
+    (("-o", "{tmp}/x.png", "--spacing", "0"), "--spacing must be a positive"),
+    (("--animate", "{tmp}/x.gif", "--frames", "0"), "--frames and --fps"),
+])
+def test_usage_errors(cli: Cli, log: Path, tmp_path: Path, argv: tuple[str, ...],
+                      message: str) -> None:
+    outcome = cli("plot", str(log), *(a.format(tmp=tmp_path) for a in argv))
+    assert outcome.status == 2
+    assert message in outcome.err
+    assert not (tmp_path / "x.png").exists()
+
+
+@pytest.mark.parametrize(("content", "message"), [
+    (b"", "the file is empty"),
+    (b"plain text", "not a readable hubero run log"),
+])
+def test_bad_log(cli: Cli, tmp_path: Path, content: bytes, message: str) -> None:
+    bad = tmp_path / "bad.mcap"
+    bad.write_bytes(content)
+    outcome = cli("plot", str(bad), "-o", str(tmp_path / "x.png"))
+    assert outcome.status == 2
+    assert message in outcome.err
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_truncated_log(cli: Cli, log: Path, tmp_path: Path) -> None:
+    bad = tmp_path / "half.mcap"
+    bad.write_bytes(log.read_bytes()[: log.stat().st_size // 2])
+    outcome = cli("plot", str(bad), "-o", str(tmp_path / "x.png"))
+    assert outcome.status == 2
+    assert "half.mcap" in outcome.err
