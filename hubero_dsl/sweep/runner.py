@@ -9,7 +9,8 @@
 records as runs finish, in whatever order; the outcome lists them in the plan's order, so it
 is the same whichever executor ran them. A run that fails, raises in the worker or loses its
 worker process is recorded as such and the sweep goes on. On Ctrl-C the executor is stopped
-and the outcome holds the runs that had finished (`complete=False`).
+and the outcome holds the runs that had finished (`complete=False`); logs of runs that did not
+finish are removed (a Dask worker may still finish a run it had started, and write its log).
 """
 
 from __future__ import annotations
@@ -104,6 +105,7 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, executor: Executor, *,
     except KeyboardInterrupt:
         terminate(executor)
         _harvest(pending, records)
+        _drop_unrecorded_logs(tasks, records)
         return SweepOutcome(tuple(records[i] for i in sorted(records)), complete=False)
     return SweepOutcome(tuple(records[i] for i in sorted(records)), complete=True)
 
@@ -132,7 +134,9 @@ def _record_of(future: Future[RunRecord], task: RunTask) -> RunRecord:
     """The worker's record, or an error record when the worker itself failed."""
     try:
         return future.result()
-    except Exception as exc:  # the worker process died, a pickling error, Dask lost it
+    except KeyboardInterrupt:
+        raise
+    except BaseException as exc:  # the worker died or exited, a pickling error, Dask lost it
         return error_record(task.variant, task.seed, _worker_failure(exc))
 
 
@@ -145,3 +149,12 @@ def _harvest(pending: dict[Future[RunRecord], int], records: dict[int, RunRecord
     for future, index in pending.items():
         if future.done() and not future.cancelled() and future.exception() is None:
             records[index] = future.result()
+
+
+def _drop_unrecorded_logs(tasks: list[RunTask], records: dict[int, RunRecord]) -> None:
+    """A run stopped after its log was closed (while measuring it) has a log the index will
+    not name: remove it, so that the logs on disk are the index's."""
+    for index, task in enumerate(tasks):
+        if index not in records:
+            with contextlib.suppress(OSError):
+                os.unlink(task.log_path)

@@ -1,0 +1,222 @@
+"""`hubero sweep FILE`: every variant x seed, in parallel, one MCAP log each, and an index.
+
+    hubero sweep scenarios/parking_patrol.hub --seeds 1..20 --jobs 4 --out-dir out/
+    hubero sweep x.hub --variant 'speed=1.0 m/s,avoidance_strength=0.5' --out-dir out/
+    hubero sweep x.hub --variants 'circle;ellipse' --executor dask --scheduler tcp://h:8786 \\
+        --out-dir /shared/out/
+
+Writes DIR/runs/VARIANT/seed-N.mcap, DIR/index.json and DIR/index.csv (docs/sweeps.md).
+Sweep variant names contain commas, so --variants separates names with ';' (or repeat
+--variant NAME). Without --seeds every variant runs once with the scenario's own seed.
+
+Exit 0 when every run completed and met its expectations, 1 when any did not (failed, timed
+out, an error), 2 for bad input, 130 when interrupted (the index then lists the runs that had
+finished and says "complete": false).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from collections import Counter
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from rich.console import Console
+
+    from hubero_dsl.sweep.plan import SweepPlan
+    from hubero_dsl.sweep.runner import SweepOutcome
+    from hubero_dsl.sweep.worker import RunRecord
+
+EXECUTORS = ("process", "serial", "dask")
+EXIT_INTERRUPTED = 130
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    parser: argparse.ArgumentParser = subparsers.add_parser(
+        "sweep", help="run every variant x seed in parallel, with an index",
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("file", metavar="FILE", help="scenario file (.hub)")
+    parser.add_argument("--out-dir", metavar="DIR", type=Path, required=True,
+                        help="where the logs and the index go")
+    which = parser.add_mutually_exclusive_group()
+    which.add_argument("--variants", metavar="all|A;B",
+                       help="'all' (the default) or variant names separated by ';'")
+    which.add_argument("--variant", metavar="NAME", action="append",
+                       help="run this variant (repeat for several)")
+    parser.add_argument("--seeds", metavar="SEEDS",
+                        help="seeds: 1..20, 3, 1,2,5 (default: the scenario's seed)")
+    parser.add_argument("--executor", choices=EXECUTORS, default="process",
+                        help="where runs execute (default: process)")
+    parser.add_argument("--jobs", "-j", metavar="N", type=int,
+                        help="worker processes for --executor process (default: the cores)")
+    parser.add_argument("--scheduler", metavar="ADDR",
+                        help="Dask scheduler address for --executor dask (tcp://HOST:8786)")
+    parser.add_argument("--connect-timeout", metavar="S", type=float, default=5.0,
+                        help="seconds to wait for the Dask scheduler (default 5)")
+    parser.add_argument("--log-rate", metavar="HZ", type=float, default=10.0,
+                        help="how often the logs record the humans' state (default 10 Hz)")
+    parser.add_argument("--no-metrics", action="store_true",
+                        help="do not compute metrics (faster; the index has none)")
+    parser.add_argument("--quiet", "-q", action="store_true",
+                        help="no progress bar and no table, only problems")
+    return parser
+
+
+def run(args: argparse.Namespace) -> int:
+    from hubero_dsl.lang.compile import compile_file
+    from hubero_dsl.sweep.plan import parse_seeds, plan_sweep, select_variants
+    from hubero_dsl.sweep.runner import prepare_out_dir
+
+    _check_options(args)
+    seeds = parse_seeds(args.seeds) if args.seeds is not None else None
+    program = compile_file(args.file)
+    variants = select_variants(list(program.variants), _variant_names(args))
+    plan = plan_sweep(args.file, program, variants, seeds or (program.seed,))
+    prepare_out_dir(plan, args.out_dir)
+    return _sweep(args, plan)
+
+
+def _check_options(args: argparse.Namespace) -> None:
+    from hubero_dsl.errors import InputError
+
+    if args.jobs is not None and args.jobs < 1:
+        raise InputError(f"--jobs must be at least 1, got {args.jobs}")
+    if args.jobs is not None and args.executor != "process":
+        raise InputError(f"--jobs is for --executor process, not {args.executor}")
+    if args.executor == "dask" and not args.scheduler:
+        raise InputError("--executor dask needs --scheduler ADDR (tcp://HOST:8786)")
+    if args.scheduler and args.executor != "dask":
+        raise InputError("--scheduler is for --executor dask")
+    if not (math.isfinite(args.connect_timeout) and args.connect_timeout > 0):
+        raise InputError("--connect-timeout must be a number of seconds above 0")
+    if not (math.isfinite(args.log_rate) and args.log_rate > 0):
+        raise InputError("--log-rate must be a number of hertz above 0")
+
+
+def _variant_names(args: argparse.Namespace) -> list[str] | None:
+    from hubero_dsl.sweep.plan import split_variant_list
+
+    if args.variant is not None:
+        return list(args.variant)
+    return split_variant_list(args.variants) if args.variants is not None else None
+
+
+def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
+    from rich.console import Console
+
+    from hubero_dsl.sweep.executors import available_cores, open_executor
+    from hubero_dsl.sweep.index import write_index
+    from hubero_dsl.sweep.runner import run_sweep
+    from hubero_dsl.sweep.worker import standard_metrics
+
+    jobs = min(args.jobs or available_cores(), len(plan.runs))
+    errors = Console(stderr=True)
+    started = time.monotonic()  # wall time for the terminal only, never for the index
+    with open_executor(args.executor, jobs=jobs, scheduler=args.scheduler,
+                       connect_timeout=args.connect_timeout) as executor, \
+            _SweepProgress(errors, plan, quiet=args.quiet) as on_done:
+        outcome = run_sweep(plan, args.out_dir, executor, log_rate=args.log_rate,
+                            metrics=None if args.no_metrics else standard_metrics,
+                            on_done=on_done)
+    elapsed = time.monotonic() - started
+    json_path, csv_path = write_index(args.out_dir, plan, outcome)
+    if not outcome.complete:
+        errors.print(f"hubero: interrupted: {len(outcome.records)} of {len(plan.runs)} runs "
+                     f"finished; their index is in {json_path}", highlight=False, soft_wrap=True)
+        return EXIT_INTERRUPTED
+    if not args.quiet:
+        _print_table(plan, outcome)
+        where = "inline" if args.executor == "serial" else (
+            f"on {jobs} processes" if args.executor == "process" else "on Dask")
+        Console().print(f"{len(outcome.records)} runs {where} in {elapsed:.1f} s; index "
+                        f"written to {json_path} and {csv_path}", highlight=False,
+                        soft_wrap=True)
+    return 0 if outcome.succeeded else 1
+
+
+class _SweepProgress:
+    """A rich progress bar over runs on stderr (only on a terminal) and a line per problem."""
+
+    def __init__(self, console: Console, plan: SweepPlan, *, quiet: bool) -> None:
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
+
+        self._console = console
+        self._progress = Progress(
+            TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+            TextColumn("{task.fields[problems]}"), TimeElapsedColumn(), TimeRemainingColumn(),
+            console=console, transient=True, disable=quiet or not console.is_terminal)
+        self._task = self._progress.add_task(_escape(f"sweep {Path(plan.scenario).name}"),
+                                             total=len(plan.runs), problems="")
+        self._problems = 0
+
+    def __enter__(self) -> Any:
+        self._progress.__enter__()
+        return self.on_done
+
+    def __exit__(self, *exc: object) -> None:
+        self._progress.__exit__(None, None, None)
+
+    def on_done(self, record: RunRecord) -> None:
+        if not record.succeeded:
+            self._problems += 1
+            self._progress.console.print(_problem_line(record), highlight=False,
+                                         soft_wrap=True)
+        problems = f"[red]{self._problems} not ok[/]" if self._problems else ""
+        self._progress.update(self._task, advance=1, problems=problems)
+
+
+def _problem_line(record: RunRecord) -> str:
+    name = _escape(_variant_label(record.variant))
+    if record.status == "completed":
+        status, detail = "[yellow]expectations fail[/]", "; ".join(record.failed_expectations)
+    else:
+        status = {"error": "[red]error[/]", "timed_out": "[yellow]timed out[/]"}.get(
+            record.status, "[red]failed[/]")
+        detail = record.reason
+    return f"{name} seed {record.seed}: {status}: {_escape(detail)}"
+
+
+def _print_table(plan: SweepPlan, outcome: SweepOutcome) -> None:
+    from rich import box
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title="sweep", title_justify="left", box=box.SIMPLE_HEAD)
+    table.add_column("variant", overflow="fold")  # long sweep names wrap, never cut
+    for heading in ("runs", "ok", "expect fails", "failed", "timed out", "error", "mean time"):
+        table.add_column(heading, justify="right", no_wrap=True)
+    for variant in plan.variants:
+        records = [r for r in outcome.records if r.variant == variant]
+        states = Counter(r.status for r in records)
+        durations = [r.duration for r in records if r.duration is not None]
+        mean = f"{sum(durations) / len(durations):.2f} s" if durations else "-"
+        table.add_row(_escape(_variant_label(variant)), str(len(records)),
+                      str(sum(r.succeeded for r in records)),
+                      str(sum(r.status == "completed" and not r.succeeded for r in records)),
+                      str(states["failed"]),
+                      str(states["timed_out"]), str(states["error"]), mean)
+    console = Console()
+    if not console.is_terminal:  # a file or a pipe: as wide as the names, never wrapped
+        longest = max(len(_variant_label(v)) for v in plan.variants)
+        console.width = max(console.width, longest + 80)
+    console.print(table)
+
+
+def _variant_label(variant: str | None) -> str:
+    return variant if variant is not None else "(as written)"
+
+
+def _escape(text: str) -> str:
+    from rich.markup import escape
+
+    return escape(text)

@@ -1,0 +1,192 @@
+"""`hubero sweep`: exit statuses, variant selection, bad input, Dask, Ctrl-C."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from tests.cli.conftest import REPO_ROOT, Outcome, assert_no_traceback
+
+MAP = REPO_ROOT / "maps" / "living_room.yaml"
+Run = Callable[..., Outcome]
+
+SWEPT = f"""\
+scenario "sweep"
+map "{MAP}"
+seed 3
+human a at (1, 1)
+sweep speed in [1.0 m/s, 1.4 m/s]
+activity {{ a move_to (2, 1) }}
+"""
+OUTCOMES = f"""\
+scenario "outcomes"
+map "{MAP}"
+time_limit 3 s
+human a at (1, 1)
+variant quick {{ speed 1.3 m/s }}
+variant late {{ speed 0.7 m/s }}
+variant slow {{ speed 0.1 m/s }}
+activity {{ a move_to (2, 1) }}
+expect a reaches (2, 1) within 1.5 s
+"""
+PLAIN = f"""\
+scenario "plain"
+map "{MAP}"
+seed 9
+human a at (1, 1)
+activity {{ a stand for 1 s }}
+"""
+LONG = f"""\
+scenario "long"
+map "{MAP}"
+time_limit 2 min
+human a at (1, 1)
+human b at (3, 1)
+activity {{ a move_around in rect((0, 0), (4, 3)) for 15 s }}
+activity {{ b move_around in rect((0, 0), (4, 3)) for 15 s }}
+"""
+
+
+def scenario(tmp_path: Path, text: str) -> str:
+    path = tmp_path / "s.hub"
+    path.write_text(text, encoding="utf-8")
+    return str(path)
+
+
+def index(folder: Path) -> dict:  # type: ignore[type-arg]
+    loaded: dict = json.loads((folder / "index.json").read_text(encoding="utf-8"))  # type: ignore[type-arg]
+    return loaded
+
+
+def test_a_sweep_that_succeeds_exits_0(cli_subprocess: Run, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    outcome = cli_subprocess("sweep", scenario(tmp_path, SWEPT), "--seeds", "1..2",
+                             "--jobs", "2", "--out-dir", str(out))
+    assert outcome.status == 0, outcome.err
+    assert outcome.err == ""  # no progress bar off a terminal, no problems
+    assert "speed=1.0 m/s" in outcome.out and "4 runs on 2 processes in" in outcome.out
+    runs = index(out)["runs"]
+    assert [(r["variant"], r["seed"], r["status"]) for r in runs] == [
+        ("speed=1.0 m/s", 1, "completed"), ("speed=1.0 m/s", 2, "completed"),
+        ("speed=1.4 m/s", 1, "completed"), ("speed=1.4 m/s", 2, "completed")]
+    assert all((out / r["log"]).is_file() for r in runs)
+    assert (out / "index.csv").read_text().count("\n") == 5
+
+
+def test_failed_runs_exit_1_and_are_reported(cli_subprocess: Run, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    outcome = cli_subprocess("sweep", scenario(tmp_path, OUTCOMES), "--executor", "serial",
+                             "--out-dir", str(out), "--quiet")
+    assert outcome.status == 1
+    assert outcome.out == ""
+    assert outcome.err.splitlines() == [
+        "late seed 0: expectations fail: a reaches (2, 1) within 1.5 s",
+        "slow seed 0: timed out: time limit of 3 s reached"]
+    assert [r["status"] for r in index(out)["runs"]] == ["completed", "completed", "timed_out"]
+
+
+def test_variants_with_commas_are_chosen_by_name(cli: Run, tmp_path: Path) -> None:
+    path = scenario(tmp_path, SWEPT)
+    one = tmp_path / "one"
+    assert cli("sweep", path, "--variant", "speed=1.4 m/s", "--executor", "serial",
+               "--out-dir", str(one), "-q").status == 0
+    assert [r["variant"] for r in index(one)["runs"]] == ["speed=1.4 m/s"]
+    both = tmp_path / "both"
+    assert cli("sweep", path, "--variants", "speed=1.4 m/s;speed=1.0 m/s", "--executor",
+               "serial", "--out-dir", str(both), "-q").status == 0
+    assert [r["variant"] for r in index(both)["runs"]] == ["speed=1.0 m/s", "speed=1.4 m/s"]
+
+
+def test_a_scenario_without_variants_runs_as_written(cli: Run, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    outcome = cli("sweep", scenario(tmp_path, PLAIN), "--executor", "serial",
+                  "--out-dir", str(out))
+    assert outcome.status == 0
+    assert "(as written)" in outcome.out
+    (run,) = index(out)["runs"]
+    assert (run["variant"], run["seed"], run["parameters"], run["log"]) == (
+        None, 9, {}, "runs/default/seed-9.mcap")
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    (["--seeds", "5..1"], "--seeds: the range 5..1 is empty"),
+    (["--seeds", "1-3"], "--seeds: '1-3' is not a seed or a range"),
+    (["--jobs", "0"], "--jobs must be at least 1, got 0"),
+    (["--variant", "nope"], "unknown variant 'nope' (variants: speed=1.0 m/s; speed=1.4 m/s)"),
+    (["--variants", "speed=1.0 m/s,speed=1.4 m/s"], "unknown variant 'speed=1.0 m/s,speed=1.4"),
+    (["--executor", "dask"], "--executor dask needs --scheduler ADDR"),
+    (["--scheduler", "tcp://127.0.0.1:1"], "--scheduler is for --executor dask"),
+    (["--executor", "serial", "--jobs", "2"], "--jobs is for --executor process"),
+    (["--log-rate", "0"], "--log-rate must be a number of hertz above 0"),
+    (["--executor", "dask", "--scheduler", "tcp://x", "--connect-timeout", "nan"],
+     "--connect-timeout must be"),
+])
+def test_bad_options_exit_2(cli: Run, tmp_path: Path, options: list[str], message: str
+                            ) -> None:
+    outcome = cli("sweep", scenario(tmp_path, SWEPT), "--out-dir", str(tmp_path / "o"),
+                  *options)
+    assert outcome.status == 2
+    assert message in outcome.out + outcome.err
+    assert not (tmp_path / "o").exists()
+
+
+def test_unusable_inputs_exit_2(cli: Run, tmp_path: Path) -> None:
+    path = scenario(tmp_path, SWEPT)
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    outcome = cli("sweep", path, "--out-dir", str(blocker))
+    assert outcome.status == 2 and "it is a file, not a directory" in outcome.out + outcome.err
+    assert cli("sweep", str(tmp_path / "missing.hub"), "--out-dir", str(tmp_path)).status == 2
+    assert cli("sweep", path).status == 2  # --out-dir is required
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port: int = probe.getsockname()[1]
+        return port
+
+
+def test_an_unreachable_dask_scheduler_is_reported_quickly(cli_subprocess: Run,
+                                                           tmp_path: Path) -> None:
+    pytest.importorskip("distributed")
+    started = time.monotonic()
+    outcome = cli_subprocess("sweep", scenario(tmp_path, SWEPT), "--out-dir",
+                             str(tmp_path / "o"), "--executor", "dask", "--scheduler",
+                             f"tcp://127.0.0.1:{free_port()}", "--connect-timeout", "1")
+    assert outcome.status == 2
+    assert "cannot reach the Dask scheduler at tcp://127.0.0.1:" in outcome.out + outcome.err
+    assert time.monotonic() - started < 15
+    assert not (tmp_path / "o" / "index.json").exists()
+
+
+def test_ctrl_c_stops_the_sweep_and_writes_the_finished_runs(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    environment = {k: v for k, v in os.environ.items() if k != "HUBERO_DEBUG"}
+    process = subprocess.Popen(
+        [sys.executable, "-m", "hubero_dsl", "sweep", scenario(tmp_path, LONG), "--seeds",
+         "1..8", "--jobs", "1", "--out-dir", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environment)
+    deadline = time.monotonic() + 60
+    # one worker: when the second log is there, the first run has been reported
+    while len(list(out.glob("runs/*/seed-*.mcap"))) < 2 and time.monotonic() < deadline:
+        time.sleep(0.02)
+    process.send_signal(signal.SIGINT)
+    stdout, stderr = process.communicate(timeout=60)
+    assert_no_traceback(Outcome(process.returncode, stdout, stderr))
+    assert process.returncode == 130
+    assert "hubero: interrupted:" in stderr and "runs finished" in stderr
+    written = index(out)
+    assert written["complete"] is False
+    assert 1 <= len(written["runs"]) < 8
+    logs = sorted(p.name for p in out.glob("runs/*/*"))
+    assert logs == sorted(Path(r["log"]).name for r in written["runs"])  # no .part files left
