@@ -220,10 +220,11 @@ def save(figure: Figure, out: str | Path) -> Path:
 
 
 def plot_run(run: LoggedRun, out: str | Path, *, spacing: float = SPACING,
-             whole_map: bool = False) -> Path:
-    """The run on its map: paths, starts, goals and personal spaces along the paths."""
+             whole_map: bool = False, view: View | None = None) -> Path:
+    """The run on its map: paths, starts, goals and personal spaces along the paths. `view`
+    fixes the region shown (to draw several runs at the same scale)."""
     _check_spacing(spacing)
-    figure, axes = View.around([run], whole_map).figure()
+    figure, axes = (view or View.around([run], whole_map)).figure()
     draw_map(axes, run.grid)
     palette = colours(list(run.humans))
     for name in sorted(run.humans):
@@ -236,8 +237,8 @@ def plot_run(run: LoggedRun, out: str | Path, *, spacing: float = SPACING,
 
 def plot_overlay(a: LoggedRun, b: LoggedRun, out: str | Path, *, epsilon: float | None = None,
                  spacing: float = SPACING, whole_map: bool = False,
-                 labels: tuple[str, str] | None = None, humans: Sequence[str] | None = None
-                 ) -> Path:
+                 labels: tuple[str, str] | None = None, humans: Sequence[str] | None = None,
+                 view: View | None = None) -> Path:
     """Two runs on one map: A solid with filled personal spaces, B dashed with outlines. With
     `epsilon`, a cross marks where each human's two paths first part by more than it.
     `humans` limits the picture to those humans (default: all)."""
@@ -245,7 +246,7 @@ def plot_overlay(a: LoggedRun, b: LoggedRun, out: str | Path, *, epsilon: float 
 
     _check_spacing(spacing)
     chosen = sorted(humans) if humans is not None else sorted(a.humans)
-    figure, axes = View.around([a, b], whole_map).figure()
+    figure, axes = (view or View.around([a, b], whole_map)).figure()
     draw_map(axes, a.grid)
     palette = colours(list(a.humans))
     label_a, label_b = labels or (_side_label(a, "A"), _side_label(b, "B"))
