@@ -68,14 +68,12 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     from hubero_dsl.lang.compile import compile_file
     from hubero_dsl.sweep.plan import parse_seeds, plan_sweep, select_variants
-    from hubero_dsl.sweep.runner import prepare_out_dir
 
     _check_options(args)
     seeds = parse_seeds(args.seeds) if args.seeds is not None else None
     program = compile_file(args.file)
     variants = select_variants(list(program.variants), _variant_names(args))
     plan = plan_sweep(args.file, program, variants, seeds or (program.seed,))
-    prepare_out_dir(plan, args.out_dir)
     return _sweep(args, plan)
 
 
@@ -109,7 +107,7 @@ def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
 
     from hubero_dsl.sweep.executors import available_cores, open_executor
     from hubero_dsl.sweep.index import write_index
-    from hubero_dsl.sweep.runner import run_sweep
+    from hubero_dsl.sweep.runner import prepare_out_dir, run_sweep
     from hubero_dsl.sweep.worker import standard_metrics
 
     jobs = min(args.jobs or available_cores(), len(plan.runs))
@@ -118,6 +116,7 @@ def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
     with open_executor(args.executor, jobs=jobs, scheduler=args.scheduler,
                        connect_timeout=args.connect_timeout) as executor, \
             _SweepProgress(errors, plan, quiet=args.quiet) as on_done:
+        prepare_out_dir(plan, args.out_dir)  # after connecting: nothing is created for nothing
         outcome = run_sweep(plan, args.out_dir, executor, log_rate=args.log_rate,
                             metrics=None if args.no_metrics else standard_metrics,
                             on_done=on_done)

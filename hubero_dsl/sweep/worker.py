@@ -15,7 +15,6 @@ ends a run through the log writer's clean-up so no temporary file is left behind
 from __future__ import annotations
 
 import contextlib
-import inspect
 import os
 import signal
 import threading
@@ -141,9 +140,7 @@ def _open_log(path: Path, sim: Simulation, rate_hz: float) -> RunLog:
 
     # Encode in this process: a sweep's parallelism is across runs, and Dask's daemonic worker
     # processes may not start a writer process of their own.
-    if "writer_process" in inspect.signature(RunLog).parameters:
-        return RunLog(path, sim, rate_hz=rate_hz, writer_process=False)  # type: ignore[call-arg,unused-ignore]
-    return RunLog(path, sim, rate_hz=rate_hz)
+    return RunLog(path, sim, rate_hz=rate_hz, writer_process=False)
 
 
 def _measure(task: RunTask) -> tuple[dict[str, Any], dict[str, Any]]:

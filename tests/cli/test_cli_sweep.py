@@ -166,7 +166,7 @@ def test_an_unreachable_dask_scheduler_is_reported_quickly(cli_subprocess: Run,
     assert outcome.status == 2
     assert "cannot reach the Dask scheduler at tcp://127.0.0.1:" in outcome.out + outcome.err
     assert time.monotonic() - started < 15
-    assert not (tmp_path / "o" / "index.json").exists()
+    assert not (tmp_path / "o").exists()
 
 
 def test_ctrl_c_stops_the_sweep_and_writes_the_finished_runs(tmp_path: Path) -> None:
