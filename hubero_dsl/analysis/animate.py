@@ -105,7 +105,8 @@ def animate_run(run: LoggedRun, out: str | Path, *, max_frames: int = MAX_FRAMES
 
     if max_frames < 1 or fps < 1:
         raise InputError("an animation needs at least one frame and one frame per second")
-    figure, axes = View.around([run], whole_map).figure(legend=True)
+    labels = [f"{name}: {short_shape(personal_space_of(run, name))}" for name in run.humans]
+    figure, axes = View.around([run], whole_map).figure(labels)
     figure.set_dpi(GIF_DPI)
     draw_map(axes, run.grid)
     axes.set_title(f"{run.metadata.title}"

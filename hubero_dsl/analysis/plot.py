@@ -38,7 +38,10 @@ FloatArray = npt.NDArray[np.float64]
 
 DPI = 120
 MAP_INCHES = (8.0, 9.0)  # the largest the map is drawn (width, height)
-LEGEND_INCHES = 2.6      # a column to the right of the map
+LEGEND_INCHES = 2.6      # the narrowest column to the right of the map for the legend
+LEGEND_FONT = 9
+_LEGEND_CHAR_INCHES = 0.62 * LEGEND_FONT / 72  # a generous average advance of DejaVu Sans
+_LEGEND_HANDLE_INCHES = 0.75                  # the line sample, its padding and the frame
 MARGIN = 1.5        # metres of map shown around what the actors used
 SPACING = 1.5       # metres along a path between two drawn personal spaces
 FREE, OCCUPIED, UNKNOWN = 1.0, 0.55, 0.82  # grey levels of the map
@@ -72,14 +75,14 @@ class View:
         return View(max(bx0, low[0] - margin), min(bx1, high[0] + margin),
                     max(by0, low[1] - margin), min(by1, high[1] + margin))
 
-    def figure(self, legend: bool = True) -> tuple[Figure, Axes]:
+    def figure(self, legend: Sequence[str] | None = ()) -> tuple[Figure, Axes]:
         """A figure sized to the view, so the map keeps equal aspect with no blank bands, and a
-        column on the right for the legend."""
+        column on the right wide enough for the legend's labels (None: no legend)."""
         width, height = max(self.x1 - self.x0, 1e-3), max(self.y1 - self.y0, 1e-3)
         scale = min(MAP_INCHES[0] / width, MAP_INCHES[1] / height)
         map_w, map_h = width * scale, height * scale
         left, right, bottom, top = 0.8, 0.25, 0.6, 0.45
-        extra = LEGEND_INCHES if legend else 0.0
+        extra = 0.0 if legend is None else legend_inches(legend)
         fig_w, fig_h = left + map_w + right + extra, bottom + map_h + top
         figure = Figure(figsize=(fig_w, fig_h), dpi=DPI)
         axes = figure.add_axes((left / fig_w, bottom / fig_h, map_w / fig_w, map_h / fig_h))
@@ -89,6 +92,11 @@ class View:
         axes.set_xlabel("x [m]")
         axes.set_ylabel("y [m]")
         return figure, axes
+
+
+def legend_inches(labels: Sequence[str]) -> float:
+    longest = max((len(label) for label in labels), default=0)
+    return max(LEGEND_INCHES, _LEGEND_HANDLE_INCHES + longest * _LEGEND_CHAR_INCHES)
 
 
 def _positions(run: LoggedRun) -> list[FloatArray]:
@@ -200,7 +208,7 @@ def _robot_handles(run: LoggedRun) -> list[Line2D]:
 def _legend(figure: Figure, axes: Axes, handles: list[Any]) -> None:
     box = axes.get_position()
     figure.legend(handles=handles, loc="upper left", bbox_to_anchor=(box.x1 + 0.01, box.y1),
-                  fontsize=9, frameon=True, labelspacing=0.8, handlelength=2.6,
+                  fontsize=LEGEND_FONT, frameon=True, labelspacing=0.8, handlelength=2.6,
                   borderaxespad=0.0)
 
 
@@ -224,14 +232,15 @@ def plot_run(run: LoggedRun, out: str | Path, *, spacing: float = SPACING,
     """The run on its map: paths, starts, goals and personal spaces along the paths. `view`
     fixes the region shown (to draw several runs at the same scale)."""
     _check_spacing(spacing)
-    figure, axes = (view or View.around([run], whole_map)).figure()
-    draw_map(axes, run.grid)
     palette = colours(list(run.humans))
+    handles = [*_human_handles(run, palette), *_robot_handles(run), *_marker_handles()]
+    figure, axes = (view or View.around([run], whole_map)).figure(_labels(handles))
+    draw_map(axes, run.grid)
     for name in sorted(run.humans):
         draw_human(axes, run, name, palette[name], spacing=spacing)
     draw_robots(axes, run)
     axes.set_title(_title(run), fontsize=11)
-    _legend(figure, axes, [*_human_handles(run, palette), *_robot_handles(run), *_marker_handles()])
+    _legend(figure, axes, handles)
     return save(figure, out)
 
 
@@ -246,10 +255,11 @@ def plot_overlay(a: LoggedRun, b: LoggedRun, out: str | Path, *, epsilon: float 
 
     _check_spacing(spacing)
     chosen = sorted(humans) if humans is not None else sorted(a.humans)
-    figure, axes = (view or View.around([a, b], whole_map)).figure()
-    draw_map(axes, a.grid)
     palette = colours(list(a.humans))
     label_a, label_b = labels or (_side_label(a, "A"), _side_label(b, "B"))
+    handles = _overlay_handles(chosen, palette, (label_a, label_b), epsilon)
+    figure, axes = (view or View.around([a, b], whole_map)).figure(_labels(handles))
+    draw_map(axes, a.grid)
     for name in chosen:
         draw_human(axes, a, name, palette[name], spacing=spacing)
         if name in b.humans:
@@ -260,18 +270,27 @@ def plot_overlay(a: LoggedRun, b: LoggedRun, out: str | Path, *, epsilon: float 
     draw_robots(axes, a)
     draw_robots(axes, b, dashed=True)
     axes.set_title(f"{a.metadata.title}: {label_a} vs {label_b}", fontsize=11)
+    _legend(figure, axes, handles)
+    return save(figure, out)
+
+
+def _overlay_handles(humans: Sequence[str], palette: dict[str, Any], sides: tuple[str, str],
+                     epsilon: float | None) -> list[Any]:
     handles: list[Any] = [Line2D([], [], color=palette[n], linewidth=2.5, label=n)
-                          for n in chosen]
-    handles += [Line2D([], [], color="dimgray", linewidth=1.8, label=f"{label_a} (solid)"),
+                          for n in humans]
+    handles += [Line2D([], [], color="dimgray", linewidth=1.8, label=f"{sides[0]} (solid)"),
                 Line2D([], [], color="dimgray", linewidth=1.8, linestyle=(0, (5, 3)),
-                       label=f"{label_b} (dashed)")]
+                       label=f"{sides[1]} (dashed)")]
     handles += _marker_handles()
     if epsilon is not None:
         handles.append(Line2D([], [], linestyle="none", marker="X", color="white",
                               markeredgecolor="black", markersize=9,
                               label=f"paths > {epsilon:g} m apart"))
-    _legend(figure, axes, handles)
-    return save(figure, out)
+    return handles
+
+
+def _labels(handles: Sequence[Any]) -> list[str]:
+    return [str(handle.get_label()) for handle in handles]
 
 
 def _side_label(run: LoggedRun, fallback: str) -> str:

@@ -13,8 +13,10 @@ from PIL import Image, ImageSequence
 from hubero_dsl.analysis.animate import animate_run, frame_times
 from hubero_dsl.analysis.plot import (
     DPI,
+    LEGEND_INCHES,
     View,
     colours,
+    legend_inches,
     plot_overlay,
     plot_run,
     short_shape,
@@ -27,10 +29,14 @@ from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, Square
 Factory = Callable[..., Any]
 
 
-def expected_size(runs: list[LoggedRun], whole_map: bool = False) -> tuple[int, int]:
+def assert_expected_size(path: Path, runs: list[LoggedRun], whole_map: bool = False) -> None:
+    """The picture is the view at DPI: its height exactly, its width with a legend column of
+    at least the narrowest width (wider for long labels)."""
     figure, _ = View.around(runs, whole_map).figure()
     width, height = figure.get_size_inches() * DPI
-    return round(width), round(height)
+    with Image.open(path) as image:
+        assert image.height == round(height)
+        assert round(width) <= image.width <= round(width) + 3 * DPI
 
 
 def pixels(path: Path) -> np.ndarray:
@@ -53,7 +59,7 @@ def test_plot_run_png(tmp_path: Path, living_room_logs: dict[str, Path]) -> None
     run = load_run(living_room_logs["ellipse"])
     out = plot_run(run, tmp_path / "run.png")
     image = pixels(out)
-    assert (image.shape[1], image.shape[0]) == expected_size([run])
+    assert_expected_size(out, [run])
     not_white = (image < 245).any(axis=2).mean()
     assert not_white > 0.15  # map, paths, personal spaces and text, not a blank page
     assert share_of_colour(image, (140, 140, 140)) > 0.02  # obstacles in grey
@@ -67,15 +73,14 @@ def test_whole_map_is_larger_view(tmp_path: Path, living_room_logs: dict[str, Pa
     assert whole.x1 - whole.x0 >= cropped.x1 - cropped.x0
     x0, y0, x1, y1 = run.grid.bounds
     assert (whole.x0, whole.x1, whole.y0, whole.y1) == (x0, x1, y0, y1)
-    image = pixels(plot_run(run, tmp_path / "whole.png", whole_map=True))
-    assert (image.shape[1], image.shape[0]) == expected_size([run], whole_map=True)
+    assert_expected_size(plot_run(run, tmp_path / "whole.png", whole_map=True), [run], True)
 
 
 def test_overlay_png(tmp_path: Path, living_room_logs: dict[str, Path]) -> None:
     a, b = (load_run(living_room_logs[v]) for v in ("circle", "ellipse"))
     out = plot_overlay(a, b, tmp_path / "overlay.png", epsilon=0.1)
     image = pixels(out)
-    assert (image.shape[1], image.shape[0]) == expected_size([a, b])
+    assert_expected_size(out, [a, b])
     assert (image < 245).any(axis=2).mean() > 0.15
     only_one = pixels(plot_overlay(a, b, tmp_path / "one.png", humans=["actor1"]))
     actor2 = tab10("actor2", ["actor1", "actor2"])
@@ -87,8 +92,9 @@ def test_synthetic_run_with_robot(tmp_path: Path, build_run: Factory, track: Fac
     run = build_run([track("h", [0.0, 1.0, 2.0], [(0, 0), (1, 0), (2, 1)], [0.0, 0.0, 0.8])],
                     robots=[robot("bot", [0.0, 2.0], [(-2, -2), (-2, 2)])],
                     params={"h": {"personal_space": Rectangle(1.0, 0.6)}})
-    image = pixels(plot_run(run, tmp_path / "s.png", spacing=0.5))
-    assert (image.shape[1], image.shape[0]) == expected_size([run])
+    out = plot_run(run, tmp_path / "s.png", spacing=0.5)
+    assert_expected_size(out, [run])
+    image = pixels(out)
     assert share_of_colour(image, (0, 0, 0), tolerance=30) > 0.001  # the robot's path
 
 
@@ -104,6 +110,13 @@ def test_bad_spacing(tmp_path: Path, build_run: Factory, track: Factory) -> None
     run = build_run([track("h", [0.0], [(0, 0)])])
     with pytest.raises(InputError, match="spacing"):
         plot_run(run, tmp_path / "x.png", spacing=0.0)
+
+
+def test_legend_column_grows_with_labels() -> None:
+    assert legend_inches(["a"]) == LEGEND_INCHES
+    long = legend_inches(["guest1: ellipse 0.6 x 0.4 m, 0.1 m back"])
+    assert long > LEGEND_INCHES
+    assert long > legend_inches(["guest1: circle r 0.4 m"])
 
 
 def test_spaced_frames() -> None:
