@@ -12,6 +12,16 @@ search may stop as soon as the cell asked for is settled: every finite value it 
 (Dijkstra settles cells in cost order), so a partial field answers every start it covers exactly,
 and `FieldCache` widens it to the whole component only when a start outside it asks.
 
+A first plan to a goal searches less than that (`ComponentSearch.solve_between`): every cell
+costs at least 1 per cell of travel, so a path through a cell u costs at least
+|start - u| + |u - goal|, and a path that leaves the ellipse where that sum is at most a bound L
+costs more than L. Dijkstra on the ellipse alone (the rest made impassable) therefore finds the
+optimal cost whenever the start's cost inside it is at most L (A*'s guarantee, with the ellipse
+in place of its priority). A cell v of that field is kept only where its value cannot be beaten
+by a path leaving the ellipse either, val(v) <= L - |start - v|; the path of the start always
+qualifies. A bound too small is raised to the cost the search found (or doubled), so a plan
+costs at most a few small searches before it falls back to the component.
+
 `segment_costs` integrates a cost grid along straight segments (exact cell traversal), which is
 how the planner checks line of sight and compares a shortcut with the path it replaces.
 All coordinates here are in cell units: a point (u, v) lies in cell (floor(u), floor(v)), so the
@@ -23,7 +33,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -43,6 +53,11 @@ Cell = tuple[int, int]
 _EIGHT_CONNECTED = np.ones((3, 3), dtype=bool)  # MCP moves diagonally, so components must too
 _KEY_DIGITS = 9                                # radii closer than a nanometre share a cache entry
 _EMPTY_INTERVAL = 1e-9                         # cell units: touching a cell corner is not entering
+# First ellipse bound, in cell units: most paths cost under 1.3 times the straight line; the
+# slack covers short plans, where walls and comfort weigh more.
+_FIRST_BOUND = 1.3
+_BOUND_SLACK = 40.0
+_MAX_WINDOW_SHARE = 0.5    # an ellipse box larger than this share of the component: no ellipse
 
 
 @dataclass(frozen=True, slots=True)
@@ -117,21 +132,90 @@ class ComponentSearch:
     def __init__(self, cost: FloatArray, labels: npt.NDArray[np.int32], label: int) -> None:
         rows, cols = np.nonzero(labels == label)
         self.offset: Cell = (int(rows.min()), int(cols.min()))
-        window = (slice(self.offset[0], int(rows.max()) + 1),
-                  slice(self.offset[1], int(cols.max()) + 1))
-        self._mcp = MCP_Geometric(cost[window], fully_connected=True)
-        self._moves = np.asarray(self._mcp.offsets, dtype=np.intp)
+        self.shape = (int(rows.max()) + 1 - self.offset[0], int(cols.max()) + 1 - self.offset[1])
+        self._cost = cost
+        self._mcp: MCP_Geometric | None = None   # built when a whole search first needs it
 
     def solve(self, goal: Cell, until: Cell | None = None) -> CostToGo:
-        """The cost-to-go field of `goal`; stops once `until` is settled when it is given."""
-        local_goal = (goal[0] - self.offset[0], goal[1] - self.offset[1])
-        ends = None if until is None else [(until[0] - self.offset[0], until[1] - self.offset[1])]
-        cumulative, traceback = self._mcp.find_costs([local_goal], ends=ends)
-        # The returned arrays are views of buffers the next search overwrites: copy them.
-        return CostToGo(goal=goal, offset=self.offset,
-                        cost=np.ascontiguousarray(cumulative, dtype=np.float32),
-                        step=np.ascontiguousarray(traceback, dtype=np.int8),
-                        moves=self._moves, complete=until is None)
+        """The cost-to-go field of `goal`; stops once `until` is settled when it is given.
+
+        A search that stops early leaves skimage's heap with entries that its next search on
+        the same MCP object does not fully clear (it then settles fewer cells, some at higher
+        costs), so early-stopping searches get a fresh MCP; whole searches share one, which
+        each leaves empty.
+        """
+        window = (slice(self.offset[0], self.offset[0] + self.shape[0]),
+                  slice(self.offset[1], self.offset[1] + self.shape[1]))
+        if until is not None:
+            mcp = MCP_Geometric(self._cost[window], fully_connected=True)
+            return _search(mcp, self.offset, goal, until, complete=False)
+        if self._mcp is None:
+            self._mcp = MCP_Geometric(self._cost[window], fully_connected=True)
+        return _search(self._mcp, self.offset, goal, None, complete=True)
+
+    def solve_between(self, goal: Cell, start: Cell) -> CostToGo:
+        """The field of `goal` over as small an ellipse around start and goal as proves optimal
+        the start's path (see the module docstring); the component's when no ellipse pays."""
+        span = math.dist(goal, start)
+        bound = max(_FIRST_BOUND * span, span + _BOUND_SLACK)
+        while True:
+            window = self._ellipse_window(goal, start, bound)
+            if window is None:
+                return self.solve(goal, start)
+            offset, cost = window
+            field = _search(MCP_Geometric(cost, fully_connected=True), offset, goal, start,
+                            complete=False)
+            found = field.value(start)
+            if found <= bound:
+                return _proven_part(field, start, bound)
+            bound = found if math.isfinite(found) else 2.0 * bound
+
+    def _ellipse_window(self, goal: Cell, start: Cell, bound: float
+                        ) -> tuple[Cell, FloatArray] | None:
+        """The costs on the bounding box of the ellipse, inf outside it; None when the box would
+        cover much of the component (its own search is then as cheap)."""
+        half_major = bound / 2.0
+        centre = ((goal[0] + start[0]) / 2.0, (goal[1] + start[1]) / 2.0)
+        span = math.dist(goal, start)
+        along = ((start[0] - goal[0]) / span, (start[1] - goal[1]) / span) if span else (1.0, 0.0)
+        half_minor = math.sqrt(max(half_major ** 2 - (span / 2.0) ** 2, 0.0))
+        reach = (math.hypot(half_major * along[0], half_minor * along[1]) + 1.0,
+                 math.hypot(half_major * along[1], half_minor * along[0]) + 1.0)
+        low = [max(math.floor(centre[k] - reach[k]), self.offset[k]) for k in (0, 1)]
+        high = [min(math.ceil(centre[k] + reach[k]) + 1, self.offset[k] + self.shape[k])
+                for k in (0, 1)]
+        size = (high[0] - low[0]) * (high[1] - low[1])
+        if size > _MAX_WINDOW_SHARE * self.shape[0] * self.shape[1]:
+            return None
+        rows = np.arange(low[0], high[0], dtype=np.float64)[:, None]
+        cols = np.arange(low[1], high[1], dtype=np.float64)[None, :]
+        through = (np.hypot(rows - goal[0], cols - goal[1])
+                   + np.hypot(rows - start[0], cols - start[1]))
+        cost = np.where(through <= bound, self._cost[low[0]:high[0], low[1]:high[1]], np.inf)
+        return (low[0], low[1]), cost
+
+
+def _search(mcp: MCP_Geometric, offset: Cell, goal: Cell, until: Cell | None, *,
+            complete: bool) -> CostToGo:
+    local_goal = (goal[0] - offset[0], goal[1] - offset[1])
+    ends = None if until is None else [(until[0] - offset[0], until[1] - offset[1])]
+    cumulative, traceback = mcp.find_costs([local_goal], ends=ends)
+    # The returned arrays are views of buffers the next search overwrites: copy them.
+    return CostToGo(goal=goal, offset=offset,
+                    cost=np.ascontiguousarray(cumulative, dtype=np.float32),
+                    step=np.ascontiguousarray(traceback, dtype=np.int8),
+                    moves=np.asarray(mcp.offsets, dtype=np.intp), complete=complete)
+
+
+def _proven_part(field: CostToGo, start: Cell, bound: float) -> CostToGo:
+    """`field` with every cell whose value a path leaving the ellipse might beat made unknown
+    (val(v) > bound - |start - v|), so that later starts are served only exact values."""
+    rows = np.arange(field.cost.shape[0])[:, None] + (field.offset[0] - start[0])
+    cols = np.arange(field.cost.shape[1])[None, :] + (field.offset[1] - start[1])
+    unproven = field.cost > bound - np.hypot(rows, cols)
+    cost = field.cost.copy()
+    cost[unproven] = np.inf
+    return replace(field, cost=cost)
 
 
 @dataclass(eq=False)
@@ -209,8 +293,8 @@ class FieldCache:
     def field(self, key: CostKey, goal: Cell, start: Cell | None = None) -> CostToGo:
         """The field of `goal`, covering `start` (or the whole component when start is None).
 
-        A first request stops the search at its start; a later start outside that partial
-        field rebuilds it over the whole component, so a goal costs at most two searches.
+        A first request searches just enough to prove the start's path optimal; a later start
+        outside that partial field rebuilds it over the whole component.
         """
         entry = self._fields.get((goal, key))
         wanted = entry is not None and (entry.complete if start is None else entry.covers(start))
@@ -219,8 +303,10 @@ class FieldCache:
         else:
             grid = self.cost_grid(key)
             search = grid.search(int(grid.labels[goal]))
-            until = start if entry is None else None
-            entry = search.solve(goal, until)
+            if entry is None and start is not None:
+                entry = search.solve_between(goal, start)
+            else:
+                entry = search.solve(goal)
             self._field_builds += 1
             self._fields[(goal, key)] = entry
             if len(self._fields) > self._max_fields:

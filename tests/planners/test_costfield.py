@@ -1,0 +1,100 @@
+"""Cost-to-go fields searched on an ellipse around start and goal are exact where they answer.
+
+A first plan to a goal searches only the ellipse that proves the start's path optimal; its field
+must give the start the optimal cost (that of the whole component's field), keep only cells whose
+values are exact, and still lead along an optimal path when the best way is a long detour.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from hubero_dsl.planners.costfield import CostKey, build_cost_grid
+
+RES = 0.05
+
+
+def maze(seed: int) -> np.ndarray:
+    """A 120 x 160 cell room with random walls, some with doors, and pillars."""
+    rng = np.random.default_rng(seed)
+    occupied = np.zeros((120, 160), dtype=bool)
+    for _ in range(4):
+        col = int(rng.integers(20, 140))
+        occupied[:, col:col + 3] = True
+        door = int(rng.integers(5, 100))
+        occupied[door:door + 15, col:col + 3] = False
+    for _ in range(12):
+        r, c = rng.integers(0, 115), rng.integers(0, 155)
+        occupied[r:r + 5, c:c + 5] = True
+    return occupied
+
+
+def clearance_of(occupied: np.ndarray) -> np.ndarray:
+    from scipy import ndimage
+
+    padded = np.pad(occupied, 1, constant_values=True)
+    return ndimage.distance_transform_edt(~padded, sampling=RES)[1:-1, 1:-1]
+
+
+def free_cells(labels: np.ndarray, label: int, count: int, seed: int) -> list[tuple[int, int]]:
+    cells = np.argwhere(labels == label)
+    picks = np.random.default_rng(seed).choice(len(cells), size=count, replace=False)
+    return [(int(r), int(c)) for r, c in cells[picks]]
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("comfort", [0.2, 0.6])
+def test_bounded_fields_agree_with_the_whole_field_where_they_answer(seed: int,
+                                                                      comfort: float) -> None:
+    grid = build_cost_grid(clearance_of(maze(seed)), RES, CostKey.of(0.15, comfort), 40.0)
+    label = int(np.bincount(grid.labels.ravel())[1:].argmax()) + 1
+    search = grid.search(label)
+    cells = free_cells(grid.labels, label, 12, seed)
+    for goal, start in zip(cells[::2], cells[1::2], strict=True):
+        whole = search.solve(goal)
+        bounded = search.solve_between(goal, start)
+        assert bounded.value(start) == whole.value(start)
+        # every value the bounded field keeps is the exact one
+        local = bounded.cost
+        rows = slice(bounded.offset[0] - whole.offset[0],
+                     bounded.offset[0] - whole.offset[0] + local.shape[0])
+        cols = slice(bounded.offset[1] - whole.offset[1],
+                     bounded.offset[1] - whole.offset[1] + local.shape[1])
+        kept = np.isfinite(local)
+        np.testing.assert_array_equal(local[kept], whole.cost[rows, cols][kept])
+        # the start's path descends to the goal through kept cells, each step downhill
+        path = bounded.descend(start)
+        assert tuple(path[0]) == start and tuple(path[-1]) == goal
+        values = [bounded.value((int(r), int(c))) for r, c in path]
+        assert all(math.isfinite(v) for v in values)
+        assert all(a > b for a, b in itertools.pairwise(values))
+
+
+def test_a_long_detour_is_found_through_a_small_first_ellipse() -> None:
+    occupied = np.zeros((100, 200), dtype=bool)
+    occupied[:90, 98:102] = True           # a wall with its only opening far from the line
+    grid = build_cost_grid(clearance_of(occupied), RES, CostKey.of(0.1, 0.1), 40.0)
+    search = grid.search(int(grid.labels[10, 50]))
+    start, goal = (10, 50), (10, 150)
+    bounded = search.solve_between(goal, start)
+    assert bounded.value(start) == search.solve(goal).value(start)
+    assert bounded.value(start) > 1.8 * math.dist(start, goal)   # it really goes round
+    assert max(row for row, _ in bounded.descend(start)) >= 90   # through the opening
+
+
+def test_whole_fields_stay_whole_after_searches_that_stopped_early() -> None:
+    grid = build_cost_grid(clearance_of(maze(5)), RES, CostKey.of(0.15, 0.4), 40.0)
+    label = int(np.bincount(grid.labels.ravel())[1:].argmax()) + 1
+    cells = free_cells(grid.labels, label, 8, 5)
+    reused = grid.search(label)
+    for goal, start in zip(cells[::2], cells[1::2], strict=True):
+        reused.solve(goal, start)                  # stops early
+        whole = reused.solve(goal)
+        fresh = build_cost_grid(clearance_of(maze(5)), RES, CostKey.of(0.15, 0.4), 40.0) \
+            .search(label).solve(goal)
+        np.testing.assert_array_equal(whole.cost, fresh.cost)
+        assert np.isfinite(whole.cost).sum() == (grid.labels == label).sum()
