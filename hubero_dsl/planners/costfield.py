@@ -53,10 +53,10 @@ Cell = tuple[int, int]
 _EIGHT_CONNECTED = np.ones((3, 3), dtype=bool)  # MCP moves diagonally, so components must too
 _KEY_DIGITS = 9                                # radii closer than a nanometre share a cache entry
 _EMPTY_INTERVAL = 1e-9                         # cell units: touching a cell corner is not entering
-# First ellipse bound, in cell units: most paths cost under 1.3 times the straight line; the
+# First ellipse bound, in cell units: most paths cost under 1.2 times the straight line; the
 # slack covers short plans, where walls and comfort weigh more.
-_FIRST_BOUND = 1.3
-_BOUND_SLACK = 40.0
+_FIRST_BOUND = 1.2
+_BOUND_SLACK = 20.0
 _MAX_WINDOW_SHARE = 0.5    # an ellipse box larger than this share of the component: no ellipse
 
 

@@ -87,6 +87,7 @@ _WALL_REACH_IN_B = 12.0
 # Per-step caps on the contact terms (see the module docstring).
 _STIFFNESS_STEP_CAP = 0.5
 _FRICTION_STEP_CAP = 0.5
+_CIRCLE = int(ShapeKind.CIRCLE)  # a plain int compares with arrays faster than the enum
 
 
 # The dimension of a parameter, for tools that show or convert values.
@@ -276,27 +277,21 @@ class SocialForcePlanner:
         position = crowd.position[rows]
         radius = crowd.radius[rows]
         reach = _WALL_REACH_IN_B / _at(params.inverse_wall_decay, rows) + radius
-        maybe = np.flatnonzero(self._maybe_near_a_wall(position, float(np.max(reach))))
+        # The test below keeps a human when its clearance is under its reach plus half a cell;
+        # humans whose cells are surely clearer than the largest such distance (with a margin
+        # for rounding) are never looked at more closely.
+        grid = self.grid
+        maybe, clearance, away = grid.walls_within(
+            position, float(np.max(reach)) + 0.5 * grid.resolution + 1e-6)
         if maybe.size == 0:
             return _NO_WALLS
-        clearance, away = self.grid.clearance_and_direction_at(position[maybe])
         # clearance runs to the centre of the nearest occupied cell; its face is half a cell
         # nearer
-        gap = clearance - 0.5 * self.grid.resolution - radius[maybe]
+        gap = clearance - 0.5 * grid.resolution - radius[maybe]
         close = np.flatnonzero(gap < reach[maybe] - radius[maybe])
         if close.size == 0:
             return _NO_WALLS
         return _NearbyWalls(maybe[close], away[close], gap[close])
-
-    def _maybe_near_a_wall(self, position: FloatArray, reach: float) -> BoolArray:
-        """A cheap first cut: False only where no wall can be within `reach` of the body.
-
-        The exact test below keeps a human when its clearance is under reach plus half a cell;
-        a cell whose clearance bound already exceeds that (with a margin for rounding) is
-        skipped, so humans in open space never reach the interpolating queries.
-        """
-        grid = self.grid
-        return ~grid.surely_clear(position, reach + 0.5 * grid.resolution + 1e-6)
 
 
 @dataclass(frozen=True, slots=True)
@@ -319,6 +314,9 @@ def _wall_acceleration(crowd: Crowd, drive: Drive, params: _RowParams, walls: _N
     rows = drive.index[near]
     push = (_at(params.A_wall, rows) * drive.obstacle_strength[near]
             * np.exp(np.minimum(-gap * _at(params.inverse_wall_decay, rows), _MAX_EXPONENT)))
+    if not np.any(gap < 0.0):
+        # no contact: the contact terms are zeros, which change no sum they are added to
+        return np.asarray(away * push[:, None], dtype=np.float64)
     overlap = np.maximum(-gap, 0.0)
     push += _capped(_at(params.k, rows) * dt * dt, _STIFFNESS_STEP_CAP) / (dt * dt) * overlap
     tangent = np.column_stack([-away[:, 1], away[:, 0]])
@@ -361,12 +359,13 @@ class _PairPush:
         self.cos_half_view = _drive_column(np.cos(drive.field_of_view / 2.0), rows, count)
         self.cos_heading, self.sin_heading = np.cos(crowd.heading), np.sin(crowd.heading)
         self.inverse_distance = 1.0 / pairs.distance
+        self.neg_inverse_distance = np.negative(self.inverse_distance)
         horizon = params.anticipation
         self.shared_horizon = isinstance(horizon, float)
         if self.shared_horizon:  # the closest approach is the same seen from either side
             self.ahead = closest_approach(pairs, crowd.velocity, horizon)
         space = crowd.personal_space
-        self.circles = bool(np.all(space.kind == ShapeKind.CIRCLE))
+        self.circles = bool(np.all(space.kind == _CIRCLE))
         radius = _column(crowd.radius)
         # with circles of one size, one radius and one decay, the closeness term is symmetric
         self.shared_closeness: FloatArray | None = None
@@ -393,8 +392,10 @@ class _PairPush:
                                                           _at(params.anticipation, receiver))
         cos_heading, sin_heading = self.cos_heading[receiver], self.sin_heading[receiver]
         # where the other is seen now, as cos phi: towards the other is -sign * offset
-        seen_ahead = (pairs.offset_x * cos_heading + pairs.offset_y * sin_heading)
-        seen_ahead *= -sign * self.inverse_distance
+        seen_ahead = pairs.offset_x * cos_heading
+        seen_ahead += pairs.offset_y * sin_heading
+        # -sign * (1 / distance), negated exactly once per tick rather than per direction
+        seen_ahead *= self.neg_inverse_distance if sign > 0 else self.inverse_distance
         if self.shared_closeness is not None:
             push = self.shared_closeness
         else:
@@ -405,14 +406,20 @@ class _PairPush:
                 comfort, distance, _at(params.inverse_decay, receiver))
         weight = _at(params.view_base, receiver) + _at(params.view_slope, receiver) * seen_ahead
         unseen = seen_ahead < _at(self.cos_half_view, receiver)
-        weight = np.where(unseen, weight * _at(params.outside_view_weight, receiver), weight)
+        np.multiply(weight, _at(params.outside_view_weight, receiver), out=weight, where=unseen)
         push = push * weight
         # a preference for one side breaks the deadlock of two people walking dead-on at each
         # other: each also sidesteps to its right (left when negative) from whoever is ahead
-        sidestep = push * np.maximum(seen_ahead, 0.0)
+        sidestep = np.maximum(seen_ahead, 0.0)
+        sidestep *= push
         sidestep *= _at(params.side_preference, receiver)
-        push *= sign
-        return push * ahead_x + sidestep * sin_heading, push * ahead_y - sidestep * cos_heading
+        if sign < 0:  # times -1 exactly; times +1 changes nothing
+            np.negative(push, out=push)
+        along_x = push * ahead_x
+        along_x += sidestep * sin_heading
+        along_y = push * ahead_y
+        along_y -= sidestep * cos_heading
+        return along_x, along_y
 
     def _extent(self, receiver: IntArray, forward: FloatArray, left: FloatArray) -> Column:
         space = self.crowd.personal_space

@@ -165,11 +165,12 @@ class OccupancyGrid:
                            ) -> tuple[IntArray, IntArray, BoolArray]:
         row, col = np.floor(row), np.floor(col)
         rows, cols = self.occupied.shape
-        inside: BoolArray = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
-        # fmax / fmin map NaN to the bound, so the cast below never sees a NaN
-        row_index = np.fmin(np.fmax(row, 0.0), rows - 1).astype(np.intp)
-        col_index = np.fmin(np.fmax(col, 0.0), cols - 1).astype(np.intp)
-        return row_index, col_index, inside
+        # fmax / fmin map NaN to the bound, so the cast below never sees a NaN; a cell is
+        # inside when clipping leaves it where it is (NaN and inf never compare equal)
+        row_clipped = np.fmin(np.fmax(row, 0.0), rows - 1)
+        col_clipped = np.fmin(np.fmax(col, 0.0), cols - 1)
+        inside: BoolArray = (row_clipped == row) & (col_clipped == col)
+        return row_clipped.astype(np.intp), col_clipped.astype(np.intp), inside
 
     def world_to_cell(self, xy: ArrayLike) -> IntArray:
         """(..., 2) world points -> (..., 2) cells as (row, col); may be out of range."""
@@ -249,6 +250,13 @@ class OccupancyGrid:
         row, col = self._fractional_rows_cols(points)
         row_index, col_index, inside = self._locate_fractional(row, col)
         free: BoolArray = inside & ~self.occupied[row_index, col_index]
+        clearance = self._interpolated(row, col, free)
+        if not direction:
+            return clearance, clearance
+        return clearance, self._direction(points, row_index, col_index, inside, free)
+
+    def _interpolated(self, row: FloatArray, col: FloatArray, free: BoolArray) -> FloatArray:
+        """Clearance bilinear between cell centres at fractional cells; 0 where not free."""
         # Shift so cell centres sit on integer coordinates, as map_coordinates expects.
         coords = np.empty((2, row.size))
         np.subtract(row.reshape(-1), 0.5, out=coords[0])
@@ -257,9 +265,7 @@ class OccupancyGrid:
             coords = np.nan_to_num(coords, nan=0.0, posinf=0.0, neginf=0.0)
         values = _ndimage().map_coordinates(self.clearance, coords, order=1, mode="nearest")
         clearance: FloatArray = np.where(free, values.reshape(row.shape), 0.0)
-        if not direction:
-            return clearance, clearance
-        return clearance, self._direction(points, row_index, col_index, inside, free)
+        return clearance
 
     def surely_clear(self, xy: ArrayLike, distance: FloatArray | float) -> BoolArray:
         """True where `clearance_at(xy) >= distance` holds for certain (`distance` > 0).
@@ -272,6 +278,27 @@ class OccupancyGrid:
         row, col, _ = self._locate(_points(xy))
         clear: BoolArray = self._clearance_floor[row, col] >= distance
         return clear
+
+    def walls_within(self, xy: ArrayLike, reach: float
+                     ) -> tuple[IntArray, FloatArray, FloatArray]:
+        """The points that may have a wall within `reach`, with their clearance and direction.
+
+        Returns (index into the points, `clearance_at`, `obstacle_direction_at`) for every point
+        whose cell is not surely clear by `reach` (see `surely_clear`); the others certainly
+        have more than `reach` of clearance. One cell lookup serves all three.
+        """
+        points = _points(xy)
+        row, col = self._fractional_rows_cols(points)
+        row_index, col_index, inside = self._locate_fractional(row, col)
+        maybe = np.flatnonzero(self._clearance_floor[row_index, col_index] < reach)
+        if maybe.size == 0:
+            return maybe, np.zeros(0), np.zeros((0, 2))
+        if maybe.size < row.size:
+            points, row, col = points[maybe], row[maybe], col[maybe]
+            row_index, col_index, inside = row_index[maybe], col_index[maybe], inside[maybe]
+        free: BoolArray = inside & ~self.occupied[row_index, col_index]
+        clearance = self._interpolated(row, col, free)
+        return maybe, clearance, self._direction(points, row_index, col_index, inside, free)
 
     @cached_property
     def _clearance_floor(self) -> FloatArray:
