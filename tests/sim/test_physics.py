@@ -1,0 +1,79 @@
+"""The fast paths of a tick give exactly what the plain computations give.
+
+`keep_out_of_walls` accepts bodies far from walls without interpolating clearances,
+`BodySeparation` skips the k-d tree while nobody overlaps, and `PairFinder` takes every pair of a
+small crowd without a tree. Each is compared bit for bit with the computation it stands for.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from hubero_dsl.planners.neighbours import PairFinder
+from hubero_dsl.sim import physics
+from hubero_dsl.world.grid import OccupancyGrid
+
+
+def furnished_room() -> OccupancyGrid:
+    occupied = np.zeros((80, 120), dtype=bool)
+    occupied[30:40, 20:60] = True      # a table
+    occupied[60:64, 90:94] = True      # a pillar
+    return OccupancyGrid(occupied, 0.05, (0.0, 0.0))
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_keep_out_of_walls_equals_the_exact_test_for_every_body(seed: int) -> None:
+    grid = furnished_room()
+    rng = np.random.default_rng(seed)
+    old = rng.uniform((0.0, 0.0), (6.0, 4.0), size=(300, 2))
+    old = old[grid.is_free(old)]
+    new = old + rng.normal(0.0, 0.15, size=old.shape)
+    radius = rng.uniform(0.15, 0.3, size=len(old))
+    fast = physics.keep_out_of_walls(grid, old, new, radius)
+    exact = physics._slide_along_walls(grid, old, new, 0.5 * radius + physics.WALL_MARGIN)
+    np.testing.assert_array_equal(fast, exact)
+    assert not np.array_equal(exact, new)   # some moves really were stopped or slid
+
+
+def test_keep_out_of_walls_returns_the_moves_when_all_are_clear() -> None:
+    grid = OccupancyGrid(np.zeros((100, 100), dtype=bool), 0.1, (0.0, 0.0))
+    old = np.array([[5.0, 5.0], [3.0, 6.0]])
+    new = old + 0.05
+    assert physics.keep_out_of_walls(grid, old, new, np.full(2, 0.2)) is new
+
+
+def test_body_separation_equals_separate_bodies_tick_after_tick() -> None:
+    rng = np.random.default_rng(7)
+    separation = physics.BodySeparation()
+    rows, cols = np.mgrid[0:15, 0:15]
+    position = np.column_stack([rows.ravel(), cols.ravel()]).astype(float)  # 1 m apart
+    radius = rng.uniform(0.15, 0.3, size=len(position))
+    movable = rng.uniform(size=len(position)) > 0.1
+    stopped = 0
+    for tick in range(60):
+        position = position + np.array([0.03, 0.01]) + rng.normal(0.0, 0.005, position.shape)
+        if tick % 10 == 5:   # now and then someone walks into someone else
+            position[tick] = position[tick + 1] + np.array([0.1, 0.0])
+        expected = physics.separate_bodies(position, radius, movable)
+        got = separation(position, radius, movable)
+        np.testing.assert_array_equal(got, expected)
+        stopped += got is position
+        position = got
+    assert 0 < stopped < 60   # both the shortcut and the correction were exercised
+
+
+def tree_pairs(position: np.ndarray, radius: float) -> np.ndarray:
+    tree = cKDTree(position, balanced_tree=False, compact_nodes=False)
+    return tree.query_pairs(radius, output_type="ndarray")
+
+
+@pytest.mark.parametrize("count", [2, 3, 7, 16])
+def test_small_crowds_get_the_pairs_of_the_tree_in_its_order(count: int) -> None:
+    rng = np.random.default_rng(count)
+    for _ in range(20):
+        position = rng.uniform(0.0, 5.0, size=(count, 2))
+        pairs = PairFinder().find(position, np.full(count, 3.0))
+        found = np.column_stack([pairs.first, pairs.second])
+        np.testing.assert_array_equal(found.reshape(-1, 2), tree_pairs(position, 3.0))
