@@ -1,16 +1,23 @@
-"""How long the command line takes, as a user feels it.
+"""How long the command line takes, as a user feels it, and how fast the paper scenarios run.
 
-    python benchmarks/cli.py [SCENARIO] [--repeat N]
+    python benchmarks/cli.py [SCENARIO] [--repeat N] [--runs N]
 
-Each row runs a command in a fresh interpreter N times (after one discarded warm-up run that fills
-the OS file cache and the bytecode cache) and reports the median wall time, next to a bare
-`python -c pass`: the ratio and the difference are what hubero itself costs. Rows are
-`Measurement`s in `MEASUREMENTS`; more (run speed against real time) are to be added there.
+Each row of the first table runs a command in a fresh interpreter N times (after one discarded
+warm-up run that fills the OS file cache and the bytecode cache) and reports the median wall
+time, next to a bare `python -c pass`: the ratio and the difference are what hubero itself costs.
+Rows are `Measurement`s in `MEASUREMENTS`.
+
+The second table is the paper scenarios' speed relative to real time: simulated seconds per
+wall-clock second of everything `hubero run` does after start-up (compile the file, build the
+simulation, plan, simulate until every activity has ended), each run in a fresh interpreter
+whose imports are done before the clock starts, once per variant; and the same for the whole
+`hubero run FILE -q` command, interpreter start-up and imports included.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
 import subprocess
 import sys
@@ -21,6 +28,23 @@ from pathlib import Path
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_SCENARIO = REPO_ROOT / "scenarios" / "living_room.hub"
+PAPER_SCENARIOS = (REPO_ROOT / "scenarios" / "living_room.hub",
+                   REPO_ROOT / "scenarios" / "parking.hub")
+
+# One run in a fresh interpreter: imports first, then the clock runs over compile + run.
+RUN_ONCE = """
+import json, sys, time
+from hubero_dsl.lang.compile import compile_file
+from hubero_dsl.sim.run import run_program
+from hubero_dsl.sim.simulation import Simulation
+import hubero_dsl.planners.navfn, hubero_dsl.planners.social_force, hubero_dsl.planners.straight
+import hubero_dsl.world.mapfile
+variant = sys.argv[2] or None
+start = time.perf_counter()
+result = run_program(Simulation(compile_file(sys.argv[1]), variant=variant))
+seconds = time.perf_counter() - start
+print(json.dumps({"simulated": result.time, "seconds": seconds, "state": result.state.value}))
+"""
 
 
 @dataclass(frozen=True)
@@ -64,10 +88,64 @@ def table(rows: list[tuple[str, float]], baseline: float) -> str:
     return "\n".join(lines)
 
 
+@dataclass(frozen=True)
+class RunSpeed:
+    """Median wall time of one scenario variant's run, and the simulated time it covers."""
+
+    scenario: str
+    variant: str
+    simulated: float
+    seconds: float
+    spread: float     # max / min - 1 over the repeats
+
+    @property
+    def real_time_factor(self) -> float:
+        return self.simulated / self.seconds
+
+
+def variants_of(scenario: Path) -> list[str]:
+    """"" (the scenario as written, what `hubero run FILE` runs) and each variant's name."""
+    from hubero_dsl.lang.compile import compile_file
+
+    return ["", *compile_file(scenario).variants]
+
+
+def run_speed(scenario: Path, variant: str, repeat: int) -> RunSpeed:
+    seconds, simulated = [], 0.0
+    for _ in range(repeat):
+        completed = subprocess.run([sys.executable, "-c", RUN_ONCE, str(scenario), variant],
+                                   capture_output=True, text=True, check=False)
+        if completed.returncode != 0:
+            raise SystemExit(f"{scenario} {variant}: the run failed:\n{completed.stderr}")
+        measured = json.loads(completed.stdout)
+        seconds.append(measured["seconds"])
+        simulated = measured["simulated"]
+    return RunSpeed(scenario.name, variant or "(as written)", simulated,
+                    statistics.median(seconds), max(seconds) / min(seconds) - 1.0)
+
+
+def speed_table(speeds: list[RunSpeed], commands: dict[str, float]) -> str:
+    lines = [f"{'scenario':<16} {'variant':<13} {'simulated':>9}  {'run':>8}  {'spread':>6}  "
+             f"{'x real time':>11}",
+             f"{'-' * 16} {'-' * 13} {'-' * 9}  {'-' * 8}  {'-' * 6}  {'-' * 11}"]
+    for speed in speeds:
+        lines.append(f"{speed.scenario:<16} {speed.variant:<13} {speed.simulated:7.1f} s  "
+                     f"{speed.seconds * 1000:5.0f} ms  {speed.spread:6.0%}  "
+                     f"{speed.real_time_factor:10.0f}x")
+    for name, seconds in commands.items():
+        simulated = next(s.simulated for s in speeds if s.scenario == name and
+                         s.variant == "(as written)")
+        lines.append(f"{'hubero run ' + name + ' -q':<30} {simulated:7.1f} s  "
+                     f"{seconds * 1000:5.0f} ms  {'':>6}  {simulated / seconds:10.0f}x")
+    return "\n".join(lines)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenario", nargs="?", type=Path, default=DEFAULT_SCENARIO)
     parser.add_argument("--repeat", type=int, default=10)
+    parser.add_argument("--runs", type=int, default=5,
+                        help="repeats of each paper scenario run (0: skip them)")
     args = parser.parse_args(argv)
     if not args.scenario.is_file():
         parser.error(f"{args.scenario}: no such scenario file")
@@ -78,6 +156,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         rows.append((measurement.name, statistics.median(times)))
     print(f"scenario: {args.scenario}   median of {args.repeat} cold runs each")
     print(table(rows, baseline))
+    if args.runs > 0:
+        speeds = [run_speed(scenario, variant, args.runs) for scenario in PAPER_SCENARIOS
+                  for variant in variants_of(scenario)]
+        commands = {scenario.name: statistics.median(wall_times(
+            hubero("run", str(scenario), "-q"), args.runs)) for scenario in PAPER_SCENARIOS}
+        print(f"\npaper scenarios against real time, median of {args.runs} runs each "
+              "(run: compile + simulation + plans + every tick, after start-up)")
+        print(speed_table(speeds, commands))
     return 0
 
 
