@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -162,18 +162,19 @@ class ComponentSearch:
             window = self._ellipse_window(goal, start, bound)
             if window is None:
                 return self.solve(goal, start)
-            offset, cost = window
+            offset, cost, to_start = window
             field = _search(MCP_Geometric(cost, fully_connected=True), offset, goal, start,
                             complete=False)
             found = field.value(start)
             if found <= bound:
-                return _proven_part(field, start, bound)
+                return _proven_part(field, to_start, bound)
             bound = found if math.isfinite(found) else 2.0 * bound
 
     def _ellipse_window(self, goal: Cell, start: Cell, bound: float
-                        ) -> tuple[Cell, FloatArray] | None:
-        """The costs on the bounding box of the ellipse, inf outside it; None when the box would
-        cover much of the component (its own search is then as cheap)."""
+                        ) -> tuple[Cell, FloatArray, FloatArray] | None:
+        """The costs on the bounding box of the ellipse, inf outside it, and each cell's
+        distance to the start; None when the box would cover much of the component (its own
+        search is then as cheap)."""
         half_major = bound / 2.0
         centre = ((goal[0] + start[0]) / 2.0, (goal[1] + start[1]) / 2.0)
         span = math.dist(goal, start)
@@ -189,10 +190,10 @@ class ComponentSearch:
             return None
         rows = np.arange(low[0], high[0], dtype=np.float64)[:, None]
         cols = np.arange(low[1], high[1], dtype=np.float64)[None, :]
-        through = (np.hypot(rows - goal[0], cols - goal[1])
-                   + np.hypot(rows - start[0], cols - start[1]))
+        to_start = np.hypot(rows - start[0], cols - start[1])
+        through = np.hypot(rows - goal[0], cols - goal[1]) + to_start
         cost = np.where(through <= bound, self._cost[low[0]:high[0], low[1]:high[1]], np.inf)
-        return (low[0], low[1]), cost
+        return (low[0], low[1]), cost, to_start
 
 
 def _search(mcp: MCP_Geometric, offset: Cell, goal: Cell, until: Cell | None, *,
@@ -207,15 +208,11 @@ def _search(mcp: MCP_Geometric, offset: Cell, goal: Cell, until: Cell | None, *,
                     moves=np.asarray(mcp.offsets, dtype=np.intp), complete=complete)
 
 
-def _proven_part(field: CostToGo, start: Cell, bound: float) -> CostToGo:
+def _proven_part(field: CostToGo, to_start: FloatArray, bound: float) -> CostToGo:
     """`field` with every cell whose value a path leaving the ellipse might beat made unknown
     (val(v) > bound - |start - v|), so that later starts are served only exact values."""
-    rows = np.arange(field.cost.shape[0])[:, None] + (field.offset[0] - start[0])
-    cols = np.arange(field.cost.shape[1])[None, :] + (field.offset[1] - start[1])
-    unproven = field.cost > bound - np.hypot(rows, cols)
-    cost = field.cost.copy()
-    cost[unproven] = np.inf
-    return replace(field, cost=cost)
+    field.cost[field.cost > bound - to_start] = np.inf   # the field's own copy: no one else's
+    return field
 
 
 @dataclass(eq=False)

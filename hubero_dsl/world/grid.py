@@ -334,8 +334,10 @@ class OccupancyGrid:
 
     def _direction(self, points: FloatArray, row: IntArray, col: IntArray, inside: BoolArray,
                    free: BoolArray) -> FloatArray:
-        nearest = self._obstacle_field[1]
-        lower, upper = self._cell_squares(np.stack((nearest[0][row, col], nearest[1][row, col])))
+        nearest_row, nearest_col = self._obstacle_field[1]
+        lower = self._cell_centres(nearest_row[row, col], nearest_col[row, col])
+        lower -= 0.5 * self.resolution
+        upper = lower + self.resolution
         away = points - np.minimum(np.maximum(points, lower), upper)
         # A point on the obstacle's very edge falls back to the cell-to-cell direction.
         on_edge = ~np.any(away != 0.0, axis=-1)
