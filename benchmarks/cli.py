@@ -10,8 +10,9 @@ Rows are `Measurement`s in `MEASUREMENTS`.
 The second table is the paper scenarios' speed relative to real time: simulated seconds per
 wall-clock second of everything `hubero run` does after start-up (compile the file, build the
 simulation, plan, simulate until every activity has ended), each run in a fresh interpreter
-whose imports are done before the clock starts, once per variant; and the same for the whole
-`hubero run FILE -q` command, interpreter start-up and imports included.
+whose imports are done before the clock starts, once per variant; then the same run again in
+that interpreter (what each run of a sweep costs, once the process has set itself up); and the
+whole `hubero run FILE -q` command, interpreter start-up and imports included.
 """
 
 from __future__ import annotations
@@ -40,9 +41,11 @@ from hubero_dsl.sim.simulation import Simulation
 import hubero_dsl.planners.navfn, hubero_dsl.planners.social_force, hubero_dsl.planners.straight
 import hubero_dsl.world.mapfile
 variant = sys.argv[2] or None
-start = time.perf_counter()
-result = run_program(Simulation(compile_file(sys.argv[1]), variant=variant))
-seconds = time.perf_counter() - start
+seconds = []
+for _ in range(2):  # the first run in a fresh process, then one in a process that has run one
+    start = time.perf_counter()
+    result = run_program(Simulation(compile_file(sys.argv[1]), variant=variant))
+    seconds.append(time.perf_counter() - start)
 print(json.dumps({"simulated": result.time, "seconds": seconds, "state": result.state.value}))
 """
 
@@ -97,6 +100,7 @@ class RunSpeed:
     simulated: float
     seconds: float
     spread: float     # max / min - 1 over the repeats
+    warm_seconds: float  # the same run again in the same process
 
     @property
     def real_time_factor(self) -> float:
@@ -111,27 +115,31 @@ def variants_of(scenario: Path) -> list[str]:
 
 
 def run_speed(scenario: Path, variant: str, repeat: int) -> RunSpeed:
-    seconds, simulated = [], 0.0
+    seconds, warm, simulated = [], [], 0.0
     for _ in range(repeat):
         completed = subprocess.run([sys.executable, "-c", RUN_ONCE, str(scenario), variant],
                                    capture_output=True, text=True, check=False)
         if completed.returncode != 0:
             raise SystemExit(f"{scenario} {variant}: the run failed:\n{completed.stderr}")
         measured = json.loads(completed.stdout)
-        seconds.append(measured["seconds"])
+        seconds.append(measured["seconds"][0])
+        warm.append(measured["seconds"][1])
         simulated = measured["simulated"]
     return RunSpeed(scenario.name, variant or "(as written)", simulated,
-                    statistics.median(seconds), max(seconds) / min(seconds) - 1.0)
+                    statistics.median(seconds), max(seconds) / min(seconds) - 1.0,
+                    statistics.median(warm))
 
 
 def speed_table(speeds: list[RunSpeed], commands: dict[str, float]) -> str:
     lines = [f"{'scenario':<16} {'variant':<13} {'simulated':>9}  {'run':>8}  {'spread':>6}  "
-             f"{'x real time':>11}",
-             f"{'-' * 16} {'-' * 13} {'-' * 9}  {'-' * 8}  {'-' * 6}  {'-' * 11}"]
+             f"{'x real time':>11}  {'again':>8}  {'x real time':>11}",
+             f"{'-' * 16} {'-' * 13} {'-' * 9}  {'-' * 8}  {'-' * 6}  {'-' * 11}  {'-' * 8}  "
+             f"{'-' * 11}"]
     for speed in speeds:
         lines.append(f"{speed.scenario:<16} {speed.variant:<13} {speed.simulated:7.1f} s  "
                      f"{speed.seconds * 1000:5.0f} ms  {speed.spread:6.0%}  "
-                     f"{speed.real_time_factor:10.0f}x")
+                     f"{speed.real_time_factor:10.0f}x  {speed.warm_seconds * 1000:5.0f} ms  "
+                     f"{speed.simulated / speed.warm_seconds:10.0f}x")
     for name, seconds in commands.items():
         simulated = next(s.simulated for s in speeds if s.scenario == name and
                          s.variant == "(as written)")
@@ -162,7 +170,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         commands = {scenario.name: statistics.median(wall_times(
             hubero("run", str(scenario), "-q"), args.runs)) for scenario in PAPER_SCENARIOS}
         print(f"\npaper scenarios against real time, median of {args.runs} runs each "
-              "(run: compile + simulation + plans + every tick, after start-up)")
+              "(run: compile + simulation + plans + every tick, after start-up; again: the same "
+              "run repeated in that process, as in a sweep)")
         print(speed_table(speeds, commands))
     return 0
 

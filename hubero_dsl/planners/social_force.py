@@ -67,7 +67,7 @@ from hubero_dsl.planners.direct import (
 )
 from hubero_dsl.planners.neighbours import NeighbourPairs, PairFinder, closest_approach
 from hubero_dsl.world.personal_space import extent_in_body_frame
-from hubero_dsl.world.shapes import ShapeKind
+from hubero_dsl.world.shapes import ShapeArrays, ShapeKind
 
 if TYPE_CHECKING:
     from hubero_dsl.world.grid import OccupancyGrid
@@ -189,7 +189,7 @@ def _rows_of(params: _RowParams) -> int:
 
 def _column(values: FloatArray) -> Column:
     """`values` as a Column: a float when they are all equal (or there are none)."""
-    if values.size == 0 or np.all(values == values[0]):
+    if values.size == 0 or (values == values[0]).all():
         return float(values[0]) if values.size else 0.0
     return values
 
@@ -221,6 +221,7 @@ class SocialForcePlanner:
         self._params = _RowParams.from_models(models or [SocialForceParams()])
         self._padded = self._params
         self._pair_finder = PairFinder()
+        self._shapes: tuple[ShapeArrays, FloatArray, _CrowdShapes] | None = None
 
     def velocities(self, crowd: Crowd, drive: Drive, dt: float) -> FloatArray:
         """(K, 2) new velocities for the humans in `drive`, never faster than max_speed."""
@@ -234,7 +235,7 @@ class SocialForcePlanner:
         # Terms that are zero are skipped rather than added; adding 0.0 once keeps the sums
         # bit for bit what adding every term gives (it turns -0.0 into 0.0, as they would).
         if pairs.count:
-            per_row = _social_acceleration(crowd, drive, params, pairs)
+            per_row = _social_acceleration(crowd, drive, params, pairs, self._shapes_of(crowd))
             contact = _contact_acceleration(crowd, params, pairs, dt)
             if contact is not None:
                 per_row += contact
@@ -251,6 +252,19 @@ class SocialForcePlanner:
             robots = crowd.is_robot[rows]
             new_velocity[robots] = velocity[robots]
         return new_velocity
+
+    def _shapes_of(self, crowd: Crowd) -> _CrowdShapes:
+        """What the pair kernel needs to know of the crowd's shapes and radii, worked out again
+        only when the crowd brings other arrays (the engine hands the same ones every tick;
+        neither is changed in place during a run)."""
+        cached = self._shapes
+        if (cached is None or cached[0] is not crowd.personal_space
+                or cached[1] is not crowd.radius):
+            space = crowd.personal_space
+            shapes = _CrowdShapes(circles=bool((space.kind == _CIRCLE).all()),
+                                  radius=_column(crowd.radius), extent=_column(space.a))
+            cached = self._shapes = (space, crowd.radius, shapes)
+        return cached[2]
 
     def _params_for(self, count: int) -> _RowParams:
         """Parameter columns covering `count` rows (robots may come without a model)."""
@@ -282,15 +296,19 @@ class SocialForcePlanner:
         # for rounding) are never looked at more closely.
         grid = self.grid
         maybe, clearance, away = grid.walls_within(
-            position, float(np.max(reach)) + 0.5 * grid.resolution + 1e-6)
+            position, float(reach.max()) + 0.5 * grid.resolution + 1e-6)
         if maybe.size == 0:
             return _NO_WALLS
+        if maybe.size < rows.size:
+            radius, reach = radius[maybe], reach[maybe]
         # clearance runs to the centre of the nearest occupied cell; its face is half a cell
         # nearer
-        gap = clearance - 0.5 * grid.resolution - radius[maybe]
-        close = np.flatnonzero(gap < reach[maybe] - radius[maybe])
+        gap = clearance - 0.5 * grid.resolution - radius
+        close = np.flatnonzero(gap < reach - radius)
         if close.size == 0:
             return _NO_WALLS
+        if close.size == maybe.size:
+            return _NearbyWalls(maybe, away, gap)
         return _NearbyWalls(maybe[close], away[close], gap[close])
 
 
@@ -314,7 +332,7 @@ def _wall_acceleration(crowd: Crowd, drive: Drive, params: _RowParams, walls: _N
     rows = drive.index[near]
     push = (_at(params.A_wall, rows) * drive.obstacle_strength[near]
             * np.exp(np.minimum(-gap * _at(params.inverse_wall_decay, rows), _MAX_EXPONENT)))
-    if not np.any(gap < 0.0):
+    if not (gap < 0.0).any():
         # no contact: the contact terms are zeros, which change no sum they are added to
         return np.asarray(away * push[:, None], dtype=np.float64)
     overlap = np.maximum(-gap, 0.0)
@@ -338,7 +356,7 @@ def _stop_at_walls(velocity: FloatArray, walls: _NearbyWalls, dt: float) -> Floa
     towards = -np.einsum("ij,ij->i", velocity[walls.slot], walls.away)
     excess = towards - np.maximum(walls.gap, 0.0) / dt
     blocked = excess > 0.0
-    if np.any(blocked):
+    if blocked.any():
         slots = walls.slot[blocked]
         velocity[slots] += walls.away[blocked] * excess[blocked, None]
     return velocity
@@ -348,11 +366,21 @@ def _capped(value: Column, cap: float) -> Column:
     return np.minimum(value, cap) if isinstance(value, np.ndarray) else min(value, cap)
 
 
+@dataclass(frozen=True, slots=True)
+class _CrowdShapes:
+    """Whether every personal space is a circle, and the body radius and personal-space extent
+    as Columns (floats when everyone shares them)."""
+
+    circles: bool
+    radius: Column
+    extent: Column
+
+
 class _PairPush:
     """The social push of one tick, computed once per close pair and applied both ways."""
 
-    def __init__(self, crowd: Crowd, drive: Drive, params: _RowParams,
-                 pairs: NeighbourPairs) -> None:
+    def __init__(self, crowd: Crowd, drive: Drive, params: _RowParams, pairs: NeighbourPairs,
+                 shapes: _CrowdShapes) -> None:
         count, rows = crowd.count, drive.index
         self.crowd, self.params, self.pairs = crowd, params, pairs
         self.strength = _product(params.A, _drive_column(drive.avoidance_strength, rows, count))
@@ -365,11 +393,11 @@ class _PairPush:
         if self.shared_horizon:  # the closest approach is the same seen from either side
             self.ahead = closest_approach(pairs, crowd.velocity, horizon)
         space = crowd.personal_space
-        self.circles = bool(np.all(space.kind == _CIRCLE))
-        radius = _column(crowd.radius)
+        self.circles = shapes.circles
+        radius = shapes.radius
         # with circles of one size, one radius and one decay, the closeness term is symmetric
         self.shared_closeness: FloatArray | None = None
-        same_circles = self.circles and isinstance(_column(space.a), float)
+        same_circles = self.circles and isinstance(shapes.extent, float)
         if (same_circles and self.shared_horizon and isinstance(radius, float)
                 and isinstance(params.inverse_decay, float) and isinstance(self.strength, float)):
             comfort = float(space.a[0]) + radius
@@ -436,12 +464,12 @@ def _product(first: Column, second: Column) -> Column:
 
 
 def _social_acceleration(crowd: Crowd, drive: Drive, params: _RowParams,
-                         pairs: NeighbourPairs) -> FloatArray:
+                         pairs: NeighbourPairs, shapes: _CrowdShapes) -> FloatArray:
     """(N, 2) sum over neighbours of the anisotropic exponential push, per Crowd row."""
     count = crowd.count
     if pairs.count == 0:
         return np.zeros((count, 2))
-    kernel = _PairPush(crowd, drive, params, pairs)
+    kernel = _PairPush(crowd, drive, params, pairs, shapes)
     on_first = kernel.one_way(pairs.first, pairs.second, 1.0)
     on_second = kernel.one_way(pairs.second, pairs.first, -1.0)
     return _sum_both_ways(pairs, on_first, on_second, count)

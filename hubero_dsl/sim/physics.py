@@ -41,8 +41,8 @@ class BodySeparation:
             return position
         reach = np.full(len(position), 2.0 * float(radius.max()))
         pairs = self._finder.find(position, reach)
-        if pairs.count == 0 or not np.any(radius[pairs.first] + radius[pairs.second]
-                                          > pairs.distance):
+        if pairs.count == 0 or not (radius[pairs.first] + radius[pairs.second]
+                                    > pairs.distance).any():
             return position
         return separate_bodies(position, radius, movable)
 
