@@ -130,10 +130,13 @@ def _text(source: ast.SourceFile, decl: ast.ExpectDecl) -> str:
 def summarise(sim: Simulation) -> list[HumanSummary]:
     """Per human: tasks finished, the last status, metres walked, time spent on tasks."""
     summaries = []
+    events_of: dict[str, list[TaskEvent]] = {}  # one pass over the events, not one per human
+    for event in sim.events:
+        events_of.setdefault(event.human, []).append(event)
     for index, name in enumerate(sim.engine.humans.names):
-        finals = [e for e in sim.events if e.human == name and e.status.is_final]
-        starts = {e.task_id: e.time for e in sim.events
-                  if e.human == name and e.status is TaskStatus.ACTIVE}
+        own = events_of.get(name, [])
+        finals = [e for e in own if e.status.is_final]
+        starts = {e.task_id: e.time for e in own if e.status is TaskStatus.ACTIVE}
         busy = sum(e.time - starts.get(e.task_id, e.time) for e in finals)
         current = sim.engine.handle[index]
         total = len(starts)
