@@ -19,8 +19,8 @@ costs more than L. Dijkstra on the ellipse alone (the rest made impassable) ther
 optimal cost whenever the start's cost inside it is at most L (A*'s guarantee, with the ellipse
 in place of its priority). A cell v of that field is kept only where its value cannot be beaten
 by a path leaving the ellipse either, val(v) <= L - |start - v|; the path of the start always
-qualifies. A bound too small is raised to the cost the search found (or doubled), so a plan
-costs at most a few small searches before it falls back to the component.
+qualifies. A bound too small is raised to the cost the search found, or doubled when that is
+more, so a plan costs a few small searches before it falls back to the component.
 
 `segment_costs` integrates a cost grid along straight segments (exact cell traversal), which is
 how the planner checks line of sight and compares a shortcut with the path it replaces.
@@ -168,7 +168,9 @@ class ComponentSearch:
             found = field.value(start)
             if found <= bound:
                 return _proven_part(field, to_start, bound)
-            bound = found if math.isfinite(found) else 2.0 * bound
+            # the path found proves the optimum is at most `found`; growing by at most twice
+            # keeps a path squeezed through costly cells from asking for a huge ellipse
+            bound = min(found, 2.0 * bound)
 
     def _ellipse_window(self, goal: Cell, start: Cell, bound: float
                         ) -> tuple[Cell, FloatArray, FloatArray] | None:
