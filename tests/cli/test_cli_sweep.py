@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 
 from tests.cli.conftest import REPO_ROOT, Outcome, assert_no_traceback
+from tests.sweep.conftest import OUTCOMES as OUTCOMES_TEMPLATE
 
 MAP = REPO_ROOT / "maps" / "living_room.yaml"
 Run = Callable[..., Outcome]
@@ -27,17 +28,7 @@ human a at (1, 1)
 sweep speed in [1.0 m/s, 1.4 m/s]
 activity {{ a move_to (2, 1) }}
 """
-OUTCOMES = f"""\
-scenario "outcomes"
-map "{MAP}"
-time_limit 3 s
-human a at (1, 1)
-variant quick {{ speed 1.3 m/s }}
-variant late {{ speed 0.7 m/s }}
-variant slow {{ speed 0.1 m/s }}
-activity {{ a move_to (2, 1) }}
-expect a reaches (2, 1) within 1.5 s
-"""
+OUTCOMES = OUTCOMES_TEMPLATE.format(map=MAP)
 PLAIN = f"""\
 scenario "plain"
 map "{MAP}"
