@@ -24,6 +24,7 @@ from __future__ import annotations
 import itertools
 import struct
 import zlib
+from collections import deque
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
@@ -75,7 +76,7 @@ class McapContainer:
         self._compression = compression
         self._chunk_size = chunk_size
         self._pool = ThreadPoolExecutor(1, "mcap-writer") if background else None
-        self._pending: list[Future[None]] = []
+        self._pending: deque[Future[None]] = deque()
         # written by the worker only
         self._offset = 0
         self._data_crc = 0
@@ -175,7 +176,7 @@ class McapContainer:
         self._close_chunk()
         self._run(self._write_summary)
         if self._pool is not None:
-            pending, self._pending = self._pending, []
+            pending, self._pending = self._pending, deque()
             self._pool.shutdown(wait=True)
             for future in pending:
                 future.result()
@@ -192,10 +193,10 @@ class McapContainer:
         if self._pool is None:
             task(*args)
             return
-        done = [future for future in self._pending if future.done()]
-        self._pending = [future for future in self._pending if not future.done()]
-        for future in done:
-            future.result()
+        # one worker thread finishes tasks in order: only the front of the queue can be done,
+        # so this stays O(1) however far the worker lags behind
+        while self._pending and self._pending[0].done():
+            self._pending.popleft().result()
         self._pending.append(self._pool.submit(task, *args))
 
     def _write_summary(self) -> None:
