@@ -131,11 +131,11 @@ def _sweep(args: argparse.Namespace) -> int:
 
 
 def _console() -> Console:
-    from rich.console import Console
+    from hubero_dsl.cli.console import make_console
 
-    console = Console(highlight=False)
+    console = make_console(highlight=False)
     if not console.is_terminal:  # a file or a pipe: no terminal to fit, keep tables whole
-        console = Console(highlight=False, width=max(console.width, 132))
+        console = make_console(highlight=False, width=max(console.width, 132))
     return console
 
 

@@ -16,6 +16,8 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from hubero_dsl.cli.console import make_console
+
 if TYPE_CHECKING:
     from hubero_dsl.lang.program import Program
     from hubero_dsl.sim.run import RunResult
@@ -34,7 +36,7 @@ def progress_observer(program: Program, variant: str | None
                       ) -> Iterator[Callable[[Simulation], None]]:
     """A rich progress bar over simulated time (to the time limit), updated a few times a second
     of simulated time so it costs nothing measurable."""
-    console = Console(stderr=True)
+    console = make_console(stderr=True)
     progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(),
                         TextColumn("{task.fields[clock]}"), TimeElapsedColumn(),
                         console=console, transient=True, disable=not console.is_terminal)
@@ -51,7 +53,7 @@ def progress_observer(program: Program, variant: str | None
 
 def print_summary(program: Program, result: RunResult, output: Path | None,
                   console: Console | None = None) -> None:
-    console = console or Console()
+    console = console or make_console()
     state = result.state.value
     title = (f"{_label(program, result.variant)}: [{STATE_STYLE.get(state, '')}]{state}[/] "
              f"at t = {result.time:.2f} s (seed {result.seed})")

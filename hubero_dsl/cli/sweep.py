@@ -103,15 +103,14 @@ def _variant_names(args: argparse.Namespace) -> list[str] | None:
 
 
 def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
-    from rich.console import Console
-
+    from hubero_dsl.cli.console import make_console
     from hubero_dsl.sweep.executors import available_cores, open_executor
     from hubero_dsl.sweep.index import write_index
     from hubero_dsl.sweep.runner import prepare_out_dir, run_sweep
     from hubero_dsl.sweep.worker import standard_metrics
 
     jobs = min(args.jobs or available_cores(), len(plan.runs))
-    errors = Console(stderr=True)
+    errors = make_console(stderr=True)
     started = time.monotonic()  # wall time for the terminal only, never for the index
     with open_executor(args.executor, jobs=jobs, scheduler=args.scheduler,
                        connect_timeout=args.connect_timeout) as executor, \
@@ -130,7 +129,7 @@ def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
         _print_table(plan, outcome)
         where = "inline" if args.executor == "serial" else (
             f"on {jobs} processes" if args.executor == "process" else "on Dask")
-        Console().print(f"{len(outcome.records)} runs {where} in {elapsed:.1f} s; index "
+        make_console().print(f"{len(outcome.records)} runs {where} in {elapsed:.1f} s; index "
                         f"written to {json_path} and {csv_path}", highlight=False,
                         soft_wrap=True)
     return 0 if outcome.succeeded else 1
@@ -187,8 +186,9 @@ def _problem_line(record: RunRecord) -> str:
 
 def _print_table(plan: SweepPlan, outcome: SweepOutcome) -> None:
     from rich import box
-    from rich.console import Console
     from rich.table import Table
+
+    from hubero_dsl.cli.console import make_console
 
     table = Table(title="sweep", title_justify="left", box=box.SIMPLE_HEAD)
     table.add_column("variant", overflow="fold")  # long sweep names wrap, never cut
@@ -204,7 +204,7 @@ def _print_table(plan: SweepPlan, outcome: SweepOutcome) -> None:
                       str(sum(r.status == "completed" and not r.succeeded for r in records)),
                       str(states["failed"]),
                       str(states["timed_out"]), str(states["error"]), mean)
-    console = Console()
+    console = make_console()
     if not console.is_terminal:  # a file or a pipe: as wide as the names, never wrapped
         longest = max(len(_variant_label(v)) for v in plan.variants)
         console.width = max(console.width, longest + 80)

@@ -23,12 +23,12 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
     from rich.markup import escape
 
+    from hubero_dsl.cli.console import make_console
     from hubero_dsl.lang.compile import compile_file
 
-    console = Console()
+    console = make_console()
     failures = 0
     runs = 0
     for file in args.files:

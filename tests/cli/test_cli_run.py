@@ -93,3 +93,11 @@ def test_ctrl_c_during_a_run_stops_cleanly(tmp_path: Path) -> None:
     assert process.returncode == 130
     assert "interrupted" in err
     assert "Traceback" not in out + err
+
+
+def test_a_closed_pipe_is_reported_as_for_every_command() -> None:
+    command = f'"{sys.executable}" -m hubero_dsl run "{LIVING_ROOM}" | head -1'
+    completed = subprocess.run(["bash", "-c", command + "; echo ${PIPESTATUS[0]}"],
+                               capture_output=True, text=True, timeout=120)
+    assert completed.stdout.splitlines()[-1] == "141"
+    assert "Traceback" not in completed.stderr

@@ -1,0 +1,21 @@
+"""The rich console the commands print tables with.
+
+rich's own answer to a closed pipe (`hubero run x | head`) is to exit with status 1; hubero
+reports a broken pipe the same way for every command (status 141, see `main.py`), so this
+console hands the error on instead.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from rich.console import Console
+
+
+class _PipeAwareConsole(Console):
+    def on_broken_pipe(self) -> None:
+        raise BrokenPipeError
+
+
+def make_console(**options: Any) -> Console:
+    return _PipeAwareConsole(**options)
