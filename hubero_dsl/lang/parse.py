@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterator
+from dataclasses import dataclass, replace
 from functools import cache
 from importlib import resources
 from pathlib import Path
@@ -283,6 +284,17 @@ def _unquote(token: str) -> str:
     return re.sub(r"\\(.)", r"\1", token[1:-1])
 
 
+@dataclass(frozen=True, slots=True)
+class _Heading:
+    """`heading A` after a place, human or robot, told apart from the blocks that may follow."""
+
+    value: Any
+
+
+def _heading_in(rest: list[Any]) -> Any:
+    return next((r.value for r in rest if isinstance(r, _Heading)), None)
+
+
 _QUANTITY = re.compile(r"(-?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)[ \t]*(.+)")
 
 
@@ -341,8 +353,8 @@ class _ToAst(Transformer[Token, Any]):
     def distribution(self, meta: Any, children: list[Any]) -> ast.Distribution:
         return ast.Distribution(str(children[0]), children[1], children[2], self._span(meta))
 
-    def heading(self, meta: Any, children: list[Any]) -> Any:
-        return ("heading", children[0])
+    def heading(self, meta: Any, children: list[Any]) -> _Heading:
+        return _Heading(children[0])
 
     def rect(self, meta: Any, children: list[Any]) -> ast.RectArea:
         return ast.RectArea(children[0], children[1], self._span(meta))
@@ -476,7 +488,6 @@ class _ToAst(Transformer[Token, Any]):
 
     def labelled(self, meta: Any, children: list[Any]) -> Any:
         label, step = children
-        from dataclasses import replace
         return replace(step, label=self._name(label), span=self._span(meta))
 
     # statements
@@ -509,8 +520,7 @@ class _ToAst(Transformer[Token, Any]):
 
     def place(self, meta: Any, children: list[Any]) -> ast.PlaceDecl:
         name, point, *rest = children
-        heading = rest[0][1] if rest else None
-        return ast.PlaceDecl(self._name(name), point, heading, self._span(meta))
+        return ast.PlaceDecl(self._name(name), point, _heading_in(rest), self._span(meta))
 
     def area(self, meta: Any, children: list[Any]) -> ast.AreaDecl:
         return ast.AreaDecl(self._name(children[0]), children[1], self._span(meta))
@@ -520,16 +530,13 @@ class _ToAst(Transformer[Token, Any]):
 
     def human(self, meta: Any, children: list[Any]) -> ast.HumanDecl:
         name, start, *rest = children
-        heading = next((r[1] for r in rest if isinstance(r, tuple) and r and r[0] == "heading"),
-                       None)
-        params = next((r for r in rest if isinstance(r, tuple) and (not r or
-                                                                    isinstance(r[0], ast.Param))),
-                      ())
-        return ast.HumanDecl(self._name(name), start, heading, params, self._span(meta))
+        params = next((r for r in rest if isinstance(r, tuple)), ())  # the param block
+        return ast.HumanDecl(self._name(name), start, _heading_in(rest), params,
+                             self._span(meta))
 
     def robot(self, meta: Any, children: list[Any]) -> ast.RobotDecl:
         name, start, *rest = children
-        heading = next((r[1] for r in rest if isinstance(r, tuple) and r[0] == "heading"), None)
+        heading = _heading_in(rest)
         items = next((r for r in rest if isinstance(r, list)), [])
         params = tuple(i for i in items if isinstance(i, ast.Param))
         paths = [i for i in items if isinstance(i, ast.RobotPath)]
