@@ -92,15 +92,10 @@ def run_program(sim: Simulation, observers: Sequence[Observer] = ()) -> RunResul
     assert scheduler is not None, "run_program needs a simulation with activities"
     source = sim.program.source
     expectations = [Expectation(e, _text(source, e)) for e in sim.program.expectations]
-    last_tick = sim.engine.ticks(sim.program.time_limit)
     while True:
-        scheduler.update()
+        scheduler.update()  # also decides when the run is over (done, failed, timed out)
         _judge(sim, expectations)
         if scheduler.state is not RunState.RUNNING:
-            break
-        if sim.tick >= last_tick:
-            scheduler.state = RunState.TIMED_OUT
-            scheduler.reason = f"time limit of {sim.program.time_limit:g} s reached"
             break
         sim.engine.step()
         scheduler.after_step()

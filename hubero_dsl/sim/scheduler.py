@@ -102,7 +102,7 @@ class Scheduler:
             return
         if all(self._idle_forever(t) for t in self.tokens):
             self.state = RunState.COMPLETED
-        elif self.sim.time >= self.sim.program.time_limit - 1e-9:
+        elif self.sim.tick >= self.sim.engine.ticks(self.sim.program.time_limit):
             self.state = RunState.TIMED_OUT
             self.reason = f"time limit of {self.sim.program.time_limit:g} s reached"
 
