@@ -89,8 +89,9 @@ def _log_path(args: argparse.Namespace, variant: str | None) -> Path | None:
     if args.output is not None:
         return Path(args.output)
     if args.out_dir is not None:
-        safe = (variant or "default").replace("/", "_").replace(" ", "")
-        return Path(args.out_dir) / f"{safe}.mcap"
+        from hubero_dsl.sweep.plan import safe_name  # the file names `hubero sweep` uses
+
+        return Path(args.out_dir) / f"{safe_name(variant)}.mcap"
     return None
 
 
