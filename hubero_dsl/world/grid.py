@@ -14,6 +14,7 @@ Returned masks and fields are read-only arrays shared between callers.
 
 from __future__ import annotations
 
+import hashlib
 import math
 from collections import OrderedDict
 from collections.abc import Callable
@@ -46,6 +47,12 @@ _FAR_AWAY = np.iinfo(np.int32).max
 # Masks and labels kept per grid (least recently used dropped first): body radii drawn from a
 # distribution would otherwise each keep a map-sized array alive.
 _CACHE_ENTRIES = 48
+# Obstacle fields by the cells they were computed from, shared between grids: every run of a
+# sweep loads its map afresh, and the field is the costliest thing derived from it. A few maps
+# are kept (least recently used dropped first); each field is 16 bytes per cell.
+_SHARED_FIELDS = 4
+_OBSTACLE_FIELDS: OrderedDict[tuple[Any, ...], tuple[FloatArray, npt.NDArray[np.int32]]] = \
+    OrderedDict()
 
 
 def _points(xy: ArrayLike) -> FloatArray:
@@ -71,6 +78,45 @@ def _check_radius(body_radius: float) -> float:
     if not math.isfinite(radius) or radius < 0.0:
         raise ValueError(f"body radius must be a finite number >= 0, got {body_radius!r}")
     return radius
+
+
+def _obstacle_field(occupied: BoolArray, resolution: float
+                    ) -> tuple[FloatArray, npt.NDArray[np.int32]]:
+    """`OccupancyGrid._obstacle_field` of these cells, computed.
+
+    The distance transform runs over the free cells' bounding box and one ring around it only;
+    every cell outside is occupied, so its distance is 0 and its nearest occupied cell itself.
+    The result is exactly scipy's transform of the whole grid padded with one occupied ring:
+    that ring (occupied cells or the padding) lies between every cell of the box and every
+    cell beyond it, so a cell beyond is strictly further than a ring cell from any cell of the
+    box, and scipy's line scans never pass a ring cell (an occupied cell is its own nearest)
+    to reach one. Maps are mostly walls and unknown space around the free part, so this
+    skips most of the work (over half of it on the parking lot).
+    """
+    nearest = np.indices(occupied.shape, dtype=np.int32)
+    distances = np.zeros(occupied.shape)
+    free_rows = np.flatnonzero(~occupied.all(axis=1))
+    if free_rows.size == 0:
+        return _read_only(distances), _read_only(nearest)
+    free_cols = np.flatnonzero(~occupied.all(axis=0))
+    # the box with its ring, in the coordinates of the grid padded by one occupied ring
+    row_start, row_stop = int(free_rows[0]), int(free_rows[-1]) + 3
+    col_start, col_stop = int(free_cols[0]), int(free_cols[-1]) + 3
+    padded = np.pad(occupied, 1, constant_values=True)
+    window = padded[row_start:row_stop, col_start:col_stop]
+    window_distances, window_nearest = _ndimage().distance_transform_edt(
+        ~window, sampling=resolution, return_indices=True)
+    window_nearest[0] += row_start - 1
+    window_nearest[1] += col_start - 1
+    # the window's cells inside the grid (its ring may lie on the padding)
+    rows, cols = occupied.shape
+    top, left = max(row_start - 1, 0), max(col_start - 1, 0)
+    bottom, right = min(row_stop - 1, rows), min(col_stop - 1, cols)
+    inside = (slice(top - row_start + 1, bottom - row_start + 1),
+              slice(left - col_start + 1, right - col_start + 1))
+    distances[top:bottom, left:right] = window_distances[inside]
+    nearest[:, top:bottom, left:right] = window_nearest[(slice(None), *inside)]
+    return _read_only(distances), _read_only(nearest)
 
 
 @dataclass(frozen=True, eq=False)
@@ -215,14 +261,20 @@ class OccupancyGrid:
     def _obstacle_field(self) -> tuple[FloatArray, npt.NDArray[np.int32]]:
         """Distance from each cell centre to the nearest occupied cell, and that cell (row, col).
 
-        The grid is padded with one ring of occupied cells so the border acts as a wall; the
-        nearest cell of a border-bound cell may therefore be row/col -1 or rows/cols.
+        The border acts as a wall: the nearest cell of a border-bound cell may be row/col -1 or
+        rows/cols. Grids with the same cells share one field (see `_OBSTACLE_FIELDS`).
         """
-        padded = np.pad(self.occupied, 1, constant_values=True)
-        distances, nearest = _ndimage().distance_transform_edt(
-            ~padded, sampling=self.resolution, return_indices=True)
-        nearest_cells = (nearest[:, 1:-1, 1:-1] - 1).astype(np.int32)
-        return _read_only(distances[1:-1, 1:-1]), _read_only(nearest_cells)
+        key = (self.occupied.shape, self.resolution,
+               hashlib.blake2b(np.packbits(self.occupied).tobytes(), digest_size=16).digest())
+        field = _OBSTACLE_FIELDS.get(key)
+        if field is None:
+            field = _obstacle_field(self.occupied, self.resolution)
+            _OBSTACLE_FIELDS[key] = field
+            if len(_OBSTACLE_FIELDS) > _SHARED_FIELDS:
+                _OBSTACLE_FIELDS.popitem(last=False)
+        else:
+            _OBSTACLE_FIELDS.move_to_end(key)
+        return field
 
     @cached_property
     def _free_field(self) -> npt.NDArray[np.int32] | None:

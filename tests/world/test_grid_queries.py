@@ -129,3 +129,46 @@ def test_off_map_points_are_never_surely_clear() -> None:
     outside = np.array([[-0.05, 2.0], [4.2, 2.0], [2.0, -3.0], [2.0, 40.0]])
     assert not grid.surely_clear(outside, 1e-9).any()
     assert grid.surely_clear(np.array([[2.0, 2.0]]), 1.5).all()
+
+
+def reference_obstacle_field(occupied: np.ndarray, resolution: float
+                             ) -> tuple[np.ndarray, np.ndarray]:
+    """scipy's transform of the whole grid padded with one occupied ring."""
+    padded = np.pad(occupied, 1, constant_values=True)
+    distances, nearest = ndimage.distance_transform_edt(~padded, sampling=resolution,
+                                                        return_indices=True)
+    return distances[1:-1, 1:-1], (nearest[:, 1:-1, 1:-1] - 1).astype(np.int32)
+
+
+def random_cells(rng: np.random.Generator) -> np.ndarray:
+    """Scattered obstacles, or a scattered free patch somewhere inside walls."""
+    rows, cols = (int(n) for n in rng.integers(1, 30, size=2))
+    occupied = rng.random((rows, cols)) < rng.random()
+    if rng.random() < 0.5:
+        occupied[:] = True
+        top, left = int(rng.integers(0, rows)), int(rng.integers(0, cols))
+        bottom, right = int(rng.integers(top, rows)) + 1, int(rng.integers(left, cols)) + 1
+        occupied[top:bottom, left:right] = rng.random((bottom - top, right - left)) < 0.3
+    return occupied
+
+
+@pytest.mark.parametrize("resolution", [1.0, 0.05, 0.03])
+def test_obstacle_field_of_the_free_cells_box_equals_the_whole_grids(resolution: float) -> None:
+    # exact ties (resolution 1, small integer distances) are where a window could differ
+    rng = np.random.default_rng(int(resolution * 100))
+    for _ in range(300):
+        occupied = random_cells(rng)
+        distances, nearest = OccupancyGrid(occupied, resolution, (0.0, 0.0))._obstacle_field
+        expected_distances, expected_nearest = reference_obstacle_field(occupied, resolution)
+        np.testing.assert_array_equal(distances, expected_distances)
+        np.testing.assert_array_equal(nearest, expected_nearest)
+        assert nearest.dtype == np.int32
+
+
+def test_grids_with_the_same_cells_share_one_obstacle_field() -> None:
+    first, second = furnished(4), furnished(4)
+    assert first._obstacle_field[0] is second._obstacle_field[0]
+    assert furnished(5)._obstacle_field[0] is not first._obstacle_field[0]
+    coarser = OccupancyGrid(first.occupied, 0.1, first.origin)
+    assert coarser._obstacle_field[0] is not first._obstacle_field[0]
+    np.testing.assert_array_equal(coarser.clearance, 2.0 * first.clearance)
