@@ -86,10 +86,10 @@ class LogEncoder:
         self._channel = {topic: self._mcap.add_channel(topic, schema_id[name])
                          for topic, name in s.TOPIC_SCHEMAS.items()}
         humans = self._setup.humans
-        poses = [self._mcap.add_channel(s.human_pose_topic(n), schema_id[s.POSE_IN_FRAME])
-                 for n in humans]
-        states = [self._mcap.add_channel(s.human_state_topic(n), schema_id[s.HUMAN_STATE])
-                  for n in humans]
+        poses = self._mcap.add_channels([s.human_pose_topic(n) for n in humans],
+                                        schema_id[s.POSE_IN_FRAME])
+        states = self._mcap.add_channels([s.human_state_topic(n) for n in humans],
+                                         schema_id[s.HUMAN_STATE])
         self._frame = FrameEncoder(humans, self._setup.robots, poses, states,
                                    self._setup.dt_ns)
 
@@ -130,12 +130,10 @@ class LogEncoder:
         if scene is not None:
             self._mcap.add_message(self._channel[s.SCENE_TOPIC], ns,
                                    scene.replace(TIME_MARK, ts).encode())
-        encoder = self._frame
-        self._mcap.add_message(self._channel[s.TF_TOPIC], ns, encoder.transforms(frame))
-        if self._setup.humans:
-            for block in (encoder.poses(frame, self._frames),
-                          encoder.states(frame, self._frames)):
-                self._mcap.add_block(block.data, block.channels, block.offsets, ns)
+        tf, blocks = self._frame.encode(frame, self._frames)
+        self._mcap.add_message(self._channel[s.TF_TOPIC], ns, tf)
+        for block in blocks:
+            self._mcap.add_block(block.data, block.channels, block.offsets, ns)
         self._frames += 1
 
     def _log(self, level: int, message: str, span: Span | None, ns: int) -> None:

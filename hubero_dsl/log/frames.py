@@ -6,14 +6,14 @@ simulation goes on. Paths are sent only for the humans whose path changed since 
 capture.
 
 Encoding: the per-tick messages are most of a log (two per human per frame), so they are not
-built as dicts, nor even one by one. Their numbers have fixed widths (`%12.4f` for metres,
-m/s and radians, `%9.6f` for quaternions, the timestamp's fields padded; JSON allows the
-spaces), so every record of a human has a length known in advance. A frame's pose records, and
-its state records, are then one bytes template each, MCAP record headers included, filled by one
-`%` operation; the message indexes come from offsets computed with the template. Keys are in
-sorted order, as `schemas.dumps` writes them. The text that changes rarely (a human's behaviour
-state, posture, task and status) is baked into the state template, rebuilt only where it
-changed. Values beyond +-999999.9999 (a human 1000 km away) are clipped to keep the widths.
+built as dicts, nor even one by one. The pose records of a frame, its state records and the
+transforms of `/tf` are each a `rows.RowTemplate`: one row per human, MCAP record header
+included, with the numbers at fixed columns in fixed-width text (`digits`: metres and m/s with
+4 decimals, quaternions with 8, headings with 4; JSON allows the padding spaces). A frame writes
+each column of numbers once, formatted for the whole crowd by table lookups, and the message
+indexes follow from the rows' common length. Keys are in sorted order, as `schemas.dumps` writes
+them. The text that changes rarely (a human's behaviour state, posture, task and status) is part
+of the state row's literal text, rewritten only where it changed.
 """
 
 from __future__ import annotations
@@ -26,6 +26,8 @@ import numpy as np
 import numpy.typing as npt
 
 from hubero_dsl.log import schemas as s
+from hubero_dsl.log.digits import METRES, RADIANS, UNIT
+from hubero_dsl.log.rows import RowTemplate, SlotValue, Stamp
 from hubero_dsl.sim.status import TaskStatus
 
 if TYPE_CHECKING:
@@ -34,68 +36,73 @@ if TYPE_CHECKING:
 
 FloatArray = npt.NDArray[np.float64]
 
-LIMIT = 999_999.9999  # the largest magnitude a %12.4f field holds
-TIME = b"@ts@"  # where the frame's timestamp goes: templates are kept split there
 TIMESTAMP = b'{"nsec":%9d,"sec":%10d}'  # fixed width, so records keep their length
-POSE = (b'{"frame_id":"map","pose":{"orientation":{"w":%9.6f,"x":0,"y":0,"z":%9.6f},'
-        b'"position":{"x":%12.4f,"y":%12.4f,"z":0}},"timestamp":' + TIME + b"}")
-TRANSFORM = (b'{"child_frame_id":%s,"parent_frame_id":"map","rotation":'
-             b'{"w":%9.6f,"x":0,"y":0,"z":%9.6f},"timestamp":' + TIME + b","
-             b'"translation":{"x":%12.4f,"y":%12.4f,"z":0}}')
-# A state is HEAD heading, position TAIL vx, vy END; HEAD and TAIL hold the rarely changing text.
-STATE_HEAD = b'{"fsm_state":%s,"heading":'
-STATE_MIDDLE = b'%12.4f,"position":{"x":%12.4f,"y":%12.4f},'
-STATE_TAIL = b'"posture":"%s","status":"%s","task":%s,"timestamp":' + TIME + b',"velocity":{"x":'
-STATE_END = b'%12.4f,"y":%12.4f}}'
-# An MCAP message record: opcode 5, record length, channel; then sequence, log and publish time
-# (the same for a whole frame: one %s); then the JSON.
-RECORD_START = struct.Struct("<BQH")
+TIME = Stamp(len(TIMESTAMP % (0, 0)))
+# An MCAP message record: opcode 5, record length, channel; then sequence, log and publish
+# time (the same for a whole frame), then the JSON.
+RECORD_LENGTH = Stamp(8)
 FRAME_FIELDS = struct.Struct("<IQQ")
-RECORD_OVERHEAD = RECORD_START.size + FRAME_FIELDS.size
+RECORD_FIELDS = Stamp(FRAME_FIELDS.size)
+RECORD_START = b"\x05"
+RECORD_OVERHEAD = 1 + RECORD_LENGTH.width  # bytes of a record not counted in its length
+
+# The literal pieces between the slots of each kind of row (the slots are listed beside them).
+POSE_SLOTS = (RECORD_LENGTH, RECORD_FIELDS, UNIT, UNIT, METRES, METRES, TIME)
+POSE_PIECES = (b'{"frame_id":"map","pose":{"orientation":{"w":', b',"x":0,"y":0,"z":',
+               b'},"position":{"x":', b',"y":', b',"z":0}},"timestamp":', b"}")
+TRANSFORM_SLOTS = (UNIT, UNIT, TIME, METRES, METRES)
+STATE_SLOTS = (RECORD_LENGTH, RECORD_FIELDS, RADIANS, METRES, METRES, TIME, METRES, METRES)
 
 
 def frame_timestamp(ns: int) -> bytes:
     return TIMESTAMP % (ns % 1_000_000_000, ns // 1_000_000_000)
 
 
+def _record_start(channel: int) -> list[bytes]:
+    """The pieces before and after a record's length: opcode, then the channel id."""
+    return [RECORD_START, struct.pack("<H", channel)]
+
+
+def _transform_pieces(first: bool, frame: str) -> list[bytes]:
+    return [(b" " if first else b",") + b'{"child_frame_id":' + _ascii(s.dumps(frame))
+            + b',"parent_frame_id":"map","rotation":{"w":', b',"x":0,"y":0,"z":',
+            b'},"timestamp":', b',"translation":{"x":', b',"y":', b',"z":0}}']
+
+
+def _state_pieces(channel: int, fsm: str, posture: str, status: str, task: str) -> list[bytes]:
+    return [*_record_start(channel), b'{"fsm_state":' + _ascii(s.dumps(fsm)) + b',"heading":',
+            b',"position":{"x":', b',"y":',
+            b'},"posture":"' + posture.encode() + b'","status":"' + status.encode()
+            + b'","task":' + _ascii(task) + b',"timestamp":',
+            b',"velocity":{"x":', b',"y":', b"}}"]
+
+
+def _ascii(text: str) -> bytes:
+    return text.encode("ascii")  # schemas.dumps escapes everything else
+
+
 @dataclass(frozen=True)
 class RecordBlock:
     """Message records of one frame, ready to go into a chunk as they are."""
 
-    data: bytes
+    data: memoryview                 # valid until the next frame is encoded
     channels: npt.NDArray[np.uint16]
     offsets: npt.NDArray[np.uint64]  # of each record in `data`
 
 
 class _Records:
-    """One template for the records of a row of channels; rows' payload templates may change."""
+    """The records of one topic per human for a frame: a row template with MCAP headers."""
 
-    def __init__(self, channels: list[int], numbers_per_record: int) -> None:
+    def __init__(self, template: RowTemplate, channels: list[int]) -> None:
+        self.template = template
         self.channels = np.array(channels, dtype=np.uint16)
-        self._numbers = numbers_per_record
-        self._parts: list[bytes] = [b""] * len(channels)
-        self._lengths = np.zeros(len(channels), dtype=np.uint64)
-        self._template: list[bytes] = []
-        self._offsets = np.zeros(len(channels), dtype=np.uint64)
 
-    def set_payload(self, row: int, payload: bytes) -> None:
-        """The JSON template of row's records (with TIME and `numbers_per_record` fields)."""
-        filled = payload.replace(TIME, frame_timestamp(0)) % ((0.0,) * self._numbers)
-        start = RECORD_START.pack(5, RECORD_OVERHEAD - 9 + len(filled), self.channels[row])
-        self._parts[row] = start.replace(b"%", b"%%") + b"%s" + payload
-        self._lengths[row] = RECORD_OVERHEAD + len(filled)
-        self._template = []
-
-    def fill(self, numbers: npt.NDArray[np.float64], sequence: int, ns: int) -> RecordBlock:
-        if not self._template:
-            self._template = b"".join(self._parts).split(TIME)
-            self._offsets = np.concatenate([[0], np.cumsum(self._lengths)[:-1]]).astype(
-                np.uint64)
-        values = np.empty((len(self.channels), self._numbers + 1), dtype=object)
-        values[:, 0] = FRAME_FIELDS.pack(sequence, ns, ns)
-        values[:, 1:] = numbers
-        data = frame_timestamp(ns).join(self._template) % tuple(values.ravel().tolist())
-        return RecordBlock(data, self.channels, self._offsets)
+    def fill(self, numbers: list[SlotValue], sequence: int,
+             ns: int) -> RecordBlock:
+        length = struct.pack("<Q", self.template.row_length - RECORD_OVERHEAD)
+        rows = self.template.fill([length, FRAME_FIELDS.pack(sequence, ns, ns), *numbers])
+        offsets = np.arange(len(self.channels), dtype=np.uint64) * np.uint64(rows.shape[1])
+        return RecordBlock(rows.reshape(-1).data, self.channels, offsets)
 
 
 @dataclass
@@ -139,15 +146,6 @@ class Capturer:
             robot_position=robots.position.copy(), robot_heading=robots.heading.copy())
 
 
-def _clip(values: FloatArray) -> FloatArray:
-    return np.clip(values, -LIMIT, LIMIT)
-
-
-def _literal(text: str) -> bytes:
-    """JSON text (ASCII) put into a %-template as it is."""
-    return text.replace("%", "%%").encode("ascii")
-
-
 class FrameEncoder:
     """Encodes frames of every human and robot; keeps the humans' task state between frames."""
 
@@ -161,13 +159,15 @@ class FrameEncoder:
         self._task = ["null"] * count
         self._task_id = [0] * count
         frames = [s.human_frame(n) for n in humans] + [s.robot_frame(n) for n in robots]
-        self._tf_template = (b'{"transforms":[' + b",".join(
-            TRANSFORM.replace(b"%s", _literal(s.dumps(frame)), 1) for frame in frames)
-                             + b"]}").split(TIME)
-        self._poses = _Records(pose_channels, 4)
-        for row in range(count):
-            self._poses.set_payload(row, POSE)
-        self._states = _Records(state_channels, 5)
+        self._transforms = RowTemplate(TRANSFORM_SLOTS, [
+            _transform_pieces(row == 0, frame) for row, frame in enumerate(frames)])
+        self._poses = _Records(RowTemplate(POSE_SLOTS, [
+            [*_record_start(channel), *POSE_PIECES] for channel in pose_channels]),
+            pose_channels)
+        self._states = _Records(RowTemplate(STATE_SLOTS, [
+            _state_pieces(channel, "idle", s.POSTURE_NAMES[0], s.STATUS_NAMES[0], "null")
+            for channel in state_channels]), state_channels)
+        self._state_channels = state_channels
         self._fsm: list[str] = []
         self._posture = np.full(count, -1, dtype=np.int8)
         self._status = np.full(count, -1, dtype=np.int8)
@@ -195,27 +195,32 @@ class FrameEncoder:
 
     # ---- messages ---------------------------------------------------------------------------
 
-    def transforms(self, frame: FrameState) -> bytes:
-        """/tf: the frame of every human and robot in the map frame."""
+    def encode(self, frame: FrameState, sequence: int) -> tuple[bytes, list[RecordBlock]]:
+        """/tf (the frame of every human and robot in the map frame) and the records of
+        /humans/NAME/pose and /humans/NAME/state; each number is formatted once."""
+        ns = frame.tick * self.dt_ns
+        stamp = frame_timestamp(ns)
+        humans, robots = len(frame.heading), len(frame.robot_heading)
+        # one call per format: humans' and robots' numbers side by side, each column a slice
         half = np.concatenate([frame.heading, frame.robot_heading]) / 2.0
-        xy = _clip(np.concatenate([frame.position, frame.robot_position]))
-        numbers = np.column_stack([np.cos(half), np.sin(half), xy])
-        ts = frame_timestamp(frame.tick * self.dt_ns)
-        return ts.join(self._tf_template) % tuple(numbers.ravel().tolist())
+        w, z = np.split(UNIT.text(np.concatenate([np.cos(half), np.sin(half)])), 2)
+        metres = METRES.text(np.concatenate([frame.position.T.ravel(),
+                                             frame.robot_position.T.ravel(),
+                                             frame.velocity.T.ravel()]))
+        x, y = metres[:humans], metres[humans:2 * humans]
+        robot_x, robot_y = np.split(metres[2 * humans:2 * (humans + robots)], 2)
+        vx, vy = np.split(metres[2 * (humans + robots):], 2)
+        transforms = self._transforms.fill([w, z, stamp, np.concatenate([x, robot_x]),
+                                            np.concatenate([y, robot_y])])
+        tf = b'{"transforms":[' + transforms.tobytes() + b"]}"
+        if not humans:
+            return tf, []
+        self._refresh_state_rows(frame)
+        poses = self._poses.fill([w[:humans], z[:humans], x, y, stamp], sequence, ns)
+        states = self._states.fill([frame.heading, x, y, stamp, vx, vy], sequence, ns)
+        return tf, [poses, states]
 
-    def poses(self, frame: FrameState, sequence: int) -> RecordBlock:
-        """The records of /humans/NAME/pose for every human."""
-        half = frame.heading / 2.0
-        numbers = np.column_stack([np.cos(half), np.sin(half), _clip(frame.position)])
-        return self._poses.fill(numbers, sequence, frame.tick * self.dt_ns)
-
-    def states(self, frame: FrameState, sequence: int) -> RecordBlock:
-        """The records of /humans/NAME/state for every human."""
-        self._refresh_state_template(frame)
-        numbers = _clip(np.column_stack([frame.heading, frame.position, frame.velocity]))
-        return self._states.fill(numbers, sequence, frame.tick * self.dt_ns)
-
-    def _refresh_state_template(self, frame: FrameState) -> None:
+    def _refresh_state_rows(self, frame: FrameState) -> None:
         changed = self._task_changed
         if frame.fsm != self._fsm:
             old = self._fsm or [""] * len(frame.fsm)
@@ -225,12 +230,8 @@ class FrameEncoder:
                                       | (self.status != self._status)).tolist())
         if not changed:
             return
-        for i in changed:
-            self._states.set_payload(i, (
-                STATE_HEAD % _literal(s.dumps(frame.fsm[i])) + STATE_MIDDLE
-                + STATE_TAIL % (s.POSTURE_NAMES[frame.posture[i]].encode(),
-                                s.STATUS_NAMES[self.status[i]].encode(),
-                                _literal(self._task[i]))
-                + STATE_END))
+        self._states.template.set_rows({i: _state_pieces(
+            self._state_channels[i], frame.fsm[i], s.POSTURE_NAMES[frame.posture[i]],
+            s.STATUS_NAMES[self.status[i]], self._task[i]) for i in sorted(changed)})
         self._fsm, self._posture, self._status = frame.fsm, frame.posture, self.status.copy()
         self._task_changed = set()
