@@ -60,7 +60,8 @@ _HEADER_DTYPE = np.dtype([("opcode", "u1"), ("length", "<u8"), ("channel", "<u2"
                           ("sequence", "<u4"), ("log_time", "<u8"), ("publish_time", "<u8")])
 _MESSAGE_OVERHEAD = _HEADER_DTYPE.itemsize - 9  # the record length excludes opcode and length
 # opcode, record length, channel id, byte length of the (log time, offset) entries
-_INDEX_HEADER = struct.Struct("<BQHI")
+_INDEX_HEADER_DTYPE = np.dtype([("opcode", "u1"), ("length", "<u8"), ("channel", "<u2"),
+                                ("size", "<u4")])
 _OFFSET_PAIR = np.dtype([("channel", "<u2"), ("offset", "<u8")])  # packed: 10 bytes
 
 
@@ -103,11 +104,18 @@ class McapContainer:
         return schema.id
 
     def add_channel(self, topic: str, schema_id: int, message_encoding: str = "json") -> int:
-        channel = Channel(id=len(self._channels) + 1, topic=topic, schema_id=schema_id,
-                          message_encoding=message_encoding, metadata={})
-        self._channels.append(channel)
-        self._run(self._write_record, channel)
-        return channel.id
+        return self.add_channels([topic], schema_id, message_encoding)[0]
+
+    def add_channels(self, topics: Sequence[str], schema_id: int,
+                     message_encoding: str = "json") -> list[int]:
+        """Channels of one schema, written as one task (a log has two per human)."""
+        first = len(self._channels) + 1
+        channels = [Channel(id=first + i, topic=topic, schema_id=schema_id,
+                            message_encoding=message_encoding, metadata={})
+                    for i, topic in enumerate(topics)]
+        self._channels.extend(channels)
+        self._run(self._write_records, channels)
+        return [channel.id for channel in channels]
 
     def add_attachment(self, name: str, media_type: str, data: bytes, log_time: int = 0) -> None:
         self._run(self._write_attachment, Attachment(
@@ -138,7 +146,7 @@ class McapContainer:
         packed = headers.tobytes()
         width = _HEADER_DTYPE.itemsize
         chunk = self._chunk
-        chunk.parts.extend(itertools.chain.from_iterable(zip(
+        chunk.records += b"".join(itertools.chain.from_iterable(zip(
             [packed[i:i + width] for i in range(0, len(packed), width)], payloads,
             strict=True)))
         sizes += width
@@ -149,15 +157,15 @@ class McapContainer:
         if chunk.size >= self._chunk_size:
             self._close_chunk()
 
-    def add_block(self, data: bytes, channels: npt.NDArray[np.uint16],
+    def add_block(self, data: bytes | memoryview, channels: npt.NDArray[np.uint16],
                   offsets: npt.NDArray[np.uint64], log_time: int) -> None:
         """Message records encoded by the caller, all at `log_time`; `offsets` locate each
-        record in `data` (for the message indexes)."""
+        record in `data` (for the message indexes). `data` is copied before this returns."""
         if not len(channels):
             return
         chunk = self._chunk
-        chunk.parts.append(data)
         chunk.add_index(channels, offsets + np.uint64(chunk.size), log_time)
+        chunk.records += data
         chunk.size += len(data)
         self._count_messages(len(channels), log_time)
         if chunk.size >= self._chunk_size:
@@ -255,6 +263,12 @@ class McapContainer:
         self._write(data)
         return len(data)
 
+    def _write_records(self, records: Sequence[McapRecord]) -> None:
+        builder = RecordBuilder()
+        for record in records:
+            record.write(builder)
+        self._write(builder.end())
+
     def _write_attachment(self, record: Attachment) -> None:
         offset = self._offset
         length = self._write_record(record)
@@ -270,11 +284,11 @@ class McapContainer:
 
     def _close_chunk(self) -> None:
         chunk, self._chunk = self._chunk, _OpenChunk()
-        if chunk.parts:
+        if chunk.size:
             self._run(self._write_chunk, chunk)
 
     def _write_chunk(self, chunk: _OpenChunk) -> None:
-        records = b"".join(chunk.parts)
+        records = chunk.records
         channels, times, offsets = chunk.index()
         compressed = _compress(records, self._compression)
         start, first_time, last_time = self._offset, int(times.min()), int(times.max())
@@ -282,10 +296,9 @@ class McapContainer:
             message_start_time=first_time, message_end_time=last_time,
             uncompressed_size=len(records), uncompressed_crc=zlib.crc32(records),
             compression=self._compression, data=compressed))
-        ids, indexes = _message_indexes(channels, times, offsets)
-        record_offsets = self._offset + np.concatenate([[0], np.cumsum(
-            [len(index) for index in indexes[:-1]], dtype=np.int64)]).astype(np.uint64)
-        self._write(b"".join(indexes))
+        ids, indexes, starts = _message_indexes(channels, times, offsets)
+        record_offsets = np.uint64(self._offset) + starts
+        self._write(indexes)
         self._chunk_indexes.append(_ChunkIndex(
             message_start_time=first_time, message_end_time=last_time,
             chunk_start_offset=start, chunk_length=length, channel_ids=ids,
@@ -303,19 +316,33 @@ class McapContainer:
 
 def _message_indexes(channels: npt.NDArray[np.uint16], times: npt.NDArray[np.uint64],
                      offsets: npt.NDArray[np.uint64]
-                     ) -> tuple[npt.NDArray[np.uint16], list[bytes]]:
-    """One message index record per channel (ascending ids), its entries in file order."""
+                     ) -> tuple[npt.NDArray[np.uint16], bytes, npt.NDArray[np.uint64]]:
+    """One message index record per channel (ascending ids), its entries in file order.
+
+    Returns the channel ids, the records (one after another) and where each record starts.
+    Built with numpy: a chunk of a large crowd holds thousands of channels."""
     order = np.argsort(channels, kind="stable")
-    channels = channels[order]
-    entries = np.column_stack([times[order], offsets[order]]).astype("<u8").tobytes()
-    ids, starts, counts = np.unique(channels, return_index=True, return_counts=True)
-    records = []
-    for channel, begin, count in zip(ids.tolist(), starts.tolist(), counts.tolist(),
-                                     strict=True):
-        size = 16 * count
-        records.append(_INDEX_HEADER.pack(Opcode.MESSAGE_INDEX, 2 + 4 + size, channel, size)
-                       + entries[16 * begin:16 * begin + size])
-    return ids.astype(np.uint16), records
+    ids, firsts, counts = np.unique(channels[order], return_index=True, return_counts=True)
+    sizes = _INDEX_HEADER_DTYPE.itemsize + 16 * counts
+    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
+    records = np.empty(int(sizes.sum()), dtype=np.uint8)
+    headers = np.empty(len(ids), dtype=_INDEX_HEADER_DTYPE)
+    headers["opcode"] = Opcode.MESSAGE_INDEX
+    headers["length"] = 2 + 4 + 16 * counts
+    headers["channel"] = ids
+    headers["size"] = 16 * counts
+    _scatter(records, starts, headers.view(np.uint8).reshape(len(ids), -1))
+    entries = np.column_stack([times[order], offsets[order]]).astype("<u8")
+    rank = np.arange(len(order)) - np.repeat(firsts, counts)  # position within its record
+    _scatter(records, np.repeat(starts + _INDEX_HEADER_DTYPE.itemsize, counts) + 16 * rank,
+             entries.view(np.uint8).reshape(len(order), 16))
+    return ids.astype(np.uint16), records.tobytes(), starts.astype(np.uint64)
+
+
+def _scatter(target: npt.NDArray[np.uint8], starts: npt.NDArray[np.int64],
+             rows: npt.NDArray[np.uint8]) -> None:
+    """Write each row of bytes into `target` at its start."""
+    target[starts[:, None] + np.arange(rows.shape[1])] = rows
 
 
 @dataclass
@@ -356,7 +383,7 @@ class _OpenChunk:
     """The records of the chunk being filled, and what its message indexes need."""
 
     def __init__(self) -> None:
-        self.parts: list[bytes] = []
+        self.records = bytearray()  # copied in as they come: one copy, no join at the end
         self.size = 0
         self._channels: list[npt.NDArray[np.uint16]] = []
         self._offsets: list[npt.NDArray[np.uint64]] = []
@@ -374,7 +401,7 @@ class _OpenChunk:
                 np.concatenate(self._offsets))
 
 
-def _compress(data: bytes, compression: str) -> bytes:
+def _compress(data: bytes | bytearray, compression: str) -> bytes:
     if compression == "zstd":
         return zstandard.ZstdCompressor(level=ZSTD_LEVEL, threads=0).compress(data)
-    return data
+    return bytes(data)
