@@ -84,6 +84,7 @@ class McapContainer:
         self._chunk_indexes: list[_ChunkIndex] = []
         self._attachment_indexes: list[AttachmentIndex] = []
         self._metadata_indexes: list[MetadataIndex] = []
+        self._channel_records: list[bytes] = []
         self._channel_counts: npt.NDArray[np.int64] = np.zeros(1, dtype=np.int64)
         # kept by the caller's thread
         self._schemas: list[Schema] = []
@@ -114,7 +115,7 @@ class McapContainer:
                             message_encoding=message_encoding, metadata={})
                     for i, topic in enumerate(topics)]
         self._channels.extend(channels)
-        self._run(self._write_records, channels)
+        self._run(self._write_channels, channels)
         return [channel.id for channel in channels]
 
     def add_attachment(self, name: str, media_type: str, data: bytes, log_time: int = 0) -> None:
@@ -231,8 +232,11 @@ class McapContainer:
             if not records:
                 continue
             group_start = builder.count
-            for record in records:
-                record.write(builder)
+            if opcode == Opcode.CHANNEL:
+                builder.write(b"".join(self._channel_records))
+            else:
+                for record in records:
+                    record.write(builder)
             offsets.append(SummaryOffset(group_opcode=opcode,
                                          group_start=summary_start + group_start,
                                          group_length=builder.count - group_start))
@@ -263,11 +267,14 @@ class McapContainer:
         self._write(data)
         return len(data)
 
-    def _write_records(self, records: Sequence[McapRecord]) -> None:
+    def _write_channels(self, channels: Sequence[Channel]) -> None:
+        """Channel records, kept as bytes: the summary repeats them as they are."""
         builder = RecordBuilder()
-        for record in records:
-            record.write(builder)
-        self._write(builder.end())
+        for channel in channels:
+            channel.write(builder)
+        data = builder.end()
+        self._channel_records.append(data)
+        self._write(data)
 
     def _write_attachment(self, record: Attachment) -> None:
         offset = self._offset
