@@ -13,14 +13,17 @@ search may stop as soon as the cell asked for is settled: every finite value it 
 and `FieldCache` widens it to the whole component only when a start outside it asks.
 
 A first plan to a goal searches less than that (`ComponentSearch.solve_between`): every cell
-costs at least 1 per cell of travel, so a path through a cell u costs at least
-|start - u| + |u - goal|, and a path that leaves the ellipse where that sum is at most a bound L
-costs more than L. Dijkstra on the ellipse alone (the rest made impassable) therefore finds the
-optimal cost whenever the start's cost inside it is at most L (A*'s guarantee, with the ellipse
-in place of its priority). A cell v of that field is kept only where its value cannot be beaten
-by a path leaving the ellipse either, val(v) <= L - |start - v|; the path of the start always
-qualifies. A bound too small is raised to the cost the search found, or doubled when that is
-more, so a plan costs a few small searches before it falls back to the component.
+costs at least 1 per cell of travel and an 8-connected path is at least as long as the octile
+distance oct(a, b) = max(|dr|, |dc|) + (sqrt 2 - 1) min(|dr|, |dc|) between its ends, so a path
+through a cell u costs at least oct(start, u) + oct(u, goal), and a path that leaves the region
+where that sum is at most a bound L costs more than L. Dijkstra on the region alone (the rest
+made impassable) therefore finds the optimal cost whenever the start's cost inside it is at most
+L (A*'s guarantee, with the region in place of its priority). The octile region lies inside the
+Euclidean ellipse of the same L, and its bounding box, on which the search is set up, is cropped
+to it. A cell v of that field is kept only where its value cannot be beaten by a path leaving
+the region either, val(v) <= L - oct(start, v) (up to float rounding, relative 1e-9); the path of
+the start always qualifies. A bound too small is raised to the cost the search found, or doubled
+when that is more, so a plan costs a few small searches before the region covers the component.
 
 `segment_costs` integrates a cost grid along straight segments (exact cell traversal), which is
 how the planner checks line of sight and compares a shortcut with the path it replaces.
@@ -53,11 +56,12 @@ Cell = tuple[int, int]
 _EIGHT_CONNECTED = np.ones((3, 3), dtype=bool)  # MCP moves diagonally, so components must too
 _KEY_DIGITS = 9                                # radii closer than a nanometre share a cache entry
 _EMPTY_INTERVAL = 1e-9                         # cell units: touching a cell corner is not entering
-# First ellipse bound, in cell units: most paths cost under 1.2 times the straight line; the
+# First region bound, in cell units: most paths cost under 1.1 times the octile distance; the
 # slack covers short plans, where walls and comfort weigh more.
-_FIRST_BOUND = 1.2
-_BOUND_SLACK = 20.0
-_MAX_WINDOW_SHARE = 0.5    # an ellipse box larger than this share of the component: no ellipse
+_FIRST_BOUND = 1.1
+_BOUND_SLACK = 10.0
+_DIAGONAL_EXTRA = math.sqrt(2.0) - 1.0  # a diagonal move is this much longer than a straight one
+_TIE_TOLERANCE = 1e-9    # relative: float rounding, when a path costs exactly the octile bound
 
 
 @dataclass(frozen=True, slots=True)
@@ -154,29 +158,52 @@ class ComponentSearch:
         return _search(self._mcp, self.offset, goal, None, complete=True)
 
     def solve_between(self, goal: Cell, start: Cell) -> CostToGo:
-        """The field of `goal` over as small an ellipse around start and goal as proves optimal
-        the start's path (see the module docstring); the component's when no ellipse pays."""
-        span = math.dist(goal, start)
-        bound = max(_FIRST_BOUND * span, span + _BOUND_SLACK)
+        """The field of `goal` over as small a region around start and goal as proves optimal
+        the start's path (see the module docstring); the component's when the region grows
+        to it."""
+        straight = _octile(goal[0] - start[0], goal[1] - start[1])
+        bound = max(_FIRST_BOUND * straight, straight + _BOUND_SLACK)
         while True:
-            window = self._ellipse_window(goal, start, bound)
+            window = self._region_window(goal, start, bound)
             if window is None:
                 return self.solve(goal, start)
             offset, cost, to_start = window
-            field = _search(MCP_Geometric(cost, fully_connected=True), offset, goal, start,
-                            complete=False)
-            found = field.value(start)
+            # a value v is exact where no path leaving the region can beat it: v <= bound -
+            # octile(start, u) (module docstring); the tolerance absorbs float rounding on ties
+            mcp = MCP_Geometric(cost, fully_connected=True)
+            cumulative, traceback = _find_costs(mcp, offset, goal, start)
+            found = float(cumulative[start[0] - offset[0], start[1] - offset[1]])
             if found <= bound:
-                return _proven_part(field, to_start, bound)
+                proven = cumulative <= bound - to_start + _TIE_TOLERANCE * bound
+                return _field(mcp, offset, goal, np.where(proven, cumulative, np.inf), traceback,
+                              complete=False)
             # the path found proves the optimum is at most `found`; growing by at most twice
-            # keeps a path squeezed through costly cells from asking for a huge ellipse
+            # keeps a path squeezed through costly cells from asking for a huge region
             bound = min(found, 2.0 * bound)
 
-    def _ellipse_window(self, goal: Cell, start: Cell, bound: float
-                        ) -> tuple[Cell, FloatArray, FloatArray] | None:
-        """The costs on the bounding box of the ellipse, inf outside it, and each cell's
-        distance to the start; None when the box would cover much of the component (its own
-        search is then as cheap)."""
+    def _region_window(self, goal: Cell, start: Cell, bound: float
+                       ) -> tuple[Cell, FloatArray, FloatArray] | None:
+        """The costs on the bounding box of the region where octile(start, u) + octile(u, goal)
+        is at most `bound`, inf outside it, and each cell's octile distance to the start; None
+        when the box is the component's (whose own search is then the one to run)."""
+        low, high = self._ellipse_box(goal, start, bound)
+        if (high[0] - low[0], high[1] - low[1]) == self.shape:
+            return None
+        to_start = _octile_field(low, high, start)
+        through = to_start + _octile_field(low, high, goal)
+        cost = self._cost[low[0]:high[0], low[1]:high[1]]
+        inside = (through <= bound) & np.isfinite(cost)
+        # crop to the cells that can be searched: the search set-up costs per cell of its box
+        rows = np.flatnonzero(inside.any(axis=1))
+        cols = np.flatnonzero(inside.any(axis=0))
+        crop = (slice(int(rows[0]), int(rows[-1]) + 1), slice(int(cols[0]), int(cols[-1]) + 1))
+        cost = np.where(inside[crop], cost[crop], np.inf)
+        return (low[0] + int(rows[0]), low[1] + int(cols[0])), cost, to_start[crop]
+
+    def _ellipse_box(self, goal: Cell, start: Cell, bound: float) -> tuple[list[int], list[int]]:
+        """Bounds of the box around the Euclidean ellipse |start - u| + |u - goal| <= bound
+        (which holds the octile region, octile distances being the longer), within the
+        component's box."""
         half_major = bound / 2.0
         centre = ((goal[0] + start[0]) / 2.0, (goal[1] + start[1]) / 2.0)
         span = math.dist(goal, start)
@@ -187,34 +214,45 @@ class ComponentSearch:
         low = [max(math.floor(centre[k] - reach[k]), self.offset[k]) for k in (0, 1)]
         high = [min(math.ceil(centre[k] + reach[k]) + 1, self.offset[k] + self.shape[k])
                 for k in (0, 1)]
-        size = (high[0] - low[0]) * (high[1] - low[1])
-        if size > _MAX_WINDOW_SHARE * self.shape[0] * self.shape[1]:
-            return None
-        rows = np.arange(low[0], high[0], dtype=np.float64)[:, None]
-        cols = np.arange(low[1], high[1], dtype=np.float64)[None, :]
-        to_start = np.hypot(rows - start[0], cols - start[1])
-        through = np.hypot(rows - goal[0], cols - goal[1]) + to_start
-        cost = np.where(through <= bound, self._cost[low[0]:high[0], low[1]:high[1]], np.inf)
-        return (low[0], low[1]), cost, to_start
+        return low, high
+
+
+def _octile(rows: float, cols: float) -> float:
+    """Length of the shortest 8-connected move sequence spanning (rows, cols) cells."""
+    rows, cols = abs(rows), abs(cols)
+    return max(rows, cols) + _DIAGONAL_EXTRA * min(rows, cols)
+
+
+def _octile_field(low: list[int], high: list[int], cell: Cell) -> FloatArray:
+    """Octile distance from `cell` to every cell of the box low .. high."""
+    rows = np.abs(np.arange(low[0] - cell[0], high[0] - cell[0], dtype=np.float64))[:, None]
+    cols = np.abs(np.arange(low[1] - cell[1], high[1] - cell[1], dtype=np.float64))[None, :]
+    shorter = np.minimum(rows, cols)
+    return (rows + cols) - (1.0 - _DIAGONAL_EXTRA) * shorter
 
 
 def _search(mcp: MCP_Geometric, offset: Cell, goal: Cell, until: Cell | None, *,
             complete: bool) -> CostToGo:
+    cumulative, traceback = _find_costs(mcp, offset, goal, until)
+    return _field(mcp, offset, goal, cumulative, traceback, complete=complete)
+
+
+def _find_costs(mcp: MCP_Geometric, offset: Cell, goal: Cell, until: Cell | None
+                ) -> tuple[FloatArray, npt.NDArray[np.int16]]:
+    """MCP's cumulative costs from `goal` (double precision) and its traceback, over its box."""
     local_goal = (goal[0] - offset[0], goal[1] - offset[1])
     ends = None if until is None else [(until[0] - offset[0], until[1] - offset[1])]
     cumulative, traceback = mcp.find_costs([local_goal], ends=ends)
-    # The returned arrays are views of buffers the next search overwrites: copy them.
+    return cumulative, traceback
+
+
+def _field(mcp: MCP_Geometric, offset: Cell, goal: Cell, cumulative: FloatArray,
+           traceback: npt.NDArray[np.int16], *, complete: bool) -> CostToGo:
+    # The arrays MCP returns are views of buffers its next search overwrites: copy them.
     return CostToGo(goal=goal, offset=offset,
                     cost=np.ascontiguousarray(cumulative, dtype=np.float32),
                     step=np.ascontiguousarray(traceback, dtype=np.int8),
                     moves=np.asarray(mcp.offsets, dtype=np.intp), complete=complete)
-
-
-def _proven_part(field: CostToGo, to_start: FloatArray, bound: float) -> CostToGo:
-    """`field` with every cell whose value a path leaving the ellipse might beat made unknown
-    (val(v) > bound - |start - v|), so that later starts are served only exact values."""
-    field.cost[field.cost > bound - to_start] = np.inf   # the field's own copy: no one else's
-    return field
 
 
 @dataclass(eq=False)

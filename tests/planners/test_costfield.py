@@ -1,6 +1,6 @@
-"""Cost-to-go fields searched on an ellipse around start and goal are exact where they answer.
+"""Cost-to-go fields searched on a region around start and goal are exact where they answer.
 
-A first plan to a goal searches only the ellipse that proves the start's path optimal; its field
+A first plan to a goal searches only the region that proves the start's path optimal; its field
 must give the start the optimal cost (that of the whole component's field), keep only cells whose
 values are exact, and still lead along an optimal path when the best way is a long detour.
 """
@@ -9,13 +9,19 @@ from __future__ import annotations
 
 import itertools
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from hubero_dsl.planners import costfield
 from hubero_dsl.planners.costfield import CostKey, build_cost_grid
 
 RES = 0.05
+PARKING = Path(__file__).resolve().parents[2] / ".." / "shared" / "maps" / "hubero-original" / \
+    "parking.yaml"
+PARKING_STARTS = [(-5.0, -6.0), (-4.0, -1.8), (-2.0, 0.0), (1.5, 2.0)]    # the paper's
+PARKING_GOALS = [(0.5, 6.6), (0.3, 18.8), (7.0, 2.9), (1.2, -5.7), (-3.5, 10.5), (-0.5, 14.8)]
 
 
 def maze(seed: int) -> np.ndarray:
@@ -74,7 +80,7 @@ def test_bounded_fields_agree_with_the_whole_field_where_they_answer(seed: int,
         assert all(a > b for a, b in itertools.pairwise(values))
 
 
-def test_a_long_detour_is_found_through_a_small_first_ellipse() -> None:
+def test_a_long_detour_is_found_through_a_small_first_region() -> None:
     occupied = np.zeros((100, 200), dtype=bool)
     occupied[:90, 98:102] = True           # a wall with its only opening far from the line
     grid = build_cost_grid(clearance_of(occupied), RES, CostKey.of(0.1, 0.1), 40.0)
@@ -98,3 +104,68 @@ def test_whole_fields_stay_whole_after_searches_that_stopped_early() -> None:
             .search(label).solve(goal)
         np.testing.assert_array_equal(whole.cost, fresh.cost)
         assert np.isfinite(whole.cost).sum() == (grid.labels == label).sum()
+
+
+def test_a_narrow_passage_far_from_the_line_is_searched_to_its_optimum() -> None:
+    occupied = np.zeros((120, 160), dtype=bool)
+    occupied[:, 78:82] = True
+    occupied[104:112, 78:82] = False        # a door just wide enough, near the far edge
+    grid = build_cost_grid(clearance_of(occupied), RES, CostKey.of(0.15, 0.3), 40.0)
+    start, goal = (20, 30), (20, 130)
+    assert grid.labels[start] == grid.labels[goal]
+    search = grid.search(int(grid.labels[start]))
+    bounded = search.solve_between(goal, start)
+    assert bounded.value(start) == search.solve(goal).value(start)
+    assert max(row for row, _ in bounded.descend(start)) >= 104     # through the door
+
+
+def test_disconnected_components_are_searched_apart() -> None:
+    occupied = np.zeros((80, 120), dtype=bool)
+    occupied[:, 58:62] = True                # a wall without a door
+    grid = build_cost_grid(clearance_of(occupied), RES, CostKey.of(0.15, 0.3), 40.0)
+    left, right = (40, 20), (40, 100)
+    assert grid.labels[left] != grid.labels[right]
+    for goal, start in ((left, (10, 40)), (right, (70, 80))):
+        search = grid.search(int(grid.labels[goal]))
+        bounded = search.solve_between(goal, start)
+        assert bounded.value(start) == search.solve(goal).value(start)
+        # the field never reaches across the wall
+        assert not np.isfinite(bounded.value(right if goal == left else left))
+
+
+def test_straight_open_paths_keep_their_own_cells_despite_ties(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A path costing exactly the bound ties with it; rounding must not drop its cells."""
+    monkeypatch.setattr(costfield, "_FIRST_BOUND", 1.0)    # the bound is the octile distance
+    monkeypatch.setattr(costfield, "_BOUND_SLACK", 0.0)
+    grid = build_cost_grid(clearance_of(np.zeros((100, 100), dtype=bool)), RES,
+                           CostKey.of(0.1, 0.1), 40.0)
+    search = grid.search(int(grid.labels[50, 50]))
+    for start, goal in (((20, 20), (80, 80)), ((20, 30), (80, 50)), ((50, 10), (50, 90))):
+        bounded = search.solve_between(goal, start)
+        assert bounded.value(start) == search.solve(goal).value(start)
+        path = bounded.descend(start)
+        assert all(bounded.covers((int(r), int(c))) for r, c in path)
+
+
+@pytest.mark.skipif(not PARKING.is_file(), reason="shared maps are absent")
+@pytest.mark.parametrize("comfort", [0.125, 0.7])
+def test_parking_plans_cost_what_the_whole_field_says(comfort: float) -> None:
+    """The paper's starts and goals on the parking map: each first-plan search finds the
+    optimal cost of the whole component's Dijkstra field."""
+    from hubero_dsl.world.mapfile import load_map
+
+    occupancy = load_map(PARKING)
+    grid = build_cost_grid(np.asarray(occupancy.clearance, dtype=np.float64),
+                           occupancy.resolution, CostKey.of(0.2, comfort), 40.0)
+
+    def cell(xy: tuple[float, float]) -> tuple[int, int]:
+        row, col = occupancy.world_to_cell(xy)
+        return int(row), int(col)
+
+    for goal_xy in PARKING_GOALS:
+        goal = cell(goal_xy)
+        search = grid.search(int(grid.labels[goal]))
+        whole = search.solve(goal)
+        for start in map(cell, PARKING_STARTS):
+            assert search.solve_between(goal, start).value(start) == whole.value(start)
