@@ -58,6 +58,7 @@ ZSTD_LEVEL = 1  # 3 compresses 2% better and takes 40% longer
 # A message record's header: opcode, record length, channel id, sequence, log and publish time
 _HEADER_DTYPE = np.dtype([("opcode", "u1"), ("length", "<u8"), ("channel", "<u2"),
                           ("sequence", "<u4"), ("log_time", "<u8"), ("publish_time", "<u8")])
+_MESSAGE_HEADER = struct.Struct("<BQHIQQ")  # the same, for one message
 _MESSAGE_OVERHEAD = _HEADER_DTYPE.itemsize - 9  # the record length excludes opcode and length
 # opcode, record length, channel id, byte length of the (log time, offset) entries
 _INDEX_HEADER_DTYPE = np.dtype([("opcode", "u1"), ("length", "<u8"), ("channel", "<u2"),
@@ -129,7 +130,16 @@ class McapContainer:
     # ---- messages ---------------------------------------------------------------------------
 
     def add_message(self, channel: int, log_time: int, data: bytes, sequence: int = 0) -> None:
-        self.add_messages([channel], log_time, [data], sequence)
+        """One message (publish time = log time); a task event or a frame's /tf."""
+        chunk = self._chunk
+        chunk.add_one(channel, chunk.size, log_time)
+        chunk.records += _MESSAGE_HEADER.pack(Opcode.MESSAGE, len(data) + _MESSAGE_OVERHEAD,
+                                              channel, sequence, log_time, log_time)
+        chunk.records += data
+        chunk.size += _MESSAGE_HEADER.size + len(data)
+        self._count_messages(1, log_time)
+        if chunk.size >= self._chunk_size:
+            self._close_chunk()
 
     def add_messages(self, channels: Sequence[int] | npt.NDArray[np.uint16], log_time: int,
                      payloads: Sequence[bytes], sequence: int = 0) -> None:
@@ -328,7 +338,7 @@ def _message_indexes(channels: npt.NDArray[np.uint16], times: npt.NDArray[np.uin
 
     Returns the channel ids, the records (one after another) and where each record starts.
     Built with numpy: a chunk of a large crowd holds thousands of channels."""
-    order = np.argsort(channels, kind="stable")
+    order = np.lexsort((offsets, channels))
     ids, firsts, counts = np.unique(channels[order], return_index=True, return_counts=True)
     sizes = _INDEX_HEADER_DTYPE.itemsize + 16 * counts
     starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
@@ -395,6 +405,11 @@ class _OpenChunk:
         self._channels: list[npt.NDArray[np.uint16]] = []
         self._offsets: list[npt.NDArray[np.uint64]] = []
         self._times: list[npt.NDArray[np.uint64]] = []
+        self._single: list[tuple[int, int, int]] = []  # (channel, offset, time) of lone messages
+
+    def add_one(self, channel: int, offset: int, log_time: int) -> None:
+        """A lone message: kept as numbers (arrays per message would cost more than it)."""
+        self._single.append((channel, offset, log_time))
 
     def add_index(self, channels: npt.NDArray[np.uint16], offsets: npt.NDArray[np.uint64],
                   log_time: int) -> None:
@@ -404,8 +419,10 @@ class _OpenChunk:
 
     def index(self) -> tuple[npt.NDArray[np.uint16], npt.NDArray[np.uint64],
                              npt.NDArray[np.uint64]]:
-        return (np.concatenate(self._channels), np.concatenate(self._times),
-                np.concatenate(self._offsets))
+        single = np.array(self._single, dtype=np.uint64).reshape(-1, 3)
+        return (np.concatenate([*self._channels, single[:, 0].astype(np.uint16)]),
+                np.concatenate([*self._times, single[:, 2]]),
+                np.concatenate([*self._offsets, single[:, 1]]))
 
 
 def _compress(data: bytes | bytearray, compression: str) -> bytes:
