@@ -117,11 +117,11 @@ def _pairs_within(position: FloatArray, reach: FloatArray, query_radius: float,
     offset_x = x[first] - x[second]
     offset_y = y[first] - y[second]
     distance = np.sqrt(offset_x * offset_x + offset_y * offset_y)
-    inside = np.flatnonzero(distance <= query_radius)
+    inside = (distance <= query_radius).nonzero()[0]
     if inside.size < distance.size:
         first, second = first[inside], second[inside]
         offset_x, offset_y, distance = offset_x[inside], offset_y[inside], distance[inside]
-    coincident = np.flatnonzero(distance < 1e-9)
+    coincident = (distance < 1e-9).nonzero()[0]
     if coincident.size:
         offset_x[coincident], offset_y[coincident] = 1e-9, 0.0
         distance[coincident] = 1e-9
@@ -129,7 +129,7 @@ def _pairs_within(position: FloatArray, reach: FloatArray, query_radius: float,
         return NeighbourPairs(first, second, offset_x, offset_y, distance, None, None)
     first_reacts = distance <= reach[first]
     second_reacts = distance <= reach[second]
-    keep = np.flatnonzero(first_reacts | second_reacts)
+    keep = (first_reacts | second_reacts).nonzero()[0]
     return NeighbourPairs(first[keep], second[keep], offset_x[keep], offset_y[keep],
                           distance[keep], first_reacts[keep], second_reacts[keep])
 
@@ -169,7 +169,7 @@ def closest_approach(pairs: NeighbourPairs, velocity: FloatArray,
     offset_y = closing_y * when
     offset_y += pairs.offset_y
     distance = np.sqrt(offset_x * offset_x + offset_y * offset_y)
-    undefined = np.flatnonzero(distance < 1e-6)
+    undefined = (distance < 1e-6).nonzero()[0]
     if undefined.size:
         offset_x[undefined] = pairs.offset_x[undefined]
         offset_y[undefined] = pairs.offset_y[undefined]

@@ -304,7 +304,7 @@ class SocialForcePlanner:
         # clearance runs to the centre of the nearest occupied cell; its face is half a cell
         # nearer
         gap = clearance - 0.5 * grid.resolution - radius
-        close = np.flatnonzero(gap < reach - radius)
+        close = (gap < reach - radius).nonzero()[0]
         if close.size == 0:
             return _NO_WALLS
         if close.size == maybe.size:
@@ -500,7 +500,7 @@ def _contact_acceleration(crowd: Crowd, params: _RowParams, pairs: NeighbourPair
         return None
     radius = crowd.radius
     overlap = radius[pairs.first] + radius[pairs.second] - pairs.distance
-    touching = np.flatnonzero(overlap > 0.0)
+    touching = (overlap > 0.0).nonzero()[0]
     if touching.size == 0:
         return None
     pairs = _subset(pairs, touching)

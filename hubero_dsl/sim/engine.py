@@ -255,7 +255,8 @@ class Engine:
     def step(self) -> None:
         dt = self.dt
         humans = self.humans
-        self.robots.advance(dt, self.time)
+        if self.robots.count:
+            self.robots.advance(dt, self.time)
         velocity = self._velocities()
         old = humans.position
         moved = old + velocity * dt
@@ -266,7 +267,7 @@ class Engine:
         moved = physics.keep_out_of_walls(self.grid, old, moved, humans.radius)
         step = moved - old
         humans.velocity = step / dt
-        humans.path_length += np.linalg.norm(step, axis=1)
+        humans.path_length += physics.lengths(step)
         humans.position = moved
         self._turn(dt)
         self.tick += 1
@@ -274,22 +275,22 @@ class Engine:
 
     def _velocities(self) -> FloatArray:
         humans = self.humans
-        velocity = np.zeros_like(humans.velocity)
-        rows = np.flatnonzero(humans.moving)
+        velocity = np.zeros(humans.velocity.shape)
+        rows = humans.moving.nonzero()[0]
         if len(rows):
             self.paths.advance(humans.position, LOOKAHEAD)
             crowd = self.crowd()
             if self._only_local is not None:
                 steering = [(self._only_local, rows)]
             else:
-                steering = [(name, np.flatnonzero(mask & humans.moving))
+                steering = [(name, (mask & humans.moving).nonzero()[0])
                             for name, mask in self._local_mask.items()]
             for name, steer in steering:
                 if len(steer):
                     velocity[steer] = self._local[name].velocities(crowd, self._drive(steer),
                                                                    self.dt)
         if humans.teleop.any():
-            teleop = np.flatnonzero(humans.teleop)
+            teleop = humans.teleop.nonzero()[0]
             velocity[teleop] = humans.teleop_velocity[teleop]
         return velocity
 
@@ -353,7 +354,7 @@ class Engine:
 
     def _turn(self, dt: float) -> None:
         h = self.humans
-        speed = np.linalg.norm(h.velocity, axis=1)
+        speed = physics.lengths(h.velocity)
         walking = (speed > 0.1) & (h.moving | h.teleop)
         turning = walking | ~np.isnan(h.heading_goal)
         if not turning.any():
@@ -368,25 +369,26 @@ class Engine:
     def _dispatch_events(self) -> None:
         h = self.humans
         moving = h.moving
+        standing = ~moving
         # a walking human always has a goal; NaN goals (nobody walking) compare False
-        arrived = moving & (np.linalg.norm(h.position - h.goal, axis=1) <= h.stop_distance)
-        wake = arrived | (self.wake_tick <= self.tick)
-        turning = ~np.isnan(h.heading_goal) & ~moving
+        arrived = moving & (physics.lengths(h.position - h.goal) <= h.stop_distance)
+        timer = self.wake_tick <= self.tick
+        wake = arrived | timer
+        turning = ~np.isnan(h.heading_goal) & standing
         aligned = None
         if turning.any():
             aligned = turning & (np.abs(physics.wrap_angle(h.heading - h.heading_goal))
                                  < ALIGNED)
             wake |= aligned
-        progressed = np.linalg.norm(h.position - self.anchor, axis=1) > PROGRESS
+        progressed = physics.lengths(h.position - self.anchor) > PROGRESS
         if progressed.any():
             self.anchor[progressed] = h.position[progressed]
-        self.anchor_tick[progressed | ~moving] = self.tick
+        self.anchor_tick[progressed | standing] = self.tick
         stuck = moving & (self.tick - self.anchor_tick > self.ticks(self.stuck_time))
         wake |= stuck
         if not wake.any():
             return
-        timer = self.wake_tick <= self.tick
-        for index in np.flatnonzero(wake):
+        for index in wake.nonzero()[0]:
             self._wake(int(index), bool(arrived[index]),
                        aligned is not None and bool(aligned[index]), bool(stuck[index]),
                        bool(timer[index]))

@@ -90,7 +90,7 @@ def keep_out_of_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
     stopped.
     """
     needed = 0.5 * radius + WALL_MARGIN
-    check = np.flatnonzero(~grid.surely_clear(new, needed))
+    check = (~grid.surely_clear(new, needed)).nonzero()[0]
     if check.size == 0:
         return new
     result = new.copy()
@@ -115,15 +115,27 @@ def _slide_along_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
     if not bad.any():
         return result
     for axis in (0, 1):
-        rows = np.flatnonzero(bad)
+        rows = bad.nonzero()[0]
         trial = old[rows].copy()
         trial[:, axis] = new[rows, axis]
         fits = acceptable(rows, trial)
         result[rows[fits]] = trial[fits]
         bad[rows[fits]] = False
-    rows = np.flatnonzero(bad)
+    rows = bad.nonzero()[0]
     result[rows] = old[rows]
     return result
+
+
+def lengths(vectors: FloatArray) -> FloatArray:
+    """(N,) length of each row of (N, 2) vectors.
+
+    Bit for bit what `np.linalg.norm(vectors, axis=1)` gives (the root of x*x + y*y), at a
+    fraction of its cost on the few rows of a small crowd.
+    """
+    x, y = vectors[:, 0], vectors[:, 1]
+    squared = x * x
+    squared += y * y
+    return np.sqrt(squared, out=squared)
 
 
 def wrap_angle(angle: FloatArray) -> FloatArray:
@@ -134,5 +146,6 @@ def turn_towards(heading: FloatArray, wanted: FloatArray, turning: BoolArray,
                  dt: float) -> FloatArray:
     """Turn the `turning` rows towards `wanted` at TURN_RATE."""
     difference = wrap_angle(wanted - heading)
-    step = np.clip(difference, -TURN_RATE * dt, TURN_RATE * dt)
+    # maximum/minimum rather than np.clip: the same values (NaN included), with less overhead
+    step = np.minimum(np.maximum(difference, -TURN_RATE * dt), TURN_RATE * dt)
     return np.where(turning, wrap_angle(heading + step), heading)

@@ -69,8 +69,10 @@ def _read_only(array: npt.NDArray[Any]) -> npt.NDArray[Any]:
 
 def _unit_vectors(vectors: FloatArray) -> FloatArray:
     """Each vector scaled to length 1; zero vectors stay zero."""
-    norms = np.linalg.norm(vectors, axis=-1, keepdims=True)
-    return np.divide(vectors, norms, out=np.zeros_like(vectors), where=norms > 0.0)
+    # the root of x*x + y*y is bit for bit np.linalg.norm's, with less overhead per call
+    x, y = vectors[..., 0], vectors[..., 1]
+    norms = np.sqrt(x * x + y * y)[..., None]
+    return np.divide(vectors, norms, out=np.zeros(vectors.shape), where=norms > 0.0)
 
 
 def _check_radius(body_radius: float) -> float:
@@ -342,7 +344,7 @@ class OccupancyGrid:
         points = _points(xy)
         row, col = self._fractional_rows_cols(points)
         row_index, col_index, inside = self._locate_fractional(row, col)
-        maybe = np.flatnonzero(self._clearance_floor[row_index, col_index] < reach)
+        maybe = (self._clearance_floor[row_index, col_index] < reach).nonzero()[0]
         if maybe.size == 0:
             return maybe, np.zeros(0), np.zeros((0, 2))
         if maybe.size < row.size:
@@ -392,7 +394,7 @@ class OccupancyGrid:
         upper = lower + self.resolution
         away = points - np.minimum(np.maximum(points, lower), upper)
         # A point on the obstacle's very edge falls back to the cell-to-cell direction.
-        on_edge = ~np.any(away != 0.0, axis=-1)
+        on_edge = (away[..., 0] == 0.0) & (away[..., 1] == 0.0)
         if on_edge.any():
             centres = self._cell_centres(row, col)
             away = np.where(on_edge[..., None], centres - 0.5 * (lower + upper), away)
