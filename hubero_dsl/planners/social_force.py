@@ -49,8 +49,9 @@ are clipped to max_speed in any case.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, fields, replace
-from typing import TYPE_CHECKING, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 import numpy.typing as npt
@@ -409,25 +410,33 @@ class _PairPush:
         return np.asarray(np.exp(np.minimum((comfort - distance) * inverse_decay,
                                             _MAX_EXPONENT)), dtype=np.float64)
 
-    def one_way(self, receiver: IntArray, other: IntArray, sign: float
-                ) -> tuple[FloatArray, FloatArray]:
-        """Push on `receiver` from `other` per pair; `sign` orients the pair's vectors."""
+    def both_ways(self) -> tuple[FloatArray, FloatArray]:
+        """(2P,) push on each pair's first body from its second, then on each second body from
+        its first: both directions in one pass over arrays twice as long, which costs half the
+        numpy calls of two passes. Every element is computed exactly as one direction alone
+        would compute it (a sign of +1 or -1 multiplies exactly)."""
         pairs, params = self.pairs, self.params
+        receiver = np.concatenate((pairs.first, pairs.second))
+        other = np.concatenate((pairs.second, pairs.first))
+        sign, neg_sign = _signs(pairs.count)
         if self.shared_horizon:
-            ahead_x, ahead_y, distance = self.ahead
+            ahead_x, ahead_y, distance = (np.concatenate((part, part)) for part in self.ahead)
         else:
-            ahead_x, ahead_y, distance = closest_approach(pairs, self.crowd.velocity,
-                                                          _at(params.anticipation, receiver))
+            ahead_x, ahead_y, distance = closest_approach(
+                _doubled(pairs), self.crowd.velocity, _at(params.anticipation, receiver))
         cos_heading, sin_heading = self.cos_heading[receiver], self.sin_heading[receiver]
         # where the other is seen now, as cos phi: towards the other is -sign * offset
-        seen_ahead = pairs.offset_x * cos_heading
-        seen_ahead += pairs.offset_y * sin_heading
+        seen_ahead = np.concatenate((pairs.offset_x, pairs.offset_x))
+        seen_ahead *= cos_heading
+        offset_y = np.concatenate((pairs.offset_y, pairs.offset_y))
+        offset_y *= sin_heading
+        seen_ahead += offset_y
         # -sign * (1 / distance), negated exactly once per tick rather than per direction
-        seen_ahead *= self.neg_inverse_distance if sign > 0 else self.inverse_distance
+        seen_ahead *= np.concatenate((self.neg_inverse_distance, self.inverse_distance))
         if self.shared_closeness is not None:
-            push = self.shared_closeness
+            push = np.concatenate((self.shared_closeness, self.shared_closeness))
         else:
-            forward = -sign * (ahead_x * cos_heading + ahead_y * sin_heading)
+            forward = neg_sign * (ahead_x * cos_heading + ahead_y * sin_heading)
             left = sign * (ahead_x * sin_heading - ahead_y * cos_heading)
             comfort = self._extent(receiver, forward, left) + self.crowd.radius[other]
             push = _at(self.strength, receiver) * self._closeness(
@@ -441,8 +450,7 @@ class _PairPush:
         sidestep = np.maximum(seen_ahead, 0.0)
         sidestep *= push
         sidestep *= _at(params.side_preference, receiver)
-        if sign < 0:  # times -1 exactly; times +1 changes nothing
-            np.negative(push, out=push)
+        push *= sign
         along_x = push * ahead_x
         along_x += sidestep * sin_heading
         along_y = push * ahead_y
@@ -469,10 +477,30 @@ def _social_acceleration(crowd: Crowd, drive: Drive, params: _RowParams,
     count = crowd.count
     if pairs.count == 0:
         return np.zeros((count, 2))
-    kernel = _PairPush(crowd, drive, params, pairs, shapes)
-    on_first = kernel.one_way(pairs.first, pairs.second, 1.0)
-    on_second = kernel.one_way(pairs.second, pairs.first, -1.0)
-    return _sum_both_ways(pairs, on_first, on_second, count)
+    along_x, along_y = _PairPush(crowd, drive, params, pairs, shapes).both_ways()
+    half = pairs.count
+    return _sum_both_ways(pairs, (along_x[:half], along_y[:half]),
+                          (along_x[half:], along_y[half:]), count)
+
+
+@functools.cache
+def _signs(count: int) -> tuple[FloatArray, FloatArray]:
+    """(2 * count,) +1 then -1 (the direction of each half of `_PairPush.both_ways`), and its
+    negation."""
+    sign = np.concatenate((np.ones(count), np.full(count, -1.0)))
+    neg_sign = np.negative(sign)
+    sign.setflags(write=False)
+    neg_sign.setflags(write=False)
+    return sign, neg_sign
+
+
+def _doubled(pairs: NeighbourPairs) -> NeighbourPairs:
+    """The pairs listed twice, for computing both directions in one pass."""
+    def twice(values: npt.NDArray[Any]) -> npt.NDArray[Any]:
+        return np.concatenate((values, values))
+
+    return NeighbourPairs(twice(pairs.first), twice(pairs.second), twice(pairs.offset_x),
+                          twice(pairs.offset_y), twice(pairs.distance), None, None)
 
 
 def _sum_both_ways(pairs: NeighbourPairs, on_first: tuple[FloatArray, FloatArray],
