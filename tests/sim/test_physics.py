@@ -77,3 +77,14 @@ def test_small_crowds_get_the_pairs_of_the_tree_in_its_order(count: int) -> None
         pairs = PairFinder().find(position, np.full(count, 3.0))
         found = np.column_stack([pairs.first, pairs.second])
         np.testing.assert_array_equal(found.reshape(-1, 2), tree_pairs(position, 3.0))
+
+
+def test_lengths_are_numpys_norms_bit_for_bit() -> None:
+    rng = np.random.default_rng(3)
+    vectors = rng.normal(size=(500, 2)) * rng.choice([1e-200, 1e-5, 1.0, 1e200], size=(500, 1))
+    vectors[::7] = np.nan
+    vectors[::11, 0] = np.inf
+    vectors[::13] = 0.0
+    with np.errstate(over="ignore"):
+        np.testing.assert_array_equal(physics.lengths(vectors), np.linalg.norm(vectors, axis=1))
+    assert physics.lengths(np.zeros((0, 2))).shape == (0,)
