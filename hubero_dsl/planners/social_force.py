@@ -79,6 +79,8 @@ BoolArray = npt.NDArray[np.bool_]
 # A per-row quantity: one float when it is the same for every row (the common case, which
 # spares a gather per pair), else an array indexed by Crowd row.
 Column = FloatArray | float
+# The push of each pair in one direction, (x, y).
+Pushes = tuple[FloatArray, FloatArray]
 
 # Largest exponent of the repulsion terms: beyond it the push is already far above anything
 # max_speed lets through, and exp() must not overflow to inf (inf * 0 would be NaN).
@@ -88,6 +90,8 @@ _WALL_REACH_IN_B = 12.0
 # Per-step caps on the contact terms (see the module docstring).
 _STIFFNESS_STEP_CAP = 0.5
 _FRICTION_STEP_CAP = 0.5
+# Up to this many close pairs both directions are pushed in one pass (see `_PairPush.both_ways`).
+_JOINED_PAIRS = 64
 _CIRCLE = int(ShapeKind.CIRCLE)  # a plain int compares with arrays faster than the enum
 
 
@@ -410,33 +414,50 @@ class _PairPush:
         return np.asarray(np.exp(np.minimum((comfort - distance) * inverse_decay,
                                             _MAX_EXPONENT)), dtype=np.float64)
 
-    def both_ways(self) -> tuple[FloatArray, FloatArray]:
-        """(2P,) push on each pair's first body from its second, then on each second body from
-        its first: both directions in one pass over arrays twice as long, which costs half the
-        numpy calls of two passes. Every element is computed exactly as one direction alone
-        would compute it (a sign of +1 or -1 multiplies exactly)."""
-        pairs, params = self.pairs, self.params
+    def both_ways(self) -> tuple[Pushes, Pushes]:
+        """The push on each pair's first body from its second, and on the second from the first.
+
+        A few pairs (a small crowd) are pushed both ways in one pass over arrays twice as long,
+        which spares half the numpy calls; many pairs in two passes, where joining the arrays
+        would cost more than the calls it spares. Either way every element is computed alike.
+        """
+        pairs = self.pairs
+        ahead = self.ahead if self.shared_horizon else None
+        if pairs.count > _JOINED_PAIRS:
+            return (self._directed(pairs.first, pairs.second, 1.0, pairs,
+                                   self.neg_inverse_distance, ahead, self.shared_closeness),
+                    self._directed(pairs.second, pairs.first, -1.0, pairs, self.inverse_distance,
+                                   ahead, self.shared_closeness))
+        doubled = _doubled(pairs)
         receiver = np.concatenate((pairs.first, pairs.second))
-        other = np.concatenate((pairs.second, pairs.first))
-        sign, neg_sign = _signs(pairs.count)
-        if self.shared_horizon:
-            ahead_x, ahead_y, distance = (np.concatenate((part, part)) for part in self.ahead)
-        else:
-            ahead_x, ahead_y, distance = closest_approach(
-                _doubled(pairs), self.crowd.velocity, _at(params.anticipation, receiver))
+        push_x, push_y = self._directed(
+            receiver, np.concatenate((pairs.second, pairs.first)), _signs(pairs.count), doubled,
+            np.concatenate((self.neg_inverse_distance, self.inverse_distance)),
+            None if ahead is None else _twice_each(ahead),
+            None if self.shared_closeness is None else _twice(self.shared_closeness))
+        half = pairs.count
+        return (push_x[:half], push_y[:half]), (push_x[half:], push_y[half:])
+
+    def _directed(self, receiver: IntArray, other: IntArray, sign: Column,
+                  pairs: NeighbourPairs, signed_inverse: FloatArray,
+                  ahead: tuple[FloatArray, FloatArray, FloatArray] | None,
+                  closeness: FloatArray | None) -> Pushes:
+        """Push on `receiver` from `other` per pair; `sign` (+1 or -1, per pair or for all)
+        orients the pair's vectors and `signed_inverse` is -sign / distance."""
+        params = self.params
+        if ahead is None:
+            ahead = closest_approach(pairs, self.crowd.velocity,
+                                     _at(params.anticipation, receiver))
+        ahead_x, ahead_y, distance = ahead
         cos_heading, sin_heading = self.cos_heading[receiver], self.sin_heading[receiver]
         # where the other is seen now, as cos phi: towards the other is -sign * offset
-        seen_ahead = np.concatenate((pairs.offset_x, pairs.offset_x))
-        seen_ahead *= cos_heading
-        offset_y = np.concatenate((pairs.offset_y, pairs.offset_y))
-        offset_y *= sin_heading
-        seen_ahead += offset_y
-        # -sign * (1 / distance), negated exactly once per tick rather than per direction
-        seen_ahead *= np.concatenate((self.neg_inverse_distance, self.inverse_distance))
-        if self.shared_closeness is not None:
-            push = np.concatenate((self.shared_closeness, self.shared_closeness))
+        seen_ahead = pairs.offset_x * cos_heading
+        seen_ahead += pairs.offset_y * sin_heading
+        seen_ahead *= signed_inverse
+        if closeness is not None:
+            push = closeness
         else:
-            forward = neg_sign * (ahead_x * cos_heading + ahead_y * sin_heading)
+            forward = -sign * (ahead_x * cos_heading + ahead_y * sin_heading)
             left = sign * (ahead_x * sin_heading - ahead_y * cos_heading)
             comfort = self._extent(receiver, forward, left) + self.crowd.radius[other]
             push = _at(self.strength, receiver) * self._closeness(
@@ -450,7 +471,8 @@ class _PairPush:
         sidestep = np.maximum(seen_ahead, 0.0)
         sidestep *= push
         sidestep *= _at(params.side_preference, receiver)
-        push *= sign
+        if not isinstance(sign, float) or sign < 0:  # times -1 exactly; times +1 changes nothing
+            push *= sign
         along_x = push * ahead_x
         along_x += sidestep * sin_heading
         along_y = push * ahead_y
@@ -477,30 +499,31 @@ def _social_acceleration(crowd: Crowd, drive: Drive, params: _RowParams,
     count = crowd.count
     if pairs.count == 0:
         return np.zeros((count, 2))
-    along_x, along_y = _PairPush(crowd, drive, params, pairs, shapes).both_ways()
-    half = pairs.count
-    return _sum_both_ways(pairs, (along_x[:half], along_y[:half]),
-                          (along_x[half:], along_y[half:]), count)
+    on_first, on_second = _PairPush(crowd, drive, params, pairs, shapes).both_ways()
+    return _sum_both_ways(pairs, on_first, on_second, count)
 
 
 @functools.cache
-def _signs(count: int) -> tuple[FloatArray, FloatArray]:
-    """(2 * count,) +1 then -1 (the direction of each half of `_PairPush.both_ways`), and its
-    negation."""
+def _signs(count: int) -> FloatArray:
+    """(2 * count,) +1 then -1: the direction of each half of a joined pass."""
     sign = np.concatenate((np.ones(count), np.full(count, -1.0)))
-    neg_sign = np.negative(sign)
     sign.setflags(write=False)
-    neg_sign.setflags(write=False)
-    return sign, neg_sign
+    return sign
+
+
+def _twice(values: npt.NDArray[Any]) -> npt.NDArray[Any]:
+    return np.concatenate((values, values))
+
+
+def _twice_each(arrays: tuple[FloatArray, FloatArray, FloatArray]
+                ) -> tuple[FloatArray, FloatArray, FloatArray]:
+    return _twice(arrays[0]), _twice(arrays[1]), _twice(arrays[2])
 
 
 def _doubled(pairs: NeighbourPairs) -> NeighbourPairs:
-    """The pairs listed twice, for computing both directions in one pass."""
-    def twice(values: npt.NDArray[Any]) -> npt.NDArray[Any]:
-        return np.concatenate((values, values))
-
-    return NeighbourPairs(twice(pairs.first), twice(pairs.second), twice(pairs.offset_x),
-                          twice(pairs.offset_y), twice(pairs.distance), None, None)
+    """The pairs listed twice, for pushing both ways in one pass."""
+    return NeighbourPairs(_twice(pairs.first), _twice(pairs.second), _twice(pairs.offset_x),
+                          _twice(pairs.offset_y), _twice(pairs.distance), None, None)
 
 
 def _sum_both_ways(pairs: NeighbourPairs, on_first: tuple[FloatArray, FloatArray],
