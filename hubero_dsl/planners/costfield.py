@@ -61,6 +61,10 @@ _EMPTY_INTERVAL = 1e-9                         # cell units: touching a cell cor
 _FIRST_BOUND = 1.1
 _BOUND_SLACK = 10.0
 _DIAGONAL_EXTRA = math.sqrt(2.0) - 1.0  # a diagonal move is this much longer than a straight one
+# A first region too small finds a path through its narrow part, far costlier than the best one
+# (comfort costs near walls make detours dear): growing the bound a quarter at a time, rather
+# than to that path's cost, keeps the next region from spanning the whole map.
+_BOUND_GROWTH = 1.25
 _TIE_TOLERANCE = 1e-9    # relative: float rounding, when a path costs exactly the octile bound
 
 
@@ -177,9 +181,8 @@ class ComponentSearch:
                 proven = cumulative <= bound - to_start + _TIE_TOLERANCE * bound
                 return _field(mcp, offset, goal, np.where(proven, cumulative, np.inf), traceback,
                               complete=False)
-            # the path found proves the optimum is at most `found`; growing by at most twice
-            # keeps a path squeezed through costly cells from asking for a huge region
-            bound = min(found, 2.0 * bound)
+            # the path found proves the optimum is at most `found` (see _BOUND_GROWTH)
+            bound = min(found, _BOUND_GROWTH * bound)
 
     def _region_window(self, goal: Cell, start: Cell, bound: float
                        ) -> tuple[Cell, FloatArray, FloatArray] | None:
