@@ -21,7 +21,6 @@ full disk) is raised by the next call, or by `finish()`.
 
 from __future__ import annotations
 
-import itertools
 import struct
 import zlib
 from collections import deque
@@ -55,11 +54,13 @@ MAGIC = b"\x89MCAP0\r\n"
 COMPRESSIONS = ("zstd", "")  # zstd or none
 ZSTD_LEVEL = 1  # 3 compresses 2% better and takes 40% longer
 
-# A message record's header: opcode, record length, channel id, sequence, log and publish time
-_HEADER_DTYPE = np.dtype([("opcode", "u1"), ("length", "<u8"), ("channel", "<u2"),
-                          ("sequence", "<u4"), ("log_time", "<u8"), ("publish_time", "<u8")])
-_MESSAGE_HEADER = struct.Struct("<BQHIQQ")  # the same, for one message
-_MESSAGE_OVERHEAD = _HEADER_DTYPE.itemsize - 9  # the record length excludes opcode and length
+# A message record: opcode, record length, channel id, then MESSAGE_FIELDS (sequence, log and
+# publish time) and the data. The record length counts everything after itself
+# (RECORD_PREFIX bytes: opcode and length are not counted).
+MESSAGE_FIELDS = struct.Struct("<IQQ")
+RECORD_PREFIX = 9
+_MESSAGE_HEADER = struct.Struct("<BQH" + MESSAGE_FIELDS.format.lstrip("<"))
+_MESSAGE_OVERHEAD = _MESSAGE_HEADER.size - RECORD_PREFIX
 # opcode, record length, channel id, byte length of the (log time, offset) entries
 _INDEX_HEADER_DTYPE = np.dtype([("opcode", "u1"), ("length", "<u8"), ("channel", "<u2"),
                                 ("size", "<u4")])
@@ -144,29 +145,8 @@ class McapContainer:
     def add_messages(self, channels: Sequence[int] | npt.NDArray[np.uint16], log_time: int,
                      payloads: Sequence[bytes], sequence: int = 0) -> None:
         """Messages of several channels at one time (publish time = log time)."""
-        if not len(payloads):
-            return
-        ids = np.asarray(channels, dtype=np.uint16)
-        sizes = np.fromiter(map(len, payloads), dtype=np.uint64, count=len(payloads))
-        headers = np.empty(len(payloads), dtype=_HEADER_DTYPE)
-        headers["opcode"] = Opcode.MESSAGE
-        headers["length"] = sizes + _MESSAGE_OVERHEAD
-        headers["channel"] = ids
-        headers["sequence"] = sequence
-        headers["log_time"] = headers["publish_time"] = log_time
-        packed = headers.tobytes()
-        width = _HEADER_DTYPE.itemsize
-        chunk = self._chunk
-        chunk.records += b"".join(itertools.chain.from_iterable(zip(
-            [packed[i:i + width] for i in range(0, len(packed), width)], payloads,
-            strict=True)))
-        sizes += width
-        ends = np.cumsum(sizes) + np.uint64(chunk.size)
-        chunk.add_index(ids, ends - sizes, log_time)
-        chunk.size = int(ends[-1])
-        self._count_messages(len(payloads), log_time)
-        if chunk.size >= self._chunk_size:
-            self._close_chunk()
+        for channel, data in zip(np.asarray(channels).tolist(), payloads, strict=True):
+            self.add_message(channel, log_time, data, sequence)
 
     def add_block(self, data: bytes | memoryview, channels: npt.NDArray[np.uint16],
                   offsets: npt.NDArray[np.uint64], log_time: int) -> None:

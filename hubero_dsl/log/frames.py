@@ -24,8 +24,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
+from mcap.opcode import Opcode
 
 from hubero_dsl.log import schemas as s
+from hubero_dsl.log.container import MESSAGE_FIELDS, RECORD_PREFIX
 from hubero_dsl.log.digits import METRES, RADIANS, UNIT
 from hubero_dsl.log.rows import RowTemplate, SlotValue, Stamp
 from hubero_dsl.sim.status import TaskStatus
@@ -38,13 +40,11 @@ FloatArray = npt.NDArray[np.float64]
 
 TIMESTAMP = b'{"nsec":%9d,"sec":%10d}'  # fixed width, so records keep their length
 TIME = Stamp(len(TIMESTAMP % (0, 0)))
-# An MCAP message record: opcode 5, record length, channel; then sequence, log and publish
-# time (the same for a whole frame), then the JSON.
+# An MCAP message record (layout in `container`): opcode, record length, channel; then the
+# message fields (sequence, log and publish time: the same for a whole frame), then the JSON.
 RECORD_LENGTH = Stamp(8)
-FRAME_FIELDS = struct.Struct("<IQQ")
-RECORD_FIELDS = Stamp(FRAME_FIELDS.size)
-RECORD_START = b"\x05"
-RECORD_OVERHEAD = 1 + RECORD_LENGTH.width  # bytes of a record not counted in its length
+RECORD_FIELDS = Stamp(MESSAGE_FIELDS.size)
+RECORD_START = bytes([Opcode.MESSAGE])
 
 # The literal pieces between the slots of each kind of row (the slots are listed beside them).
 POSE_SLOTS = (RECORD_LENGTH, RECORD_FIELDS, UNIT, UNIT, METRES, METRES, TIME)
@@ -99,8 +99,8 @@ class _Records:
 
     def fill(self, numbers: list[SlotValue], sequence: int,
              ns: int) -> RecordBlock:
-        length = struct.pack("<Q", self.template.row_length - RECORD_OVERHEAD)
-        rows = self.template.fill([length, FRAME_FIELDS.pack(sequence, ns, ns), *numbers])
+        length = struct.pack("<Q", self.template.row_length - RECORD_PREFIX)
+        rows = self.template.fill([length, MESSAGE_FIELDS.pack(sequence, ns, ns), *numbers])
         offsets = np.arange(len(self.channels), dtype=np.uint64) * np.uint64(rows.shape[1])
         return RecordBlock(rows.reshape(-1).data, self.channels, offsets)
 
