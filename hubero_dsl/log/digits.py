@@ -92,14 +92,14 @@ class FixedFormat:
 
     def _head(self, whole: npt.NDArray[np.int64], negative: npt.NDArray[np.bool_]
               ) -> GroupArray:
-        _, leading, second, blank_minus = _tables()
+        padded, leading, second, blank_minus = _tables()
         sign = negative.astype(np.int64)
         if self.head_groups == 1:
             return leading[whole + 1000 * sign]
         high, low = np.divmod(whole, _GROUP)
         empty = high == 0
         first = np.where(empty, blank_minus[sign & (low >= 1000)], leading[high + 1000 * sign])
-        rest = np.where(empty, second[low + _GROUP * sign], _tables()[0][low])
+        rest = np.where(empty, second[low + _GROUP * sign], padded[low])
         return np.column_stack([first, rest])
 
     def _fraction(self, fraction: npt.NDArray[np.int64]) -> GroupArray:
