@@ -1,0 +1,64 @@
+"""The logs of every variant of every shipped scenario, byte for byte, as recorded in
+tests/cases/logs/digests.json.
+
+A change that means to keep behaviour (a refactor, a speed-up) must keep these bytes. A change
+that means to alter behaviour regenerates the digests on purpose and says why in its commit:
+
+    HUBERO_REGENERATE_LOG_DIGESTS=1 python -m pytest tests/test_log_identity.py
+
+The metadata records the map's absolute path, so the scenarios and maps are copied to one fixed
+folder and run from there with relative paths, as a user would type them.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+DIGESTS = REPO_ROOT / "tests" / "cases" / "logs" / "digests.json"
+# fixed, so that the absolute map path in the metadata is the same on every machine
+STAGE = Path("/tmp/hubero-log-identity")
+REGENERATE = os.environ.get("HUBERO_REGENERATE_LOG_DIGESTS") == "1"
+
+pytestmark = pytest.mark.slow
+
+
+def _stage() -> Path:
+    shutil.rmtree(STAGE, ignore_errors=True)
+    for folder in ("scenarios", "maps"):
+        shutil.copytree(REPO_ROOT / folder, STAGE / folder)
+    return STAGE
+
+
+def _logs() -> dict[str, str]:
+    stage = _stage()
+    digests: dict[str, str] = {}
+    for scenario in sorted((stage / "scenarios").glob("*.hub")):
+        out_dir = stage / "logs" / scenario.stem
+        command = [sys.executable, "-m", "hubero_dsl", "run", f"scenarios/{scenario.name}",
+                   "--all-variants", "--quiet", "--out-dir", str(out_dir)]
+        done = subprocess.run(command, cwd=stage, capture_output=True, text=True, check=False,
+                              env={**os.environ, "PYTHONHASHSEED": "0"})
+        assert done.returncode in (0, 1), done.stderr
+        for log in sorted(out_dir.glob("*.mcap")):
+            key = f"{scenario.stem}/{log.name}"
+            digests[key] = hashlib.sha256(log.read_bytes()).hexdigest()
+    return digests
+
+
+def test_logs_of_shipped_scenarios_are_unchanged() -> None:
+    digests = _logs()
+    if REGENERATE:
+        DIGESTS.write_text(json.dumps(digests, indent=2, sort_keys=True) + "\n")
+    expected = json.loads(DIGESTS.read_text())
+    assert sorted(digests) == sorted(expected), "the set of scenarios or variants changed"
+    changed = [key for key in expected if digests[key] != expected[key]]
+    assert not changed, f"these logs changed: {changed}"
