@@ -12,6 +12,7 @@ folder and run from there with relative paths, as a user would type them.
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import json
 import os
@@ -55,7 +56,9 @@ def _logs() -> dict[str, str]:
 
 
 def test_logs_of_shipped_scenarios_are_unchanged() -> None:
-    digests = _logs()
+    with open(f"{STAGE}.lock", "w") as lock:  # other checkouts on this machine share STAGE
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        digests = _logs()
     if REGENERATE:
         DIGESTS.write_text(json.dumps(digests, indent=2, sort_keys=True) + "\n")
     expected = json.loads(DIGESTS.read_text())
