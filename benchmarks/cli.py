@@ -35,16 +35,15 @@ PAPER_SCENARIOS = (REPO_ROOT / "scenarios" / "living_room.hub",
 # One run in a fresh interpreter: imports first, then the clock runs over compile + run.
 RUN_ONCE = """
 import json, sys, time
-from hubero_dsl.lang.compile import compile_file
-from hubero_dsl.sim.run import run_program
-from hubero_dsl.sim.simulation import Simulation
+from hubero_dsl.pipeline import compile_file
+from hubero_dsl.simulate import simulate
 import hubero_dsl.planners.navfn, hubero_dsl.planners.social_force, hubero_dsl.planners.straight
 import hubero_dsl.world.mapfile
 variant = sys.argv[2] or None
 seconds = []
 for _ in range(2):  # the first run in a fresh process, then one in a process that has run one
     start = time.perf_counter()
-    result = run_program(Simulation(compile_file(sys.argv[1]), variant=variant))
+    result = simulate(compile_file(sys.argv[1]), variant=variant)
     seconds.append(time.perf_counter() - start)
 print(json.dumps({"simulated": result.time, "seconds": seconds, "state": result.state.value}))
 """
@@ -109,7 +108,7 @@ class RunSpeed:
 
 def variants_of(scenario: Path) -> list[str]:
     """"" (the scenario as written, what `hubero run FILE` runs) and each variant's name."""
-    from hubero_dsl.lang.compile import compile_file
+    from hubero_dsl.pipeline import compile_file
 
     return ["", *compile_file(scenario).variants]
 

@@ -1,8 +1,8 @@
 """Circle crossing: N humans on a circle walk to the antipode, social force, open space.
 
 hubero runs a generated `.hub` file through the same code path as `hubero run` (compile,
-Simulation, run_program). Start-up, compilation and the first plans are left out in two ways:
-the ticks from SHORT to LONG are timed inside the run (by an observer of run_program, the hook
+Simulation, simulate). Start-up, compilation and the first plans are left out in two ways:
+the ticks from SHORT to LONG are timed inside the run (by an observer of simulate, the hook
 the log writer uses), and the cost of a short run of the same scenario is subtracted from the
 cost of the long one. The first is the headline: on a shared machine the subtraction is as noisy
 as compiling the file (at N = 10 the measured ticks take ~30 ms, less than that jitter); it is
@@ -39,9 +39,9 @@ from pathlib import Path
 
 import numpy as np
 
-from hubero_dsl.lang.compile import compile_file
-from hubero_dsl.sim.run import run_program
+from hubero_dsl.pipeline import compile_file
 from hubero_dsl.sim.simulation import Simulation
+from hubero_dsl.simulate import simulate
 from hubero_dsl.world.grid import OccupancyGrid
 from hubero_dsl.world.mapfile import save_map
 
@@ -98,7 +98,7 @@ def scenario_text(count: int, map_path: Path, time_limit: float) -> str:
 
 
 class _Clock:
-    """An observer of run_program: the wall time at which each tick ended."""
+    """An observer of the run: the wall time at which each tick ended."""
 
     def __init__(self) -> None:
         self.ended: list[float] = []
@@ -116,7 +116,7 @@ def run_seconds(folder: Path, count: int, time_limit: float) -> tuple[float, int
     clock = _Clock()
     start = time.perf_counter()
     program = compile_file(file)
-    result = run_program(Simulation(program), [clock])
+    result = simulate(program, observers=[clock])
     return time.perf_counter() - start, result.ticks, clock
 
 

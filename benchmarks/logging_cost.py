@@ -25,11 +25,11 @@ from pathlib import Path
 
 import numpy as np
 
-from hubero_dsl.lang.compile import compile_file
-from hubero_dsl.lang.program import Program
-from hubero_dsl.log.writer import RunLog, can_fork
-from hubero_dsl.sim.run import run_program
-from hubero_dsl.sim.simulation import Simulation
+from hubero_dsl.log.reader import load_run
+from hubero_dsl.log.writer import can_fork
+from hubero_dsl.model.program import Program
+from hubero_dsl.pipeline import compile_file
+from hubero_dsl.simulate import simulate
 from hubero_dsl.world.grid import OccupancyGrid
 from hubero_dsl.world.mapfile import save_map
 
@@ -75,15 +75,13 @@ def _children_cpu() -> float:
 
 
 def run_bare(program: Program) -> int:
-    run_program(Simulation(program))
+    simulate(program)
     return 0
 
 
 def run_logged(program: Program, output: Path, rate: float, writer_process: bool) -> int:
-    sim = Simulation(program)
-    with RunLog(output, sim, rate_hz=rate, writer_process=writer_process) as log:
-        log.close(run_program(sim, [log.observe]))
-    return log.frames
+    simulate(program, log=output, log_rate=rate, writer_process=writer_process)
+    return 0
 
 
 def main() -> None:
@@ -108,8 +106,8 @@ def main() -> None:
             for mode, writer_process in modes:
                 times[mode].append(timed(
                     lambda w=writer_process: run_logged(program, output, args.rate, w)))
-            frames = times[modes[-1][0]][-1][3]
             size = output.stat().st_size
+        frames = len(next(iter(load_run(output).humans.values())).time)
     print(f"crossing: {args.humans} humans, {args.time_limit:g} s simulated at 50 ms steps, "
           f"log at {args.rate:g} Hz ({frames} frames, {size / 1e6:.1f} MB); "
           f"median of {args.repeat}")

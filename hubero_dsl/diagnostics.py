@@ -29,6 +29,19 @@ class Span:
         return Span(file, 1, 1, 1, 1)
 
 
+@dataclass(frozen=True, slots=True)
+class SourceFile:
+    """A scenario's text and where it came from."""
+
+    path: str
+    text: str
+
+    def line(self, number: int) -> str:
+        lines = self.text.split("\n")  # as the lexer counts lines: only at "\n"
+        return lines[number - 1].rstrip("\r") if 0 < number <= len(lines) else ""
+
+
+
 class Severity(StrEnum):
     ERROR = "error"
     WARNING = "warning"

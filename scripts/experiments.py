@@ -21,9 +21,9 @@ from hubero_dsl.analysis.diff import RunDiff, diff_runs
 from hubero_dsl.analysis.metrics import compute_metrics
 from hubero_dsl.analysis.plot import View, plot_overlay, plot_run
 from hubero_dsl.cli.diff import metric_label
-from hubero_dsl.cli.run import run_one
-from hubero_dsl.lang.compile import compile_file
 from hubero_dsl.log.reader import LoggedRun, load_run
+from hubero_dsl.pipeline import compile_file
+from hubero_dsl.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "experiments.md"
@@ -56,7 +56,7 @@ def run_variants(comparison: Comparison, folder: Path) -> dict[str, LoggedRun]:
     runs = {}
     for variant in comparison.variants:
         log = folder / f"{comparison.name}-{variant}.mcap"
-        run_one(program, variant, None, log, 10.0, quiet=True)
+        simulate(program, variant=variant, log=log)
         runs[variant] = load_run(log)
     return runs
 
@@ -227,7 +227,7 @@ RADII = (0.25, 0.35, 0.45, 0.50, 0.55, 0.60, 0.70)
 
 def radius_table(folder: Path) -> list[str]:
     """actor1's route in the parking lot for circles of growing radius: where it flips."""
-    from hubero_dsl.lang.compile import compile_source
+    from hubero_dsl.pipeline import compile_source
 
     path = ROOT / PARKING.scenario
     names = {radius: f"r{round(radius * 100):03d}" for radius in RADII}
@@ -242,7 +242,7 @@ def radius_table(folder: Path) -> list[str]:
             "|---:|---:|---:|---:|"]
     for radius, name in names.items():
         log = folder / f"parking-{name}.mcap"
-        run_one(program, name, None, log, 10.0, quiet=True)
+        simulate(program, variant=name, log=log)
         run = load_run(log)
         metrics = compute_metrics(run).humans["actor1"]
         at = metrics.task_finish_times.get("at_dumpster")

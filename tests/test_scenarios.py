@@ -10,8 +10,8 @@ import pytest
 from scipy.spatial.distance import pdist
 
 from hubero_dsl.graph.render import to_mermaid
-from hubero_dsl.lang.compile import check_file, compile_file, compile_source
-from hubero_dsl.sim.run import RunResult, run_program
+from hubero_dsl.pipeline import check_file, compile_file, compile_source
+from hubero_dsl.sim.loop import RunResult, run_program
 from hubero_dsl.sim.scheduler import RunState
 from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.sim.status import TaskStatus

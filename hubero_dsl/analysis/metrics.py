@@ -43,8 +43,8 @@ from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, Shape, ShapeArra
 
 if TYPE_CHECKING:
     from hubero_dsl.diagnostics import Span
-    from hubero_dsl.lang import ast
     from hubero_dsl.log.reader import LoggedRun
+    from hubero_dsl.pipeline import Outline
     from hubero_dsl.sim.status import TaskEvent
 
 FloatArray = npt.NDArray[np.float64]
@@ -149,9 +149,9 @@ class _Actor:
 
 def compute_metrics(run: LoggedRun) -> RunMetrics:
     """Every human's and robot's metrics, from a log read by `load_run`."""
-    module = _parse(run)
-    actors = _actors(run, module)
-    spans = _label_spans(module)
+    outline = _outline(run)
+    actors = _actors(run, outline)
+    spans = _label_spans(outline)
     humans = {}
     for name, track in sorted(run.humans.items()):
         actor = actors[name]
@@ -180,14 +180,14 @@ def compute_metrics(run: LoggedRun) -> RunMetrics:
     return RunMetrics(humans, robots)
 
 
-def _actors(run: LoggedRun, module: ast.Module | None) -> dict[str, _Actor]:
+def _actors(run: LoggedRun, outline: Outline | None) -> dict[str, _Actor]:
     actors = {}
     for name, human in run.humans.items():
         radius = run.metadata.params.get(name, {}).get("radius", DEFAULT_HUMAN_RADIUS)
         actors[name] = _Actor(name, human.time, human.position,
                               float(radius) if isinstance(radius, int | float) else
                               DEFAULT_HUMAN_RADIUS)
-    robot_radius = _robot_radii(module, run.metadata.variant)
+    robot_radius = outline.robot_radii(run.metadata.variant) if outline is not None else {}
     for name, robot in run.robots.items():
         actors[name] = _Actor(name, robot.time, robot.position,
                               robot_radius.get(name, DEFAULT_ROBOT_RADIUS))
@@ -279,27 +279,27 @@ def intrusion_time(actor: _Actor, heading: FloatArray, shape: Shape,
 # ---- labels and robot sizes, from the scenario text kept in the log ---------------------------
 
 
-def _parse(run: LoggedRun) -> ast.Module | None:
-    """The scenario as parsed from the log's copy of its text; None when there is none."""
+def _outline(run: LoggedRun) -> Outline | None:
+    """The scenario as read from the log's copy of its text; None when there is none."""
     from hubero_dsl.errors import HuberoError
-    from hubero_dsl.lang.parse import parse_source
+    from hubero_dsl.pipeline import outline_source
 
     if not run.metadata.source.strip():
         return None
     try:
-        return parse_source(run.metadata.source, run.metadata.source_path)
+        return outline_source(run.metadata.source, run.metadata.source_path)
     except HuberoError:
         return None  # a log of a scenario this version cannot parse: no labels, default radii
 
 
-def _label_spans(module: ast.Module | None) -> list[tuple[str, Span, bool]]:
+def _label_spans(outline: Outline | None) -> list[tuple[str, Span, bool]]:
     """(label, span, is a single task) of every labelled step."""
-    if module is None:
+    if outline is None:
         return []
-    from hubero_dsl.lang import ast
+    from hubero_dsl.model.activities import TaskStep, walk_steps
 
-    steps = ast.walk_steps(tuple(s for a in module.of_type(ast.ActivityDecl) for s in a.steps))
-    return [(step.label.name, step.span, isinstance(step, ast.TaskStep))
+    steps = walk_steps(tuple(s for a in outline.activities for s in a.steps))
+    return [(step.label.name, step.span, isinstance(step, TaskStep))
             for step in steps if step.label is not None]
 
 
@@ -336,32 +336,3 @@ def _own_label(span: Span | None, labels: list[tuple[str, Span, bool]]) -> str |
         return None
     return next((name for name, where, single in labels
                  if single and (where.line, where.column) == (span.line, span.column)), None)
-
-
-def _robot_radii(module: ast.Module | None, variant: str | None) -> dict[str, float]:
-    """Robots' radii as the scenario sets them (the log records only the humans' parameters)."""
-    if module is None:
-        return {}
-    from hubero_dsl.lang import ast
-
-    radii = {}
-    for robot in module.of_type(ast.RobotDecl):
-        for param in robot.params:
-            if param.path == ("radius",) and isinstance(param.value, ast.Quantity | ast.Number):
-                radii[robot.name.name] = _metres(param.value)
-    for declared in module.of_type(ast.VariantDecl):
-        if declared.name.name != variant:
-            continue
-        for param in declared.params:
-            if (len(param.path) == 2 and param.path[1] == "radius" and param.path[0] in radii
-                    and isinstance(param.value, ast.Quantity | ast.Number)):
-                radii[param.path[0]] = _metres(param.value)
-    return radii
-
-
-def _metres(value: ast.Quantity | ast.Number) -> float:
-    from hubero_dsl.lang import ast
-
-    if isinstance(value, ast.Quantity):
-        return value.si if value.known_unit else DEFAULT_ROBOT_RADIUS
-    return float(value.value)

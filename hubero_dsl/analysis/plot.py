@@ -26,6 +26,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Polygon
 
 from hubero_dsl.errors import InputError
+from hubero_dsl.model.tasks import TASKS
 from hubero_dsl.sim.status import TaskStatus
 from hubero_dsl.world.personal_space import outline
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, Shape
@@ -45,7 +46,7 @@ _LEGEND_HANDLE_INCHES = 0.75                  # the line sample, its padding and
 MARGIN = 1.5        # metres of map shown around what the actors used
 SPACING = 1.5       # metres along a path between two drawn personal spaces
 FREE, OCCUPIED, UNKNOWN = 1.0, 0.55, 0.82  # grey levels of the map
-_NAVIGATION = ("move_to", "run_to", "sit_down", "lie_down")
+_NAVIGATION = tuple(kind.name for kind in TASKS.values() if kind.marks_goal)
 
 
 def colours(names: Sequence[str]) -> dict[str, Any]:

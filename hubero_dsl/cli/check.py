@@ -12,7 +12,7 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
-from hubero_dsl.cli.render import (
+from hubero_dsl.cli.diagnostic_formats import (
     FileReport,
     Printer,
     exit_status,
@@ -22,7 +22,7 @@ from hubero_dsl.cli.render import (
 )
 
 if TYPE_CHECKING:
-    from hubero_dsl.lang.compile import CheckResult
+    from hubero_dsl.pipeline import CheckResult
 
 FORMATS = ("text", "json", "github")
 
@@ -92,7 +92,7 @@ def check_one(path: str, check_file: Callable[[str], CheckResult]) -> FileReport
 
 def _checker() -> Callable[[str], CheckResult]:
     # Imported here, not at module level: it pulls in the parser and the checker.
-    from hubero_dsl.lang.compile import check_file
+    from hubero_dsl.pipeline import check_file
 
     return check_file
 

@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from hubero_dsl.cli.render import FileReport, Printer, text_report
+from hubero_dsl.cli.diagnostic_formats import FileReport, Printer, text_report
 
 FORMATS = ("mermaid", "dot", "png")
 _FORMAT_OF_SUFFIX = {".mmd": "mermaid", ".mermaid": "mermaid", ".dot": "dot", ".gv": "dot",
@@ -74,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _checked_graph(path: str) -> Any:
     """The program's activity graph, or None after printing the errors that prevent one."""
-    from hubero_dsl.lang.compile import check_file
+    from hubero_dsl.pipeline import check_file
 
     result = check_file(path)
     if result.diagnostics:

@@ -6,9 +6,9 @@ Each command is one module in `hubero_dsl.cli` exposing
     run(args: argparse.Namespace) -> int                 # does it; returns the exit status
 
 and is listed in `COMMANDS`; adding a command is adding its module and its name there. Command
-modules import only the standard library and `hubero_dsl.cli.render` at module level and load the
-heavy parts of hubero (the checker, numpy, networkx, the simulator) inside `run`, so that
-`hubero --help` and a cold `hubero check` stay fast.
+modules import only the standard library and `hubero_dsl.cli.diagnostic_formats` at module level
+and load the heavy parts of hubero (the checker, numpy, networkx, the simulator) inside `run`, so
+that `hubero --help` and a cold `hubero check` stay fast.
 
 This module is the only place that turns exceptions into messages: no traceback reaches the user
 unless HUBERO_DEBUG=1 asks for one.
@@ -105,7 +105,12 @@ def _dispatch(argv: Sequence[str] | None) -> int:
 
 
 def _report_error(exc: HuberoError) -> None:
-    from hubero_dsl.cli.render import Printer, SourceLines, diagnostic_lines, input_error_lines
+    from hubero_dsl.cli.diagnostic_formats import (
+        Printer,
+        SourceLines,
+        diagnostic_lines,
+        input_error_lines,
+    )
     from hubero_dsl.diagnostics import error
 
     printer = Printer.to(sys.stderr)
@@ -116,7 +121,7 @@ def _report_error(exc: HuberoError) -> None:
 
 
 def _report_compile_error(exc: CompileError) -> None:
-    from hubero_dsl.cli.render import Printer, SourceLines, diagnostic_lines
+    from hubero_dsl.cli.diagnostic_formats import Printer, SourceLines, diagnostic_lines
 
     printer = Printer.to(sys.stderr)
     sources = SourceLines()

@@ -16,8 +16,8 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-    from hubero_dsl.lang.program import Program
-    from hubero_dsl.sim.run import RunResult
+    from hubero_dsl.model.program import Program
+    from hubero_dsl.sim.loop import RunResult
     from hubero_dsl.sim.simulation import Simulation
 
 
@@ -59,7 +59,7 @@ def variants_to_run(program: Program, args: argparse.Namespace) -> list[str | No
 
 def run(args: argparse.Namespace) -> int:
     from hubero_dsl.errors import InputError
-    from hubero_dsl.lang.compile import compile_file
+    from hubero_dsl.pipeline import compile_file
 
     if args.log_rate <= 0:
         raise InputError("--log-rate must be greater than zero")
@@ -97,24 +97,14 @@ def _log_path(args: argparse.Namespace, variant: str | None) -> Path | None:
 
 def run_one(program: Program, variant: str | None, seed: int | None, output: Path | None,
             log_rate: float, *, quiet: bool) -> RunResult:
-    """Simulate one variant, with a progress bar unless quiet and a log if asked."""
-    from hubero_dsl.sim.run import run_program
-    from hubero_dsl.sim.simulation import Simulation
+    """Simulate one variant with a progress bar unless quiet, and a log if asked."""
+    from hubero_dsl.simulate import simulate
 
-    sim = Simulation(program, variant=variant, seed=seed)
     with ExitStack() as stack:
         observers: list[Callable[[Simulation], None]] = []
-        log = None
-        if output is not None:
-            from hubero_dsl.log.writer import RunLog
-
-            log = stack.enter_context(RunLog(output, sim, rate_hz=log_rate))
-            observers.append(log.observe)
         if not quiet:
             from hubero_dsl.cli.summary import progress_observer
 
             observers.append(stack.enter_context(progress_observer(program, variant)))
-        result = run_program(sim, observers)
-        if log is not None:
-            log.close(result)
-    return result
+        return simulate(program, variant=variant, seed=seed, log=output, log_rate=log_rate,
+                        observers=observers)

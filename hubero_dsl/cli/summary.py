@@ -19,8 +19,8 @@ from rich.table import Table
 from hubero_dsl.cli.console import make_console
 
 if TYPE_CHECKING:
-    from hubero_dsl.lang.program import Program
-    from hubero_dsl.sim.run import RunResult
+    from hubero_dsl.model.program import Program
+    from hubero_dsl.sim.loop import RunResult
     from hubero_dsl.sim.simulation import Simulation
 
 STATE_STYLE = {"completed": "green", "failed": "red", "timed_out": "yellow"}

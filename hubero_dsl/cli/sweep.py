@@ -66,7 +66,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hubero_dsl.lang.compile import compile_file
+    from hubero_dsl.pipeline import compile_file
     from hubero_dsl.sweep.plan import parse_seeds, plan_sweep, select_variants
 
     _check_options(args)

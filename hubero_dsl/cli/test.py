@@ -26,7 +26,7 @@ def run(args: argparse.Namespace) -> int:
     from rich.markup import escape
 
     from hubero_dsl.cli.console import make_console
-    from hubero_dsl.lang.compile import compile_file
+    from hubero_dsl.pipeline import compile_file
 
     console = make_console()
     failures = 0

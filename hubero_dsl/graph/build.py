@@ -10,9 +10,11 @@ or `activity#N` for the N-th activity when it has none), `order` (N of the id), 
 `label` (the step's label, or None). Per kind:
 
 - `initial`, `final`: where the activity's token starts and where it ends.
-- `action` (a task step): `human` (name), `task` (`ast.Task`), `until` (condition or None),
-  `within` (value or None), `forever` (bool), `step`. Ends when the task ends.
-- `wait` (`wait Q`): `duration`, `step`. `accept` (`wait until C`): `condition`, `step`.
+- `action` (a task step): `human` (the actor's name), `task` (`model.tasks.Task`), `until`
+  (condition or None), `within` (seconds or None), `forever` (bool), `step`. Ends when the task
+  ends.
+- `wait` (`wait Q`): `duration` (seconds), `step`. `accept` (`wait until C`): `condition`,
+  `step`.
 - `fork` / `join` (`parallel`): the fork passes a token to every branch; the join fires when
   every branch has arrived. `race_fork` / `race_join` (`race`): the join fires when the FIRST
   branch arrives, and the nodes of the other branches are preempted. Forks carry `join` and
@@ -28,7 +30,7 @@ or `activity#N` for the N-th activity when it has none), `order` (N of the id), 
   a token leaves the end node, `LABEL failed` once a member action is aborted.
 
 Empty `parallel`/`race` blocks and empty branches are rejected by the analyses
-(`hubero_dsl.graph.analysis`); the graph still links them (fork straight to join).
+(`hubero_dsl.graph.verify`); the graph still links them (fork straight to join).
 """
 
 from __future__ import annotations
@@ -42,7 +44,8 @@ from typing import Any
 import networkx as nx
 
 from hubero_dsl.diagnostics import Span
-from hubero_dsl.lang import ast
+from hubero_dsl.model import activities as m
+from hubero_dsl.model.conditions import Label
 
 
 class NodeKind(StrEnum):
@@ -80,7 +83,7 @@ class LabelScope:
     """Where a label's step begins and ends, and every node inside it (begin and end included)."""
 
     label: str
-    ref: ast.NameRef
+    ref: Label
     begin: str
     end: str
     members: tuple[str, ...]
@@ -90,7 +93,7 @@ class LabelScope:
 _Fragment = tuple[str, str] | None
 
 
-def build_activity_graph(activities: Sequence[ast.ActivityDecl]) -> nx.DiGraph:
+def build_activity_graph(activities: Sequence[m.Activity]) -> nx.DiGraph:
     """One graph for the whole scenario; see the module docstring for nodes and edges."""
     graph = nx.DiGraph()
     keys = activity_keys(activities)
@@ -100,11 +103,11 @@ def build_activity_graph(activities: Sequence[ast.ActivityDecl]) -> nx.DiGraph:
     return graph
 
 
-def activity_keys(activities: Sequence[ast.ActivityDecl]) -> list[str]:
+def activity_keys(activities: Sequence[m.Activity]) -> list[str]:
     """Each activity's key: its name, `activity#N` when unnamed, `NAME#N` for a repeated name."""
     keys: list[str] = []
     for number, decl in enumerate(activities, start=1):
-        key = decl.name.name if decl.name is not None else f"activity#{number}"
+        key = decl.name if decl.name is not None else f"activity#{number}"
         keys.append(f"{key}#{number}" if key in keys else key)
     return keys
 
@@ -117,8 +120,8 @@ class _ActivityBuilder:
         self.key = key
         self.count = 0
 
-    def build(self, decl: ast.ActivityDecl) -> None:
-        initial = self._add(NodeKind.INITIAL, _head_span(decl), decl=decl)
+    def build(self, decl: m.Activity) -> None:
+        initial = self._add(NodeKind.INITIAL, decl.head_span, decl=decl)
         body = self._sequence(decl.steps)
         final = self._add(NodeKind.FINAL, _closing_span(decl.span), decl=decl)
         self._chain([(initial, initial), body, (final, final)])
@@ -139,12 +142,11 @@ class _ActivityBuilder:
             self.graph.add_edge(exit_node, entry_node)
         return (present[0][0], present[-1][1]) if present else None
 
-    def _sequence(self, steps: Sequence[ast.Step]) -> _Fragment:
+    def _sequence(self, steps: Sequence[m.Step]) -> _Fragment:
         return self._chain([self._step(step) for step in steps])
 
-    def _step(self, step: ast.Step) -> _Fragment:
-        if step.label is None or isinstance(step, ast.TaskStep | ast.WaitStep
-                                            | ast.WaitUntilStep):
+    def _step(self, step: m.Step) -> _Fragment:
+        if step.label is None or isinstance(step, m.TaskStep | m.WaitStep | m.WaitUntilStep):
             return self._bare_step(step)
         name = step.label.name
         begin = self._add(NodeKind.LABEL_BEGIN, step.label.span, name, step=step)
@@ -154,30 +156,30 @@ class _ActivityBuilder:
         self.graph.nodes[begin]["end"] = end
         return self._chain([(begin, begin), inner, (end, end)])
 
-    def _bare_step(self, step: ast.Step) -> _Fragment:
+    def _bare_step(self, step: m.Step) -> _Fragment:
         label = step.label.name if step.label is not None else None
         match step:
-            case ast.TaskStep():
-                node = self._add(NodeKind.ACTION, step.span, label, human=step.human.name,
+            case m.TaskStep():
+                node = self._add(NodeKind.ACTION, step.span, label, human=step.actor,
                                  task=step.task, until=step.until, within=step.within,
                                  forever=step.forever, step=step)
-            case ast.WaitStep():
+            case m.WaitStep():
                 node = self._add(NodeKind.WAIT, step.span, label, duration=step.duration,
                                  step=step)
-            case ast.WaitUntilStep():
+            case m.WaitUntilStep():
                 node = self._add(NodeKind.ACCEPT, step.span, label, condition=step.condition,
                                  step=step)
-            case ast.ParallelStep():
+            case m.ParallelStep():
                 return self._fork(step, NodeKind.FORK, NodeKind.JOIN)
-            case ast.RaceStep():
+            case m.RaceStep():
                 return self._fork(step, NodeKind.RACE_FORK, NodeKind.RACE_JOIN)
-            case ast.RepeatStep():
+            case m.RepeatStep():
                 return self._repeat(step)
-            case ast.SequenceStep():
+            case m.SequenceStep():
                 return self._sequence(step.steps)
         return (node, node)
 
-    def _fork(self, step: ast.ParallelStep | ast.RaceStep, fork_kind: NodeKind,
+    def _fork(self, step: m.ParallelStep | m.RaceStep, fork_kind: NodeKind,
               join_kind: NodeKind) -> _Fragment:
         fork = self._add(fork_kind, step.span, step=step)
         built: list[tuple[_Fragment, tuple[str, ...]]] = []
@@ -198,31 +200,16 @@ class _ActivityBuilder:
         self.graph.nodes[fork].update(join=join, branches=tuple(branches))
         return (fork, join)
 
-    def _repeat(self, step: ast.RepeatStep) -> _Fragment:
-        count = repeat_count(step)
+    def _repeat(self, step: m.RepeatStep) -> _Fragment:
+        count = step.rounds
         start = self._add(NodeKind.REPEAT_START, step.span, count=count, step=step)
-        body = self._sequence(step.body.steps)
+        body = self._sequence(step.body)
         end = self._add(NodeKind.REPEAT_END, _closing_span(step.span), count=count, step=step,
                         start=start)
         self.graph.nodes[start]["end"] = end
         self._chain([(start, start), body, (end, end)])
         self.graph.add_edge(end, start, loop=True)
         return (start, end)
-
-
-def repeat_count(step: ast.RepeatStep) -> int:
-    """The number of rounds, or 0 when the count is not a whole number of at least one."""
-    count = step.count
-    return int(count.value) if count.is_integer and count.value >= 1 else 0
-
-
-def _head_span(decl: ast.ActivityDecl) -> Span:
-    """`activity NAME` (or just `activity`): where the initial node points."""
-    span = decl.span
-    if decl.name is not None:
-        return Span(span.file, span.line, span.column, decl.name.span.end_line,
-                    decl.name.span.end_column)
-    return Span(span.file, span.line, span.column, span.line, span.column + len("activity"))
 
 
 def _closing_span(span: Span) -> Span:
@@ -302,17 +289,17 @@ def label_scopes(graph: nx.DiGraph) -> dict[str, LabelScope]:
     return scopes
 
 
-def label_definitions(graph: nx.DiGraph) -> list[tuple[ast.NameRef, str]]:
+def label_definitions(graph: nx.DiGraph) -> list[tuple[Label, str]]:
     """Every label as written (duplicates included), with the node that begins it."""
     return [(ref, begin) for begin, _, ref in _labelled_nodes(graph)]
 
 
-def _labelled_nodes(graph: nx.DiGraph) -> Iterator[tuple[str, str, ast.NameRef]]:
+def _labelled_nodes(graph: nx.DiGraph) -> Iterator[tuple[str, str, Label]]:
     """(begin node, end node, label) of every labelled step, in source order."""
     for node in nodes_of_kind(graph, NodeKind.ACTION, NodeKind.WAIT, NodeKind.ACCEPT,
                               NodeKind.LABEL_BEGIN):
         data = graph.nodes[node]
-        step: ast.Step = data["step"]
+        step: m.Step = data["step"]
         if step.label is None:
             continue
         end = data.get("end", node) if data["kind"] is NodeKind.LABEL_BEGIN else node

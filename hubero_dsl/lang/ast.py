@@ -11,8 +11,8 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import TypeAlias, TypeVar
 
-from hubero_dsl.diagnostics import Span
-from hubero_dsl.lang.units import UNITS, Dimension
+from hubero_dsl.diagnostics import SourceFile, Span
+from hubero_dsl.model.units import UNITS, Dimension
 
 # ---- values ------------------------------------------------------------------------------
 
@@ -451,18 +451,6 @@ class ExpectDecl:
 Statement: TypeAlias = (ScenarioDecl | MapDecl | SettingDecl | PlaceDecl | AreaDecl | DefaultsDecl
                         | HumanDecl | RobotDecl | VariantDecl | SweepDecl | ActivityDecl
                         | ExpectDecl)
-
-
-@dataclass(frozen=True, slots=True)
-class SourceFile:
-    """A scenario's text and where it came from."""
-
-    path: str
-    text: str
-
-    def line(self, number: int) -> str:
-        lines = self.text.split("\n")  # as the lexer counts lines: only at "\n"
-        return lines[number - 1].rstrip("\r") if 0 < number <= len(lines) else ""
 
 
 @dataclass(frozen=True, slots=True)

@@ -2,7 +2,7 @@
 
 `Checker.run()` walks a parsed module once, collecting every diagnostic (never stopping at the
 first) and the resolved facts the program is built from. Checks that need the map live in
-`placement.py`; checks that need the activity graph live in `hubero_dsl.graph.analysis`.
+`placement.py`; checks that need the activity graph live in `hubero_dsl.graph.verify`.
 """
 
 from __future__ import annotations
@@ -13,38 +13,23 @@ from dataclasses import dataclass, field
 
 from hubero_dsl.diagnostics import Diagnostic, Related, Span, error, warning
 from hubero_dsl.lang import ast
-from hubero_dsl.lang.program import (
+from hubero_dsl.lang.lower import area_polygon, coordinate
+from hubero_dsl.lang.symbols import NameKind, SymbolTable, alias_depths
+from hubero_dsl.lang.values import ValueReader, did_you_mean, field_dimension
+from hubero_dsl.model.params import HUMAN_PARAMS, ROBOT_PARAMS
+from hubero_dsl.model.program import (
     Distribution,
     ParamLayer,
     ParamValue,
     Pose,
     RobotSpec,
-    area_polygon,
-    coordinate,
 )
-from hubero_dsl.lang.symbols import NameKind, SymbolTable, alias_depths
-from hubero_dsl.lang.units import Dimension
-from hubero_dsl.lang.values import ValueReader, did_you_mean, field_dimension
-from hubero_dsl.params import HUMAN_PARAMS, ROBOT_PARAMS
+from hubero_dsl.model.tasks import TASKS, OptionSpec, TargetRule, TaskKind, ValueKind
+from hubero_dsl.model.units import Dimension
 from hubero_dsl.planners.registry import global_planner_names, local_planner_names
 
 BODIES = (NameKind.HUMAN, NameKind.ROBOT)
 TARGETS = (NameKind.PLACE, NameKind.HUMAN, NameKind.ROBOT)
-
-# task kind -> {option keyword: what its value is}
-TASK_OPTIONS: dict[str, dict[str, str]] = {
-    "stand": {"facing": "target", "for": "time"},
-    "move_to": {"heading": "angle", "speed": "speed"},
-    "run_to": {"heading": "angle"},
-    "move_around": {"in": "area", "for": "time", "times": "count"},
-    "follow": {"at": "length", "for": "time"},
-    "talk": {"to": "target", "for": "time"},
-    "sit_down": {"at": "target", "for": "time", "heading": "angle"},
-    "lie_down": {"at": "target", "for": "time", "heading": "angle"},
-    "teleop": {"for": "time"},
-}
-NEEDS_TARGET = {"move_to", "run_to", "follow"}
-
 
 @dataclass
 class Facts:
@@ -415,45 +400,57 @@ class Checker:
 
     def _task_step(self, step: ast.TaskStep) -> None:
         task = step.task
+        kind = TASKS.get(task.kind)
+        if kind is None:
+            self._unknown_task(task)
+            return
         human = self.symbols.resolve(step.human, NameKind.HUMAN,
                                      role=f"the subject of {task.kind}")
-        if task.kind in NEEDS_TARGET and task.target is None:
-            self.report("E205", f"{task.kind} needs a target", task.kind_span,
-                        f"write `{step.human.name} {task.kind} PLACE` or a point `(x, y)`")
-        if task.target is not None:
-            if task.kind not in NEEDS_TARGET:
-                keyword = {"stand": "facing", "talk": "to"}.get(task.kind, "at")
-                self.report("E205", f"{task.kind} takes no bare target",
-                            task.target.span, f"write `{task.kind} {keyword} ...`")
-            else:
-                self._target(task.target, f"the target of {task.kind}")
-                self._not_self(step, task.target)
-        self._task_options(step)
+        self._bare_target(step, kind)
+        self._task_options(step, kind)
         if step.until is not None:
             self._condition(step.until)
         if step.within is not None:
             self.values.quantity(step.within, Dimension.TIME, "'within'", positive=True)
-        if human is not None and task.kind == "follow" and isinstance(task.target, ast.NameRef) \
+        if human is not None and kind.target is TargetRule.BODY \
+                and isinstance(task.target, ast.NameRef) \
                 and self.symbols.kind_of(task.target.name) is NameKind.PLACE:
-            self.report("E103", f"'{task.target.name}' is a place; follow needs a human or robot",
-                        task.target.span)
-        if task.kind == "follow" and isinstance(task.target, ast.Point):
-            self.report("E201", "follow needs a human or robot, not a point", task.target.span,
-                        "to walk to a point, use move_to")
+            self.report("E103", f"'{task.target.name}' is a place; {task.kind} needs a human or "
+                        "robot", task.target.span)
+        if kind.target is TargetRule.BODY and isinstance(task.target, ast.Point):
+            self.report("E201", f"{task.kind} needs a human or robot, not a point",
+                        task.target.span, "to walk to a point, use move_to")
+
+    def _unknown_task(self, task: ast.Task) -> None:
+        self.report("E108", f"unknown task '{task.kind}'", task.kind_span,
+                    did_you_mean(task.kind, TASKS) or "the tasks are " + ", ".join(TASKS))
+
+    def _bare_target(self, step: ast.TaskStep, kind: TaskKind) -> None:
+        task = step.task
+        if kind.target is not TargetRule.NONE and task.target is None:
+            self.report("E205", f"{task.kind} needs a target", task.kind_span,
+                        f"write `{step.human.name} {task.kind} PLACE` or a point `(x, y)`")
+        if task.target is None:
+            return
+        if kind.target is TargetRule.NONE:
+            self.report("E205", f"{task.kind} takes no bare target", task.target.span,
+                        f"write `{task.kind} {kind.hint_keyword} ...`")
+        else:
+            self._target(task.target, f"the target of {task.kind}")
+            self._not_self(step, task.target)
 
     def _not_self(self, step: ast.TaskStep, target: ast.Value, keyword: str = "") -> None:
         if isinstance(target, ast.NameRef) and target.name == step.human.name:
             words = " ".join(w for w in (step.task.kind, keyword, "itself") if w)
             self.report("E203", f"{step.human.name} cannot {words}", target.span)
 
-    def _task_options(self, step: ast.TaskStep) -> None:
+    def _task_options(self, step: ast.TaskStep, kind: TaskKind) -> None:
         task = step.task
-        allowed = TASK_OPTIONS[task.kind]
         seen: dict[str, ast.TaskOption] = {}
         for option in task.options:
-            kind = allowed.get(option.keyword)
-            if kind is None:
-                takes = ", ".join(f"`{k}`" for k in allowed) or "no options"
+            spec = kind.option(option.keyword)
+            if spec is None:
+                takes = ", ".join(f"`{k}`" for k in kind.keywords) or "no options"
                 self.report("E107", f"{task.kind} takes no `{option.keyword}`", option.span,
                             f"{task.kind} takes {takes}")
                 continue
@@ -462,25 +459,24 @@ class Checker:
                             (Related("first given here", seen[option.keyword].span),))
                 continue
             seen[option.keyword] = option
-            self._option_value(step, option, kind)
+            self._option_value(step, option, spec)
         if "for" in seen and "times" in seen:
-            self.report("E106", "move_around takes `for` or `times`, not both", seen["times"].span)
+            self.report("E106", f"{task.kind} takes `for` or `times`, not both",
+                        seen["times"].span)
 
-    def _option_value(self, step: ast.TaskStep, option: ast.TaskOption, kind: str) -> None:
+    def _option_value(self, step: ast.TaskStep, option: ast.TaskOption, spec: OptionSpec) -> None:
         value = option.value
         role = f"`{option.keyword}` of {step.task.kind}"
-        if kind == "target":
+        if spec.value is ValueKind.TARGET:
             self._target(value, role)  # type: ignore[arg-type]
             self._not_self(step, value, option.keyword)  # type: ignore[arg-type]
-        elif kind == "area":
+        elif spec.value is ValueKind.AREA:
             self._area(value, role)  # type: ignore[arg-type]
-        elif kind == "count":
+        elif spec.value is ValueKind.COUNT:
             self.values.integer(value, role, minimum=1)  # type: ignore[arg-type]
-        else:
-            dimension = {"time": Dimension.TIME, "length": Dimension.LENGTH,
-                         "speed": Dimension.SPEED, "angle": Dimension.ANGLE}[kind]
-            self.values.quantity(value, dimension, role,
-                                 positive=kind in ("time", "length", "speed"))
+        elif spec.value.dimension is not None:
+            self.values.quantity(value, spec.value.dimension, role,
+                                 positive=spec.value is not ValueKind.ANGLE)
 
     # ---- conditions ------------------------------------------------------------------------
 

@@ -24,6 +24,7 @@ from lark.lexer import PatternStr
 from hubero_dsl.diagnostics import Diagnostic, Related, Span, error
 from hubero_dsl.errors import CompileError, InputError
 from hubero_dsl.lang import ast
+from hubero_dsl.model.tasks import TASKS
 
 MAX_SOURCE_BYTES = 2_000_000
 MAX_NESTING = 64
@@ -121,8 +122,7 @@ _TOKEN_NAMES = {
     "STRING": "a string", "_SEP": "end of statement", "$END": "end of file",
     "LPAR": "'('", "RPAR": "')'", "LBRACE": "'{'", "RBRACE": "'}'", "LSQB": "'['", "RSQB": "']'",
     "COMMA": "','", "COLON": "':'", "DOT": "'.'", "COMPARE": "a comparison (< <= > >=)",
-    "TASK_KIND": "a task (stand, move_to, run_to, move_around, follow, talk, sit_down, "
-                 "lie_down, teleop)",
+    "TASK_KIND": f"a task ({', '.join(TASKS)})",
     "SHAPE_KIND": "a shape (circle, ellipse, rectangle, square)",
     "EXPECT_MODE": "how it must hold (always, eventually, within)",
     "LABEL_EVENT": "a label event (done, started, failed)",
@@ -132,8 +132,8 @@ _TOKEN_NAMES = {
 
 # Keyword terminals that a hint names as one group when the parser would take any of them.
 _TERMINAL_GROUPS: tuple[tuple[frozenset[str], str], ...] = (
-    (frozenset({"STAND", "MOVE_TO", "RUN_TO", "MOVE_AROUND", "FOLLOW", "TALK", "SIT_DOWN",
-                "LIE_DOWN", "TELEOP"}), "TASK_KIND"),
+    # after a step's first name, a name is its task (or the name was a label, and ':' follows)
+    (frozenset({"NAME", "COLON"}), "TASK_KIND"),
     (frozenset({"CIRCLE", "ELLIPSE", "RECTANGLE", "SQUARE"}), "SHAPE_KIND"),
     (frozenset({"ALWAYS", "EVENTUALLY", "WITHIN"}), "EXPECT_MODE"),
     (frozenset({"DONE", "STARTED", "FAILED"}), "LABEL_EVENT"),
@@ -218,7 +218,7 @@ def _expected_terminals(exc: UnexpectedToken) -> set[str]:
     names = {t for t in accepted if not t.startswith("__IGNORE")}
     for group, name in _TERMINAL_GROUPS:
         if group <= names:
-            names = (names - group) | {name}
+            names = (names - group) | {name} | ({"COLON"} if name == "TASK_KIND" else set())
     return names
 
 
@@ -322,7 +322,7 @@ class _ToAst(Transformer[Token, Any]):
     def shape_kind(self, meta: Any, children: list[Token]) -> Token:
         return children[0]
 
-    distribution_kind = task_kind = event_kind = expect_mode = shape_kind
+    distribution_kind = event_kind = expect_mode = shape_kind
 
     # values
     def quantity(self, meta: Any, children: list[Token]) -> ast.Quantity:

@@ -16,6 +16,7 @@ from functools import cache
 from hubero_dsl.diagnostics import Diagnostic, Related, Span, error
 from hubero_dsl.lang import ast
 from hubero_dsl.lang.values import did_you_mean
+from hubero_dsl.model.tasks import TASKS
 
 
 class NameKind(StrEnum):
@@ -37,15 +38,17 @@ class Symbol:
 
 @cache
 def reserved_words() -> frozenset[str]:
-    """Every keyword of the grammar that looks like a name.
+    """Every keyword of the grammar that looks like a name, and every task kind.
 
     Shape and distribution kinds (`circle`, `normal`, ...) are only keywords right before `(`,
-    so they stay free for names: `variant circle { ... }` is fine.
+    so they stay free for names: `variant circle { ... }` is fine. Task kinds are names to the
+    grammar (the registry knows them), but a human called `talk` would read badly, so they are
+    reserved like keywords.
     """
     from hubero_dsl.lang.parse import grammar_text
 
     words = set(re.findall(r'"([A-Za-z_][A-Za-z0-9_]*)"', grammar_text()))
-    return frozenset(words - VALUE_KEYWORDS)
+    return frozenset((words - VALUE_KEYWORDS) | set(TASKS))
 
 
 VALUE_KEYWORDS = frozenset({"circle", "ellipse", "rectangle", "square", "normal", "uniform"})

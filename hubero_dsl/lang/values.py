@@ -13,9 +13,9 @@ from collections.abc import Iterable
 
 from hubero_dsl.diagnostics import Diagnostic, Span, error
 from hubero_dsl.lang import ast
-from hubero_dsl.lang.program import Distribution, ParamValue
-from hubero_dsl.lang.units import EXAMPLE_UNIT, UNITS, Dimension, describe
-from hubero_dsl.params import ParamKind, ParamSpec
+from hubero_dsl.model.params import ParamKind, ParamSpec
+from hubero_dsl.model.program import Distribution, ParamValue
+from hubero_dsl.model.units import EXAMPLE_UNIT, UNITS, Dimension, describe
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, Shape
 
 SHAPE_ARGS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {

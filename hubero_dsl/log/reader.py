@@ -27,8 +27,8 @@ from mcap.reader import make_reader
 
 from hubero_dsl.diagnostics import Span
 from hubero_dsl.errors import LogError
-from hubero_dsl.lang.program import ParamValue
 from hubero_dsl.log import schemas as s
+from hubero_dsl.model.program import ParamValue
 from hubero_dsl.sim.status import Posture, TaskEvent, TaskStatus
 from hubero_dsl.world.grid import OccupancyGrid
 

@@ -50,7 +50,7 @@ from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle
 if TYPE_CHECKING:
     from multiprocessing.connection import Connection
 
-    from hubero_dsl.sim.run import RunResult
+    from hubero_dsl.sim.loop import RunResult
     from hubero_dsl.sim.simulation import Simulation
     from hubero_dsl.sim.status import TaskEvent
 
@@ -388,9 +388,9 @@ def _result_json(result: RunResult) -> dict[str, Any]:
         "state": result.state.value, "reason": result.reason, "time": repr(result.time),
         "ticks": str(result.ticks), "succeeded": result.succeeded,
         "expectations": [
-            {"text": e.text, "held": bool(e.held), "line": e.decl.span.line,
+            {"text": e.text, "held": bool(e.held), "line": e.expectation.span.line,
              "decided_at": None if e.decided_at is None else s.number(e.decided_at),
-             "span": e.decl.span} for e in result.expectations],
+             "span": e.expectation.span} for e in result.expectations],
         "humans": [{"name": h.name, "tasks_done": h.tasks_done, "tasks_total": h.tasks_total,
                     "last_status": h.last_status, "path_length": s.number(h.path_length),
                     "busy_time": s.number(h.busy_time)} for h in result.humans]}

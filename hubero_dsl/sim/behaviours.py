@@ -4,24 +4,53 @@ A behaviour never runs every tick. It sets a human's drive in the arrays (walk t
 planned path, stop, turn to a heading) and is woken only by events the engine detects with array
 operations: its timer ran out, the human arrived, finished turning, or made no progress. This is
 the paper's aa.cs FSM: each behaviour names its current `state` for the log.
+
+`BEHAVIOURS` maps every task kind of the registry (`hubero_dsl.model.tasks.TASKS`) to the
+function that builds its behaviour from a `Task`; a new task kind registers one here with
+`@builds("kind")`. Behaviours reach the world only through `World`, the services the engine
+offers them, so this module does not depend on the engine.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
+from hubero_dsl.model.tasks import Target, Task
 from hubero_dsl.sim.status import Posture, TaskStatus
 
 if TYPE_CHECKING:
     from shapely.geometry import Polygon
 
-    from hubero_dsl.sim.engine import Engine
+    from hubero_dsl.sim.arrays import FloatArray, HumanArrays
 
-Target = tuple[float, float] | str
+
+class World(Protocol):
+    """What a behaviour may ask of the engine: time, positions, and commands for its human."""
+
+    humans: HumanArrays
+    tick: int
+    stuck_time: float
+    follow_replan: FloatArray
+
+    def ticks(self, seconds: float) -> int: ...
+    def position_of(self, target: Target) -> tuple[float, float] | None: ...
+    def body_radius_of(self, name: str) -> float: ...
+    def walking_speed(self, index: int, running: bool = False) -> float: ...
+    def walk_to(self, index: int, goal: tuple[float, float], speed: float, stop_distance: float,
+                *, abort: bool = True) -> str | None: ...
+    def halt(self, index: int) -> None: ...
+    def face(self, index: int, heading: float) -> None: ...
+    def face_point(self, index: int, point: tuple[float, float]) -> None: ...
+    def set_posture(self, index: int, posture: Posture) -> None: ...
+    def set_timer(self, index: int, seconds: float) -> None: ...
+    def set_timer_tick(self, index: int, tick: int) -> None: ...
+    def random_goal(self, index: int, area: Polygon | None) -> tuple[float, float] | None: ...
+    def finish(self, index: int, status: TaskStatus, reason: str = "") -> None: ...
 
 FACE_REFRESH = 0.2  # s between re-aims at a moving target
 
@@ -37,30 +66,31 @@ class Behaviour:
     """Base: a task for human `index`. Subclasses override the hooks they need."""
 
     kind = "idle"
+    keeps_posture = False  # starting it does not make a sitting or lying human stand up
 
     def __init__(self, timing: Timing = Timing()) -> None:
         self.timing = timing
         self.index = -1
         self.state = "pending"
 
-    def start(self, engine: Engine) -> None:
+    def start(self, engine: World) -> None:
         self.state = "active"
         self._start_timer(engine)
 
-    def _start_timer(self, engine: Engine) -> None:
+    def _start_timer(self, engine: World) -> None:
         if self.timing.duration is not None:
             engine.set_timer(self.index, self.timing.duration)
 
-    def on_timer(self, engine: Engine) -> None:
+    def on_timer(self, engine: World) -> None:
         engine.finish(self.index, TaskStatus.SUCCEEDED)
 
-    def on_arrived(self, engine: Engine) -> None:
+    def on_arrived(self, engine: World) -> None:
         """The human came within its stop distance of the goal."""
 
-    def on_aligned(self, engine: Engine) -> None:
+    def on_aligned(self, engine: World) -> None:
         """The human finished turning to its heading goal."""
 
-    def on_stuck(self, engine: Engine) -> None:
+    def on_stuck(self, engine: World) -> None:
         engine.finish(self.index, TaskStatus.ABORTED,
                       f"stuck: no progress for {engine.stuck_time:g} s")
 
@@ -75,14 +105,14 @@ class Stand(Behaviour):
         self.facing = facing
         self.deadline: int | None = None
 
-    def start(self, engine: Engine) -> None:
+    def start(self, engine: World) -> None:
         engine.halt(self.index)
         self.state = "standing"
         if self.timing.duration is not None:
             self.deadline = engine.tick + engine.ticks(self.timing.duration)
         self._aim(engine)
 
-    def _aim(self, engine: Engine) -> None:
+    def _aim(self, engine: World) -> None:
         if self.facing is not None:
             where = engine.position_of(self.facing)
             if where is None:
@@ -91,14 +121,14 @@ class Stand(Behaviour):
             engine.face_point(self.index, where)
         self._next_wake(engine)
 
-    def _next_wake(self, engine: Engine) -> None:
+    def _next_wake(self, engine: World) -> None:
         refresh = engine.ticks(FACE_REFRESH) if isinstance(self.facing, str) else None
         candidates = [t for t in (self.deadline, None if refresh is None else engine.tick
                                   + refresh) if t is not None]
         if candidates:
             engine.set_timer_tick(self.index, min(candidates))
 
-    def on_timer(self, engine: Engine) -> None:
+    def on_timer(self, engine: World) -> None:
         if self.deadline is not None and engine.tick >= self.deadline:
             engine.finish(self.index, TaskStatus.SUCCEEDED)
         else:
@@ -110,7 +140,7 @@ class Talk(Stand):
 
     kind = "talk"
 
-    def start(self, engine: Engine) -> None:
+    def start(self, engine: World) -> None:
         super().start(engine)
         self.state = "talking"
 
@@ -128,7 +158,7 @@ class MoveTo(Behaviour):
         self.speed = speed
         self.running = running
 
-    def start(self, engine: Engine) -> None:
+    def start(self, engine: World) -> None:
         goal = engine.position_of(self.target)
         if goal is None:
             engine.finish(self.index, TaskStatus.ABORTED, f"'{self.target}' does not exist")
@@ -140,14 +170,14 @@ class MoveTo(Behaviour):
             tolerance += engine.body_radius_of(self.target) + engine.humans.radius[self.index]
         engine.walk_to(self.index, goal, speed, float(tolerance))
 
-    def on_arrived(self, engine: Engine) -> None:
+    def on_arrived(self, engine: World) -> None:
         if self.heading is None:
             engine.finish(self.index, TaskStatus.SUCCEEDED)
             return
         self.state = "aligning"
         engine.face(self.index, self.heading)
 
-    def on_aligned(self, engine: Engine) -> None:
+    def on_aligned(self, engine: World) -> None:
         engine.finish(self.index, TaskStatus.SUCCEEDED)
 
 
@@ -158,27 +188,28 @@ class Posed(MoveTo):
                  heading: float | None) -> None:
         super().__init__(at or (0.0, 0.0), heading)
         self.kind = "sit_down" if posture is Posture.SITTING else "lie_down"
+        self.keeps_posture = True
         self.posture = posture
         self.timing = timing
         self.at = at
 
-    def start(self, engine: Engine) -> None:
+    def start(self, engine: World) -> None:
         if self.at is None:
             self.on_arrived(engine)
         else:
             super().start(engine)
 
-    def on_arrived(self, engine: Engine) -> None:
+    def on_arrived(self, engine: World) -> None:
         if self.heading is not None and self.state != "aligning":
             self.state = "aligning"
             engine.face(self.index, self.heading)
             return
         self._take_posture(engine)
 
-    def on_aligned(self, engine: Engine) -> None:
+    def on_aligned(self, engine: World) -> None:
         self._take_posture(engine)
 
-    def _take_posture(self, engine: Engine) -> None:
+    def _take_posture(self, engine: World) -> None:
         engine.halt(self.index)
         engine.set_posture(self.index, self.posture)
         self.state = "sitting" if self.posture is Posture.SITTING else "lying"
@@ -196,11 +227,11 @@ class MoveAround(Behaviour):
         self.times = times
         self.reached = 0
 
-    def start(self, engine: Engine) -> None:
+    def start(self, engine: World) -> None:
         self._start_timer(engine)
         self._next_goal(engine)
 
-    def _next_goal(self, engine: Engine) -> None:
+    def _next_goal(self, engine: World) -> None:
         goal = engine.random_goal(self.index, self.area)
         if goal is None:
             engine.finish(self.index, TaskStatus.ABORTED,
@@ -210,14 +241,14 @@ class MoveAround(Behaviour):
         engine.walk_to(self.index, goal, engine.walking_speed(self.index),
                        float(engine.humans.goal_tolerance[self.index]))
 
-    def on_arrived(self, engine: Engine) -> None:
+    def on_arrived(self, engine: World) -> None:
         self.reached += 1
         if self.times is not None and self.reached >= self.times:
             engine.finish(self.index, TaskStatus.SUCCEEDED)
         else:
             self._next_goal(engine)
 
-    def on_stuck(self, engine: Engine) -> None:
+    def on_stuck(self, engine: World) -> None:
         self._next_goal(engine)  # wandering has no fixed goal: pick another one
 
 
@@ -232,12 +263,12 @@ class Follow(Behaviour):
         self.distance = distance
         self.deadline: int | None = None
 
-    def start(self, engine: Engine) -> None:
+    def start(self, engine: World) -> None:
         if self.timing.duration is not None:
             self.deadline = engine.tick + engine.ticks(self.timing.duration)
         self._replan(engine)
 
-    def _replan(self, engine: Engine) -> None:
+    def _replan(self, engine: World) -> None:
         where = engine.position_of(self.target)
         if where is None:
             engine.finish(self.index, TaskStatus.ABORTED, f"target '{self.target}' disappeared")
@@ -260,17 +291,17 @@ class Follow(Behaviour):
         engine.set_timer_tick(self.index, wake if self.deadline is None
                               else min(wake, self.deadline))
 
-    def on_timer(self, engine: Engine) -> None:
+    def on_timer(self, engine: World) -> None:
         if self.deadline is not None and engine.tick >= self.deadline:
             engine.finish(self.index, TaskStatus.SUCCEEDED)
         else:
             self._replan(engine)
 
-    def on_arrived(self, engine: Engine) -> None:
+    def on_arrived(self, engine: World) -> None:
         self.state = "waiting"
         engine.halt(self.index)
 
-    def on_stuck(self, engine: Engine) -> None:
+    def on_stuck(self, engine: World) -> None:
         self.state = "waiting"
         engine.halt(self.index)
 
@@ -280,11 +311,75 @@ class Teleop(Behaviour):
 
     kind = "teleop"
 
-    def start(self, engine: Engine) -> None:
+    def start(self, engine: World) -> None:
         engine.halt(self.index)
         engine.humans.teleop[self.index] = True
         self.state = "teleoperated"
         self._start_timer(engine)
+
+
+BehaviourFactory = Callable[[Task], Behaviour]
+BEHAVIOURS: dict[str, BehaviourFactory] = {}
+
+
+def builds(kind: str) -> Callable[[BehaviourFactory], BehaviourFactory]:
+    """Register the function that builds the behaviour of task kind `kind`."""
+    def register(factory: BehaviourFactory) -> BehaviourFactory:
+        BEHAVIOURS[kind] = factory
+        return factory
+    return register
+
+
+@builds("stand")
+def _stand(task: Task) -> Behaviour:
+    return Stand(Timing(task.get("duration")), task.get("facing"))
+
+
+@builds("move_to")
+def _move_to(task: Task) -> Behaviour:
+    assert task.target is not None
+    return MoveTo(task.target, task.get("heading"), task.get("speed"))
+
+
+@builds("run_to")
+def _run_to(task: Task) -> Behaviour:
+    assert task.target is not None
+    behaviour = MoveTo(task.target, task.get("heading"), running=True)
+    behaviour.kind = "run_to"
+    return behaviour
+
+
+@builds("move_around")
+def _move_around(task: Task) -> Behaviour:
+    return MoveAround(Timing(task.get("duration")), task.get("area"), task.get("times"))
+
+
+@builds("follow")
+def _follow(task: Task) -> Behaviour:
+    assert isinstance(task.target, str)
+    return Follow(Timing(task.get("duration")), task.target, task.get("distance"))
+
+
+@builds("talk")
+def _talk(task: Task) -> Behaviour:
+    return Talk(Timing(task.get("duration")), task.get("to"))
+
+
+@builds("sit_down")
+def _sit_down(task: Task) -> Behaviour:
+    return Posed(Posture.SITTING, Timing(task.get("duration")), task.get("at"),
+                 task.get("heading"))
+
+
+@builds("lie_down")
+def _lie_down(task: Task) -> Behaviour:
+    return Posed(Posture.LYING, Timing(task.get("duration")), task.get("at"),
+                 task.get("heading"))
+
+
+@builds("teleop")
+def _teleop(task: Task) -> Behaviour:
+    return Teleop(Timing(task.get("duration")))
 
 
 def heading_towards(origin: np.ndarray, point: tuple[float, float]) -> float:

@@ -1,7 +1,8 @@
 """Evaluating the language's conditions against the running world.
 
-Used by `wait until`, `until`, and `expect`. Labels come from the scheduler's `LabelBook`;
-positions from the engine; areas are shapely polygons (point-in-polygon via `contains_xy`).
+Used by `wait until`, `until`, and `expect`. Conditions come lowered (`hubero_dsl.model`): places
+are points, areas polygons, thresholds SI. Labels come from the scheduler's `LabelBook`,
+positions and goal tolerances from the engine; areas are tested with `shapely.contains_xy`.
 """
 
 from __future__ import annotations
@@ -14,15 +15,15 @@ from typing import TYPE_CHECKING
 
 import shapely
 
-from hubero_dsl.lang import ast
-from hubero_dsl.lang.program import Pose
-from hubero_dsl.lang.units import Dimension
+from hubero_dsl.model import conditions as c
+from hubero_dsl.model.tasks import Target
 
 if TYPE_CHECKING:
-    from hubero_dsl.sim.simulation import Simulation
+    from hubero_dsl.sim.engine import Engine
 
 COMPARE: dict[str, Callable[[float, float], bool]] = {
     "<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
+ROBOT_TOLERANCE = 0.2  # m: how close a robot must come to "reach" a target
 
 
 @dataclass
@@ -33,63 +34,53 @@ class LabelBook:
     done: set[str] = field(default_factory=set)
     failed: set[str] = field(default_factory=set)
 
-    def holds(self, label: str, event: ast.LabelEvent) -> bool:
-        book = {ast.LabelEvent.STARTED: self.started, ast.LabelEvent.DONE: self.done,
-                ast.LabelEvent.FAILED: self.failed}[event]
+    def holds(self, label: str, event: c.LabelEvent) -> bool:
+        book = {c.LabelEvent.STARTED: self.started, c.LabelEvent.DONE: self.done,
+                c.LabelEvent.FAILED: self.failed}[event]
         return label in book
 
 
-def si(value: ast.Value, dimension: Dimension) -> float:
-    """A checked value's SI magnitude (the checker guaranteed its dimension)."""
-    if isinstance(value, ast.Quantity):
-        return value.si
-    if isinstance(value, ast.Number):
-        return value.value
-    raise TypeError(f"not a {dimension.value}: {value!r}")
-
-
 class Conditions:
-    def __init__(self, sim: Simulation, labels: LabelBook) -> None:
-        self.sim = sim
+    """Judges conditions now: the engine's positions and time, the scheduler's labels."""
+
+    def __init__(self, engine: Engine, labels: LabelBook) -> None:
+        self.engine = engine
         self.labels = labels
 
-    def holds(self, condition: ast.Condition) -> bool:
+    def holds(self, condition: c.Condition) -> bool:
         match condition:
-            case ast.LabelCondition(label=label, event=event):
+            case c.LabelCondition(label=label, event=event):
                 return self.labels.holds(label.name, event)
-            case ast.ReachesCondition(subject=subject, target=target):
-                gap = self._distance(subject.name, target)
-                return gap is not None and gap <= self._tolerance(subject.name)
-            case ast.DistanceCondition(subject=subject, target=target, operator=op):
-                gap = self._distance(subject.name, target)
-                threshold = si(condition.threshold, Dimension.LENGTH)
+            case c.Reaches(subject=subject, target=target):
+                gap = self._distance(subject, target)
+                return gap is not None and gap <= self._tolerance(subject)
+            case c.DistanceTo(subject=subject, target=target, operator=op, threshold=threshold):
+                gap = self._distance(subject, target)
                 return gap is not None and COMPARE[op](gap, threshold)
-            case ast.InsideCondition(subject=subject, area=area):
-                where = self.sim.engine.position_of(subject.name)
-                polygon = self.sim.program.area(area)
-                return where is not None and bool(shapely.contains_xy(polygon, *where))
-            case ast.TimeCondition(operator=op, threshold=threshold):
-                return COMPARE[op](self.sim.time, si(threshold, Dimension.TIME) - 1e-9
-                                   if op in (">=", "<") else si(threshold, Dimension.TIME))
-            case ast.NotCondition(operand=operand):
+            case c.Inside(subject=subject, area=area):
+                where = self.engine.position_of(subject)
+                return where is not None and bool(shapely.contains_xy(area, *where))
+            case c.TimeCompare(operator=op, threshold=threshold):
+                # `time >= 2 s` holds at the tick that reaches 2 s despite rounding
+                return COMPARE[op](self.engine.time, threshold - 1e-9
+                                   if op in (">=", "<") else threshold)
+            case c.Not(operand=operand):
                 return not self.holds(operand)
-            case ast.AllOf(operands=operands):
+            case c.AllOf(operands=operands):
                 return all(self.holds(o) for o in operands)
-            case ast.AnyOf(operands=operands):
+            case c.AnyOf(operands=operands):
                 return any(self.holds(o) for o in operands)
         raise TypeError(f"unknown condition {condition!r}")
 
-    def _distance(self, subject: str, target: ast.PointValue) -> float | None:
-        here = self.sim.engine.position_of(subject)
-        resolved = self.sim.program.point(target)
-        there = resolved.xy if isinstance(resolved, Pose) else self.sim.engine.position_of(
-            resolved)
+    def _distance(self, subject: str, target: Target) -> float | None:
+        here = self.engine.position_of(subject)
+        there = self.engine.position_of(target)
         if here is None or there is None:
             return None
         return math.hypot(there[0] - here[0], there[1] - here[1])
 
     def _tolerance(self, subject: str) -> float:
-        if subject in self.sim.engine.humans.names:
-            index = self.sim.engine.index_of(subject)
-            return float(self.sim.engine.humans.goal_tolerance[index])
-        return 0.2
+        if subject in self.engine.humans.names:
+            index = self.engine.index_of(subject)
+            return float(self.engine.humans.goal_tolerance[index])
+        return ROBOT_TOLERANCE

@@ -14,10 +14,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from hubero_dsl.errors import SimulationError
 from hubero_dsl.planners.base import Crowd, Drive, NoPath
 from hubero_dsl.sim import physics
+from hubero_dsl.sim.arrays import FloatArray, HumanArrays, IntArray, PathPool
 from hubero_dsl.sim.behaviours import Behaviour
-from hubero_dsl.sim.crowd import FloatArray, HumanArrays, IntArray, PathPool
 from hubero_dsl.sim.robots import Robots
 from hubero_dsl.sim.status import Posture, TaskEvent, TaskHandle, TaskStatus
 from hubero_dsl.world.shapes import ShapeArrays, lateral_extent
@@ -211,7 +212,7 @@ class Engine:
         current = self.handle[index]
         if current is not None and not current.done:
             self.finish(index, TaskStatus.PREEMPTED, f"replaced by {handle.kind}")
-        if behaviour.kind not in ("sit_down", "lie_down"):
+        if not behaviour.keeps_posture:
             self.humans.posture[index] = Posture.STANDING
         behaviour.index = index
         self.behaviour[index] = behaviour
@@ -264,6 +265,8 @@ class Engine:
         if not movable.all():
             moved[~movable] = old[~movable]
         moved = self._separate(moved, movable)
+        if not np.isfinite(moved).all():  # before the walls, which would hide it as a stop
+            self._diverged(moved)
         moved = physics.keep_out_of_walls(self.grid, old, moved, humans.radius)
         step = moved - old
         humans.velocity = step / dt
@@ -272,6 +275,15 @@ class Engine:
         self._turn(dt)
         self.tick += 1
         self._dispatch_events()
+
+    def _diverged(self, moved: FloatArray) -> None:
+        """A position that is not a finite number is an error of the run: the parameters drove
+        the model out of range. It is reported, never written to the log as a jump."""
+        bad = [self.humans.names[i] for i in np.flatnonzero(~np.isfinite(moved).all(axis=1))]
+        shown = ", ".join(bad[:5]) + (f" and {len(bad) - 5} more" if len(bad) > 5 else "")
+        raise SimulationError(
+            f"the simulation diverged at t = {self.time + self.dt:g} s: the position of {shown} "
+            "is not a finite number (check the force parameters and the step)")
 
     def _velocities(self) -> FloatArray:
         humans = self.humans

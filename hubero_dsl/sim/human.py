@@ -4,30 +4,25 @@
 whose status goes PENDING -> ACTIVE -> SUCCEEDED / PREEMPTED / ABORTED (with a reason); a new
 command preempts the current one. Targets are `(x, y)` points in metres, or the name of a place,
 a human or a robot (that body's position when the task starts or re-plans). Angles are radians,
-durations seconds, speeds m/s. The scheduler drives humans through exactly these methods.
+durations seconds, speeds m/s.
+
+`do(kind, target, **arguments)` gives a task of any kind in the task registry
+(`hubero_dsl.model.tasks.TASKS`), with the registry's argument names; the named methods
+(`move_to`, `talk`, ...) are the same calls spelt out. The scheduler gives scenario tasks through
+`give`, so scenario files and Python callers command humans the same way.
 """
 
 from __future__ import annotations
 
 import itertools
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from hubero_dsl.errors import SimulationError
-from hubero_dsl.sim.behaviours import (
-    Behaviour,
-    Follow,
-    MoveAround,
-    MoveTo,
-    Posed,
-    Stand,
-    Talk,
-    Target,
-    Teleop,
-    Timing,
-)
-from hubero_dsl.sim.status import Posture, TaskHandle, describe_target
+from hubero_dsl.model.tasks import TASKS, Target, TargetRule, Task, TaskKind, ValueKind
+from hubero_dsl.sim.behaviours import BEHAVIOURS, Behaviour
+from hubero_dsl.sim.status import Posture, TaskHandle
 
 if TYPE_CHECKING:
     from shapely.geometry import Polygon
@@ -81,54 +76,58 @@ class HumanHandle:
 
     # ---- commands ------------------------------------------------------------------------
 
+    def do(self, kind: str, target: Target | None = None, *, span: Span | None = None,
+           **arguments: Any) -> TaskHandle:
+        """Give the human a task of any registered kind: `do("move_to", (2, 3), speed=1.0)`.
+        Arguments left None are not given (the kind's default applies)."""
+        given = {name: value for name, value in arguments.items() if value is not None}
+        return self.give(Task(kind, target, given, span))
+
+    def give(self, task: Task) -> TaskHandle:
+        """Give the human `task` (checked against the registry), preempting the current one."""
+        kind = TASKS.get(task.kind)
+        if kind is None:
+            raise SimulationError(f"unknown task '{task.kind}' (tasks: {', '.join(TASKS)})")
+        target = self._task_target(kind, task.target)
+        arguments = {name: self._argument(kind, name, value)
+                     for name, value in task.arguments.items()}
+        behaviour = BEHAVIOURS[kind.name](Task(kind.name, target, arguments, task.span))
+        return self._give(behaviour, kind.describe(task.target, task.arguments), task.span)
+
     def stand(self, *, facing: Target | None = None, duration: float | None = None,
               span: Span | None = None) -> TaskHandle:
-        words = f"stand facing {describe_target(facing)}" if facing is not None else "stand"
-        return self._give(Stand(Timing(duration), self._target(facing)), words, span)
+        return self.do("stand", facing=facing, duration=duration, span=span)
 
     def move_to(self, target: Target, *, heading: float | None = None,
                 speed: float | None = None, span: Span | None = None) -> TaskHandle:
-        _positive(speed, "speed")
-        behaviour = MoveTo(self._required_target(target), heading, speed)
-        return self._give(behaviour, f"move_to {describe_target(target)}", span)
+        return self.do("move_to", target, heading=heading, speed=speed, span=span)
 
     def run_to(self, target: Target, *, heading: float | None = None,
                span: Span | None = None) -> TaskHandle:
-        behaviour = MoveTo(self._required_target(target), heading, running=True)
-        behaviour.kind = "run_to"
-        return self._give(behaviour, f"run_to {describe_target(target)}", span)
+        return self.do("run_to", target, heading=heading, span=span)
 
     def move_around(self, *, area: Polygon | None = None, duration: float | None = None,
                     times: int | None = None, span: Span | None = None) -> TaskHandle:
-        if times is not None and times < 1:
-            raise SimulationError("move_around: times must be at least 1")
-        return self._give(MoveAround(Timing(duration), area, times), "move_around", span)
+        return self.do("move_around", area=area, duration=duration, times=times, span=span)
 
     def follow(self, target: str, *, distance: float = 1.0, duration: float | None = None,
                span: Span | None = None) -> TaskHandle:
-        if target == self.name:
-            raise SimulationError(f"{self.name} cannot follow itself")
-        self._required_target(target)
-        _positive(distance, "distance")
-        return self._give(Follow(Timing(duration), target, distance), f"follow {target}", span)
+        return self.do("follow", target, distance=distance, duration=duration, span=span)
 
     def talk(self, *, to: Target | None = None, duration: float | None = None,
              span: Span | None = None) -> TaskHandle:
-        words = f"talk to {describe_target(to)}" if to is not None else "talk"
-        return self._give(Talk(Timing(duration), self._target(to)), words, span)
+        return self.do("talk", to=to, duration=duration, span=span)
 
     def sit_down(self, *, at: Target | None = None, duration: float | None = None,
                  heading: float | None = None, span: Span | None = None) -> TaskHandle:
-        return self._give(Posed(Posture.SITTING, Timing(duration), self._target(at), heading),
-                          "sit_down", span)
+        return self.do("sit_down", at=at, duration=duration, heading=heading, span=span)
 
     def lie_down(self, *, at: Target | None = None, duration: float | None = None,
                  heading: float | None = None, span: Span | None = None) -> TaskHandle:
-        return self._give(Posed(Posture.LYING, Timing(duration), self._target(at), heading),
-                          "lie_down", span)
+        return self.do("lie_down", at=at, duration=duration, heading=heading, span=span)
 
     def teleop(self, *, duration: float | None = None, span: Span | None = None) -> TaskHandle:
-        return self._give(Teleop(Timing(duration)), "teleop", span)
+        return self.do("teleop", duration=duration, span=span)
 
     def set_velocity(self, vx: float, vy: float) -> None:
         """The velocity a `teleop` task applies (walls still stop the human)."""
@@ -139,10 +138,35 @@ class HumanHandle:
 
     # ---- internals -----------------------------------------------------------------------
 
-    def _target(self, target: Target | None) -> Target | None:
-        if target is None:
+    def _task_target(self, kind: TaskKind, target: Target | None) -> Target | None:
+        if kind.target is TargetRule.NONE:
+            if target is not None:
+                raise SimulationError(f"{kind.name} takes no target (use "
+                                      f"{kind.hint_keyword}=...)")
             return None
+        if target is None:
+            raise SimulationError(f"{kind.name} needs a target")
+        if kind.target is TargetRule.BODY:
+            if not isinstance(target, str):
+                raise SimulationError(f"{kind.name} needs a human or robot, not a point")
+            if target == self.name:
+                raise SimulationError(f"{self.name} cannot {kind.name} itself")
+            self._required_target(target)
+            return target  # the body itself, wherever it goes
         return self._required_target(target)
+
+    def _argument(self, kind: TaskKind, name: str, value: Any) -> Any:
+        spec = kind.argument(name)
+        if spec is None:
+            takes = ", ".join(o.argument for o in kind.options) or "nothing"
+            raise SimulationError(f"{kind.name} takes no '{name}' (it takes {takes})")
+        if spec.value is ValueKind.TARGET:
+            return self._required_target(value)
+        if spec.value is ValueKind.COUNT and value < 1:
+            raise SimulationError(f"{kind.name}: {name} must be at least 1")
+        if spec.value in (ValueKind.SPEED, ValueKind.LENGTH, ValueKind.TIME) and not value > 0:
+            raise SimulationError(f"{name} must be greater than zero")
+        return value
 
     def _required_target(self, target: Target) -> Target:
         if not isinstance(target, str):
@@ -160,7 +184,3 @@ class HumanHandle:
         self._engine.command(self._index, behaviour, handle)
         return handle
 
-
-def _positive(value: float | None, what: str) -> None:
-    if value is not None and not value > 0:
-        raise SimulationError(f"{what} must be greater than zero")

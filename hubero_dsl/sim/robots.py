@@ -9,8 +9,8 @@ from typing import Any, Protocol
 import numpy as np
 
 from hubero_dsl.errors import InputError
-from hubero_dsl.lang.program import RobotSpec
-from hubero_dsl.sim.crowd import FloatArray
+from hubero_dsl.model.program import RobotSpec
+from hubero_dsl.sim.arrays import FloatArray
 from hubero_dsl.world.shapes import Circle, ShapeArrays
 
 

@@ -1,17 +1,19 @@
 """The scheduler: executes the activity graph with token semantics, tick by tick.
 
 A token sits on one node. Instant nodes (initial, fork, join, repeat, label markers) pass it on
-at once; an action gives its human a task through the human API and holds the token until the
-task ends; `wait` holds it for a time and `wait until` until its condition holds. A `race` join
-takes the first token and preempts every other token of its branches. Tokens are processed in
-source order, so the same program and seed always give the same run.
+at once; an action gives its actor the node's task through `command` (the simulation passes the
+human API's) and holds the token until the task ends; `wait` holds it for a time and `wait
+until` until its condition holds. A `race` join takes the first token and preempts every other
+token of its branches. Tokens are processed in source order, so the same program and seed always
+give the same run.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
 import networkx as nx
 
@@ -24,14 +26,16 @@ from hubero_dsl.graph.build import (
     node_sort_key,
     successors_in_order,
 )
-from hubero_dsl.lang import ast
-from hubero_dsl.lang.units import Dimension
-from hubero_dsl.sim.conditions import Conditions, LabelBook, si
+from hubero_dsl.sim.conditions import Conditions, LabelBook
 from hubero_dsl.sim.status import TaskHandle, TaskStatus
-from hubero_dsl.sim.tasks import give_task
 
 if TYPE_CHECKING:
-    from hubero_dsl.sim.simulation import Simulation
+    from hubero_dsl.diagnostics import Span
+    from hubero_dsl.model.tasks import Task
+    from hubero_dsl.sim.engine import Engine
+
+# gives an actor (by name) a task, written at a span; returns the task's handle
+Command = Callable[[str, "Task", "Span | None"], TaskHandle]
 
 
 class RunState(StrEnum):
@@ -55,8 +59,11 @@ class Token:
 
 @dataclass
 class Scheduler:
-    sim: Simulation
-    graph: nx.DiGraph = field(init=False)
+    graph: nx.DiGraph
+    engine: Engine
+    command: Command
+    time_limit: float
+    on_failure: Literal["stop", "continue"]
     tokens: list[Token] = field(default_factory=list)
     labels: LabelBook = field(default_factory=LabelBook)
     state: RunState = RunState.RUNNING
@@ -66,8 +73,7 @@ class Scheduler:
     ended: set[str] = field(default_factory=set)               # activities at their final node
 
     def __post_init__(self) -> None:
-        self.graph = self.sim.program.graph
-        self.conditions = Conditions(self.sim, self.labels)
+        self.conditions = Conditions(self.engine, self.labels)
         self._scopes = label_scopes(self.graph)
         self._label_of_member = {m: s.label for s in self._scopes.values() for m in s.members}
         self.tokens = []
@@ -102,9 +108,9 @@ class Scheduler:
             return
         if all(self._idle_forever(t) for t in self.tokens):
             self.state = RunState.COMPLETED
-        elif self.sim.tick >= self.sim.engine.ticks(self.sim.program.time_limit):
+        elif self.engine.tick >= self.engine.ticks(self.time_limit):
             self.state = RunState.TIMED_OUT
-            self.reason = f"time limit of {self.sim.program.time_limit:g} s reached"
+            self.reason = f"time limit of {self.time_limit:g} s reached"
 
     def _idle_forever(self, token: Token) -> bool:
         """A `forever` task with no `until` does not keep the run alive."""
@@ -212,10 +218,9 @@ class Scheduler:
         if not handle.done:
             if data["until"] is not None and self.conditions.holds(data["until"]):
                 handle.cancel()
-            elif token.until_tick is not None and self.sim.tick >= token.until_tick:
-                within = si(data["within"], Dimension.TIME)
-                self.sim.engine.finish(self.sim.engine.index_of(handle.human),
-                                       TaskStatus.ABORTED, f"did not finish within {within:g} s")
+            elif token.until_tick is not None and self.engine.tick >= token.until_tick:
+                self.engine.finish(self.engine.index_of(handle.human), TaskStatus.ABORTED,
+                                   f"did not finish within {data['within']:g} s")
             if not handle.done:
                 return False
         return self._action_ended(token, data, handle)
@@ -224,9 +229,8 @@ class Scheduler:
         if data["label"] is not None:
             self.labels.started.add(data["label"])
         if data["within"] is not None:
-            token.until_tick = self.sim.tick + self.sim.engine.ticks(
-                si(data["within"], Dimension.TIME))
-        handle = give_task(self.sim, data["human"], data["task"], data["step"].span)
+            token.until_tick = self.engine.tick + self.engine.ticks(data["within"])
+        handle = self.command(data["human"], data["task"], data["step"].span)
         token.handle = handle
         if not handle.done and data["until"] is None and data["within"] is None:
             token.dormant = True
@@ -240,7 +244,7 @@ class Scheduler:
     def _action_ended(self, token: Token, data: dict[str, Any], handle: TaskHandle) -> bool:
         if handle.status is TaskStatus.ABORTED:
             self._mark_failed(token.node)
-            if self.sim.program.on_failure == "stop":
+            if self.on_failure == "stop":
                 self.state = RunState.FAILED
                 self.reason = f"{handle.human} {handle.description}: {handle.reason}"
                 return True
@@ -257,17 +261,14 @@ class Scheduler:
     def _wait(self, token: Token, data: dict[str, Any]) -> bool:
         if not token.entered:
             token.entered = True
-            token.until_tick = self.sim.tick + max(1, self.sim.engine.ticks(
-                si(data["duration"], Dimension.TIME)))
+            token.until_tick = self.engine.tick + max(1, self.engine.ticks(data["duration"]))
             if data["label"] is not None:
                 self.labels.started.add(data["label"])
             return True
-        if token.until_tick is not None and self.sim.tick >= token.until_tick:
+        if token.until_tick is not None and self.engine.tick >= token.until_tick:
             if data["label"] is not None:
                 self.labels.done.add(data["label"])
             token.done = True
             return True
         return False
 
-
-__all__ = ["RunState", "Scheduler", "ast"]

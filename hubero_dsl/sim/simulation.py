@@ -10,6 +10,7 @@ scheduler through the same human API; with `activities=False` the caller command
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import zlib
 from collections.abc import Callable
@@ -18,19 +19,21 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from hubero_dsl.errors import SimulationError
-from hubero_dsl.lang.program import Distribution, ParamValue, Program
-from hubero_dsl.params import HUMAN_PARAMS, ParamKind
+from hubero_dsl.model.params import HUMAN_PARAMS, ParamKind
+from hubero_dsl.model.program import Distribution, ParamValue, Program
 from hubero_dsl.planners.base import GlobalPlanner, LocalPlanner, PlannerParams
 from hubero_dsl.planners.registry import global_planner, local_planner
-from hubero_dsl.sim.crowd import HumanArrays
+from hubero_dsl.sim.arrays import HumanArrays
 from hubero_dsl.sim.engine import Engine
 from hubero_dsl.sim.human import HumanHandle
 from hubero_dsl.sim.robots import Robots
-from hubero_dsl.sim.status import TaskEvent
+from hubero_dsl.sim.scheduler import Scheduler
+from hubero_dsl.sim.status import TaskEvent, TaskHandle
 from hubero_dsl.world.shapes import Shape, ShapeArrays
 
 if TYPE_CHECKING:
-    from hubero_dsl.sim.scheduler import Scheduler
+    from hubero_dsl.diagnostics import Span
+    from hubero_dsl.model.tasks import Task
 
 
 def stable_seed(*parts: int | str) -> list[int]:
@@ -83,9 +86,8 @@ class Simulation:
                         for name in program.human_names}
         self.scheduler: Scheduler | None = None
         if activities:
-            from hubero_dsl.sim.scheduler import Scheduler
-
-            self.scheduler = Scheduler(self)
+            self.scheduler = Scheduler(program.graph, self.engine, self._command,
+                                       program.time_limit, program.on_failure)
 
     # ---- the API ---------------------------------------------------------------------------
 
@@ -122,8 +124,15 @@ class Simulation:
         self.engine.robots.set_velocity(name, (vx, vy))
 
     def remove(self, name: str) -> None:
-        """Take a human or robot out of the world (targets that follow it lose it)."""
+        """Make a human or robot unknown as a target: tasks that follow, face or walk to it
+        lose it (they are aborted as 'disappeared'). Its body stays where it is, an obstacle
+        to the others; taking bodies out of the physics comes with flows of people."""
         self.engine.removed.add(name)
+
+    def _command(self, actor: str, task: Task, span: Span | None) -> TaskHandle:
+        """How the scheduler gives a scenario's task: through the same API as any caller,
+        with the span of the step that gave it."""
+        return self.human(actor).give(dataclasses.replace(task, span=span))
 
     def step(self) -> None:
         """Advance one tick: the scheduler reacts to the world, then the world moves."""

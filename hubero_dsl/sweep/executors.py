@@ -32,7 +32,7 @@ EXECUTOR_KINDS: tuple[ExecutorKind, ...] = ("serial", "process", "dask")
 DEFAULT_CONNECT_TIMEOUT = 5.0  # s before an unreachable Dask scheduler is reported
 TERMINATE_TIMEOUT = 10.0  # s to wait for worker processes to end after SIGTERM
 
-WORKER_MODULES = ("hubero_dsl.sweep.worker", "hubero_dsl.lang.compile", "hubero_dsl.sim.run",
+WORKER_MODULES = ("hubero_dsl.sweep.worker", "hubero_dsl.pipeline", "hubero_dsl.sim.loop",
                   "hubero_dsl.sim.simulation", "hubero_dsl.log.writer", "hubero_dsl.log.reader",
                   "hubero_dsl.analysis.metrics")
 

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 from hubero_dsl.errors import InputError
 
 if TYPE_CHECKING:
-    from hubero_dsl.lang.program import ParamValue, Program
+    from hubero_dsl.model.program import ParamValue, Program
 
 MAX_RUNS = 100_000  # a typo like 1..10000000 should fail at once, not after filling the disk
 MAX_NAME_LENGTH = 80  # characters of a variant's folder name before it is cut and hashed
@@ -133,8 +133,8 @@ def variant_parameters(program: Program, variant: str | None) -> dict[str, Any]:
 def json_value(value: ParamValue) -> Any:
     """A parameter as JSON: numbers and names as they are, shapes as objects, distributions
     as their text (`normal(1.3, 0.1)`)."""
-    from hubero_dsl.lang.program import Distribution
     from hubero_dsl.log.schemas import shape_json
+    from hubero_dsl.model.program import Distribution
 
     if isinstance(value, Distribution):
         return value.describe()

@@ -26,11 +26,9 @@ from typing import TYPE_CHECKING, Any, Protocol
 from hubero_dsl.errors import HuberoError
 
 if TYPE_CHECKING:
-    from hubero_dsl.lang.program import Program
     from hubero_dsl.log.reader import LoggedRun
-    from hubero_dsl.log.writer import RunLog
-    from hubero_dsl.sim.run import RunResult
-    from hubero_dsl.sim.simulation import Simulation
+    from hubero_dsl.model.program import Program
+    from hubero_dsl.sim.loop import RunResult
 
 EXIT_TERMINATED = 128 + signal.SIGTERM
 _CACHE_SIZE = 4  # compiled programs kept per process (a sweep needs one)
@@ -125,22 +123,12 @@ def _execute(task: RunTask) -> RunRecord:
 
 
 def _simulate(program: Program, task: RunTask) -> RunResult:
-    from hubero_dsl.sim.run import run_program
-    from hubero_dsl.sim.simulation import Simulation
-
-    sim = Simulation(program, variant=task.variant, seed=task.seed)
-    with _open_log(Path(task.log_path), sim, task.log_rate) as log:
-        result = run_program(sim, [log.observe])
-        log.close(result)
-    return result
-
-
-def _open_log(path: Path, sim: Simulation, rate_hz: float) -> RunLog:
-    from hubero_dsl.log.writer import RunLog
+    from hubero_dsl.simulate import simulate
 
     # Encode in this process: a sweep's parallelism is across runs, and Dask's daemonic worker
     # processes may not start a writer process of their own.
-    return RunLog(path, sim, rate_hz=rate_hz, writer_process=False)
+    return simulate(program, variant=task.variant, seed=task.seed, log=Path(task.log_path),
+                    log_rate=task.log_rate, writer_process=False)
 
 
 def _measure(task: RunTask) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -159,7 +147,7 @@ _programs_lock = threading.Lock()  # Dask may run several tasks in threads of on
 
 def compiled(path: str, source: str) -> Program:
     """The program of this text at this path, compiled at most once per process."""
-    from hubero_dsl.lang.compile import compile_source
+    from hubero_dsl.pipeline import compile_source
 
     key = (path, source)
     with _programs_lock:

@@ -12,8 +12,8 @@ import pytest
 
 from hubero_dsl.cli.run import run_one
 from hubero_dsl.diagnostics import Span
-from hubero_dsl.lang.compile import compile_file
 from hubero_dsl.log.reader import HumanTrack, LoggedRun, RobotTrack, RunMetadata
+from hubero_dsl.pipeline import compile_file
 from hubero_dsl.sim.status import TaskEvent, TaskStatus
 from hubero_dsl.world.grid import OccupancyGrid
 

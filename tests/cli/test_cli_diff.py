@@ -12,7 +12,7 @@ from mcap.writer import Writer
 from PIL import Image
 
 from hubero_dsl.cli.run import run_one
-from hubero_dsl.lang.compile import compile_file
+from hubero_dsl.pipeline import compile_file
 from tests.cli.conftest import REPO_ROOT, Outcome
 
 MAP = REPO_ROOT / "maps" / "living_room.yaml"

@@ -9,11 +9,11 @@ from typing import Any
 import networkx as nx
 import pytest
 
+from hubero_dsl import pipeline as compile_module
 from hubero_dsl.diagnostics import Span, warning
 from hubero_dsl.graph import picture as graph_picture
 from hubero_dsl.graph import render as graph_render
 from hubero_dsl.lang import ast
-from hubero_dsl.lang import compile as compile_module
 
 Cli = Callable[..., Any]
 Write = Callable[[str, "str | bytes"], Path]

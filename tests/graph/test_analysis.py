@@ -5,16 +5,17 @@ from __future__ import annotations
 import pytest
 
 from hubero_dsl.diagnostics import Diagnostic, Related, Severity
-from hubero_dsl.graph.analysis import analyse_activities, required_labels
 from hubero_dsl.graph.build import build_activity_graph
-from hubero_dsl.lang import ast
+from hubero_dsl.graph.verify import verify_activities
 from hubero_dsl.lang.parse import parse_source
+from hubero_dsl.model.conditions import required_labels
+from hubero_dsl.pipeline import lower_activities
 
 
 def analyse(text: str, **options: bool) -> list[Diagnostic]:
     module = parse_source(text, "t.hub")
-    activities = module.of_type(ast.ActivityDecl)
-    return analyse_activities(activities, build_activity_graph(activities), **options)
+    activities = lower_activities(module)
+    return verify_activities(activities, build_activity_graph(activities), **options)
 
 
 def at(finding: Diagnostic | Related) -> tuple[int, int]:
@@ -302,7 +303,7 @@ def test_required_labels_are_the_conjuncts() -> None:
     module = parse_source("activity a { wait until a done and (b started and time > 1 s) or c "
                           "done }\nactivity b { wait until a done and (b started and not c "
                           "failed) }", "t.hub")
-    conditions = [d.steps[0].condition for d in module.of_type(ast.ActivityDecl)]  # type: ignore[union-attr]
+    conditions = [a.steps[0].condition for a in lower_activities(module)]  # type: ignore[union-attr]
     assert required_labels(conditions[0]) == []
     assert [(c.label.name, c.event.value) for c in required_labels(conditions[1])] == [
         ("a", "done"), ("b", "started")]

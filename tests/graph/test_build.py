@@ -20,8 +20,9 @@ from hubero_dsl.graph.build import (
     nodes_of_kind,
     successors_in_order,
 )
-from hubero_dsl.lang import ast
 from hubero_dsl.lang.parse import parse_source
+from hubero_dsl.model.activities import TaskStep
+from hubero_dsl.pipeline import lower_activities
 
 DINNER = """\
 activity dinner {
@@ -37,7 +38,7 @@ activity dinner {
 
 def graph_of(text: str) -> nx.DiGraph:
     module = parse_source(text, "t.hub")
-    return build_activity_graph(module.of_type(ast.ActivityDecl))
+    return build_activity_graph(lower_activities(module))
 
 
 def kinds(graph: nx.DiGraph) -> list[NodeKind]:
@@ -59,7 +60,7 @@ def test_action_attributes() -> None:
     assert invite["task"].kind == "move_to"
     assert invite["label"] == "invite"
     assert (invite["until"], invite["within"], invite["forever"]) == (None, None, False)
-    assert isinstance(invite["step"], ast.TaskStep)
+    assert isinstance(invite["step"], TaskStep)
     assert invite["span"] == Span("t.hub", 2, 5, 2, 32)
     assert graph.nodes["dinner/2"]["label"] is None
 

@@ -14,11 +14,11 @@ import networkx as nx
 import pytest
 
 from hubero_dsl.diagnostics import Diagnostic
-from hubero_dsl.graph.analysis import analyse_activities
 from hubero_dsl.graph.build import build_activity_graph
 from hubero_dsl.graph.render import to_dot, to_mermaid
-from hubero_dsl.lang import ast
+from hubero_dsl.graph.verify import verify_activities
 from hubero_dsl.lang.parse import parse_source
+from hubero_dsl.pipeline import lower_activities
 
 CASES = Path(__file__).resolve().parents[1] / "cases" / "graph"
 UPDATE = os.environ.get("HUBERO_UPDATE_GOLDEN") == "1"
@@ -38,11 +38,11 @@ def format_diagnostics(diagnostics: list[Diagnostic]) -> str:
 
 def _render(source: Path, suffix: str) -> str:
     module = parse_source(source.read_text(encoding="utf-8"), source.name)
-    activities = module.of_type(ast.ActivityDecl)
+    activities = lower_activities(module)
     graph = build_activity_graph(activities)
     renderers: dict[str, Callable[[nx.DiGraph], str]] = {
         ".mermaid": to_mermaid, ".dot": to_dot,
-        ".diagnostics": lambda g: format_diagnostics(analyse_activities(activities, g)),
+        ".diagnostics": lambda g: format_diagnostics(verify_activities(activities, g)),
     }
     return renderers[suffix](graph)
 

@@ -9,8 +9,7 @@ import networkx as nx
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hubero_dsl.diagnostics import Span
-from hubero_dsl.graph.analysis import analyse_activities
+from hubero_dsl.diagnostics import SourceFile, Span
 from hubero_dsl.graph.build import (
     FORK_KINDS,
     NodeKind,
@@ -23,7 +22,10 @@ from hubero_dsl.graph.build import (
     label_scopes,
 )
 from hubero_dsl.graph.render import to_dot, to_mermaid
+from hubero_dsl.graph.verify import verify_activities
 from hubero_dsl.lang import ast
+from hubero_dsl.lang.lower import Lowering
+from hubero_dsl.model.activities import Activity
 
 SPAN = Span("p.hub", 1, 1, 1, 2)
 
@@ -84,6 +86,11 @@ def _activities(draw: st.DrawFn) -> list[ast.ActivityDecl]:
             for i, body in enumerate(bodies)]
 
 
+def _lowered(activities: list[ast.ActivityDecl]) -> tuple[Activity, ...]:
+    source = SourceFile("t.hub", "")
+    return Lowering(source, {}, {}, None).activities(activities)
+
+
 def _count_steps(activities: list[ast.ActivityDecl], kind: type) -> int:
     return sum(isinstance(s, kind) for a in activities for s in ast.walk_steps(a.steps))
 
@@ -92,7 +99,7 @@ def _count_steps(activities: list[ast.ActivityDecl], kind: type) -> int:
 @given(_activities())
 def test_every_activity_flows_from_its_initial_to_its_final(
         activities: list[ast.ActivityDecl]) -> None:
-    graph = build_activity_graph(activities)
+    graph = build_activity_graph(_lowered(activities))
     forward = forward_graph(graph)
     assert nx.is_directed_acyclic_graph(forward)
     assert len(initial_nodes(graph)) == len(activities)
@@ -109,7 +116,7 @@ def test_every_activity_flows_from_its_initial_to_its_final(
 @settings(max_examples=50, deadline=None)
 @given(_activities())
 def test_nodes_mirror_the_steps(activities: list[ast.ActivityDecl]) -> None:
-    graph = build_activity_graph(activities)
+    graph = build_activity_graph(_lowered(activities))
     kinds = [kind for _, kind in graph.nodes(data="kind")]
     assert kinds.count(NodeKind.ACTION) == _count_steps(activities, ast.TaskStep)
     assert kinds.count(NodeKind.ACCEPT) == _count_steps(activities, ast.WaitUntilStep)
@@ -128,7 +135,7 @@ def test_nodes_mirror_the_steps(activities: list[ast.ActivityDecl]) -> None:
 @given(_activities())
 def test_branches_partition_what_lies_between_fork_and_join(
         activities: list[ast.ActivityDecl]) -> None:
-    graph = build_activity_graph(activities)
+    graph = build_activity_graph(_lowered(activities))
     forward = forward_graph(graph)
     for fork in (n for n, kind in graph.nodes(data="kind") if kind in FORK_KINDS):
         join = graph.nodes[fork]["join"]
@@ -148,11 +155,12 @@ def test_branches_partition_what_lies_between_fork_and_join(
 @settings(max_examples=40, deadline=None)
 @given(_activities())
 def test_builds_renderings_and_analyses_repeat_exactly(activities: list[ast.ActivityDecl]) -> None:
-    first, second = build_activity_graph(activities), build_activity_graph(activities)
+    lowered = _lowered(activities)
+    first, second = build_activity_graph(lowered), build_activity_graph(lowered)
     assert list(first.nodes(data=True)) == list(second.nodes(data=True))
     assert list(first.edges(data=True)) == list(second.edges(data=True))
     assert to_mermaid(first) == to_mermaid(second)
     assert to_dot(first) == to_dot(second)
-    findings = analyse_activities(activities, first)
-    assert findings == analyse_activities(activities, second)
+    findings = verify_activities(lowered, first)
+    assert findings == verify_activities(lowered, second)
     assert all(f.code.startswith("E3") and f.span is not None and f.hint for f in findings)

@@ -14,9 +14,11 @@ from PIL import Image
 
 from hubero_dsl.graph.build import build_activity_graph
 from hubero_dsl.graph.picture import layout, to_png
-from hubero_dsl.graph.render import describe_node, format_condition, to_dot, to_mermaid
+from hubero_dsl.graph.render import describe_node, to_dot, to_mermaid
 from hubero_dsl.lang import ast
 from hubero_dsl.lang.parse import parse_source
+from hubero_dsl.lang.text import format_condition
+from hubero_dsl.pipeline import lower_activities
 
 SCENARIO = """\
 activity dinner {
@@ -35,7 +37,7 @@ activity { actor3 talk to "say \\"hi\\" #1" for 2 s }
 
 def graph_of(text: str) -> nx.DiGraph:
     module = parse_source(text, "t.hub")
-    return build_activity_graph(module.of_type(ast.ActivityDecl))
+    return build_activity_graph(lower_activities(module))
 
 
 @pytest.fixture(scope="module")

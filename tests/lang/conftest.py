@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from hubero_dsl.lang.compile import CheckResult, check_source
+from hubero_dsl.pipeline import CheckResult, check_source
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 CASE_PATH = str(REPO_ROOT / "tests" / "lang" / "case.hub")

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from hubero_dsl.cli.main import main
-from hubero_dsl.lang.compile import check_file
+from hubero_dsl.pipeline import check_file
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 CASES = REPO_ROOT / "tests" / "cases" / "diagnostics"

@@ -12,9 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from hubero_dsl.lang.compile import CheckResult, check_source
-from hubero_dsl.lang.program import Distribution
 from hubero_dsl.lang.symbols import reserved_words
+from hubero_dsl.model.program import Distribution
+from hubero_dsl.pipeline import CheckResult, check_source
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle
 
 Check = Callable[..., CheckResult]

@@ -20,10 +20,16 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from hubero_dsl.cli.render import FileReport, github_report, json_report, plain, text_report
+from hubero_dsl.cli.diagnostic_formats import (
+    FileReport,
+    github_report,
+    json_report,
+    plain,
+    text_report,
+)
 from hubero_dsl.diagnostics import Span
-from hubero_dsl.lang.compile import CheckResult, check_source
 from hubero_dsl.lang.symbols import VALUE_KEYWORDS, reserved_words
+from hubero_dsl.pipeline import CheckResult, check_source
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = sorted((REPO_ROOT / "scenarios").glob("*.hub"))

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from hubero_dsl.lang.compile import check_source
 from hubero_dsl.lang.symbols import reserved_words
+from hubero_dsl.pipeline import check_source
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 SHARED = REPO_ROOT / ".." / "shared"

@@ -13,8 +13,8 @@ import pytest
 from hubero_dsl.diagnostics import Diagnostic
 from hubero_dsl.errors import CompileError
 from hubero_dsl.lang import ast
-from hubero_dsl.lang.compile import check_source
 from hubero_dsl.lang.parse import MAX_NESTING, MAX_TREE_DEPTH, parse_source
+from hubero_dsl.pipeline import check_source
 
 HEADER = 'scenario "x"\n'
 
@@ -54,11 +54,22 @@ def test_unexpected_word_hints_only_what_can_follow() -> None:
                                "how it must hold (always, eventually, within)")
 
 
-def test_unknown_task_lists_the_tasks() -> None:
-    diagnostic = syntax_error(HEADER + "activity {\n    actor1 walk_to (1, 1)\n}\n")
-    assert where(diagnostic) == (3, 12, 3, 19)
+def test_a_step_without_a_task_lists_the_tasks() -> None:
+    diagnostic = syntax_error(HEADER + "activity {\n    actor1 (1, 1)\n}\n")
+    assert where(diagnostic) == (3, 12, 3, 13)
     assert diagnostic.hint == ("expected one of: ':', a task (stand, move_to, run_to, "
                                "move_around, follow, talk, sit_down, lie_down, teleop)")
+
+
+def test_an_unknown_task_is_named_at_the_word_with_the_closest_kind() -> None:
+    for text, word, guess in (("actor1 move_too (15.0, 6.0)", "move_too", "move_to"),
+                              ("actor1 stands for 3 s", "stands", "stand")):
+        result = check_source(HEADER + 'map "m.yaml"\nhuman actor1 at (1, 1)\n'
+                              f"activity {{\n    {text}\n}}\n", "case.hub")
+        (diagnostic,) = [d for d in result.errors if d.code == "E108"]
+        assert diagnostic.message == f"unknown task '{word}'"
+        assert where(diagnostic) == (5, 12, 5, 12 + len(word))
+        assert diagnostic.hint == f"did you mean '{guess}'?"
 
 
 def test_a_word_after_a_number_is_called_an_unknown_unit() -> None:
@@ -69,9 +80,9 @@ def test_a_word_after_a_number_is_called_an_unknown_unit() -> None:
 
 
 def test_a_word_after_a_name_ending_in_a_digit_is_no_unit() -> None:
-    diagnostic = syntax_error(HEADER + "activity { actor1 walk_to (1, 1) }\n")
-    assert diagnostic.hint is not None
-    assert "not a unit" not in diagnostic.hint
+    result = check_source(HEADER + "activity { actor1 walk_to (1, 1) }\n", "case.hub")
+    assert "E108" in {d.code for d in result.errors}
+    assert all("not a unit" not in (d.hint or "") for d in result.diagnostics)
 
 
 def test_missing_value_at_end_of_line() -> None:

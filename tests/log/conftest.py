@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hubero_dsl.lang.compile import compile_file
 from hubero_dsl.log.writer import RunLog
-from hubero_dsl.sim.run import RunResult, run_program
+from hubero_dsl.pipeline import compile_file
+from hubero_dsl.sim.loop import RunResult, run_program
 from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.world.grid import OccupancyGrid
 from hubero_dsl.world.mapfile import save_map

@@ -14,9 +14,9 @@ import pytest
 from mcap.reader import make_reader
 
 from hubero_dsl import __version__
-from hubero_dsl.lang.compile import compile_file
 from hubero_dsl.log import schemas as s
 from hubero_dsl.log.reader import load_run
+from hubero_dsl.pipeline import compile_file
 from hubero_dsl.sim.status import TaskStatus
 from hubero_dsl.world.mapfile import load_map
 from hubero_dsl.world.shapes import Ellipse

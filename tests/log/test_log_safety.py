@@ -13,11 +13,11 @@ import pytest
 
 from hubero_dsl.cli.main import main
 from hubero_dsl.errors import LogError
-from hubero_dsl.lang.compile import compile_file
 from hubero_dsl.log.container import McapContainer
 from hubero_dsl.log.reader import load_run
 from hubero_dsl.log.writer import RunLog
-from hubero_dsl.sim.run import run_program
+from hubero_dsl.pipeline import compile_file
+from hubero_dsl.sim.loop import run_program
 from hubero_dsl.sim.simulation import Simulation
 from tests.log.conftest import ENDLESS, MEETING, REPO_ROOT, WAITING, World, hubero
 

@@ -15,7 +15,7 @@ import pytest
 from pydantic import ValidationError
 
 from hubero_dsl.errors import SimulationError
-from hubero_dsl.params import HUMAN_PARAMS
+from hubero_dsl.model.params import HUMAN_PARAMS
 from hubero_dsl.planners.base import Crowd, Drive, LocalPlanner, PlannerParams
 from hubero_dsl.planners.registry import local_planner, planner_params
 from hubero_dsl.planners.social_force import SocialForceParams, SocialForcePlanner

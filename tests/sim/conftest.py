@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hubero_dsl.lang.compile import compile_source
-from hubero_dsl.lang.program import Program
+from hubero_dsl.model.program import Program
+from hubero_dsl.pipeline import compile_source
 from hubero_dsl.world.grid import OccupancyGrid
 from hubero_dsl.world.mapfile import save_map
 

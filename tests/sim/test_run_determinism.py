@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from hubero_dsl.lang.compile import compile_file
-from hubero_dsl.sim.run import run_program
+from hubero_dsl.pipeline import compile_file
+from hubero_dsl.sim.loop import run_program
 from hubero_dsl.sim.simulation import Simulation
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -20,8 +20,8 @@ SCENARIO = ROOT / "scenarios" / "house_party.hub"
 TRAJECTORY_DIGEST = """
 import hashlib, sys
 import numpy as np
-from hubero_dsl.lang.compile import compile_file
-from hubero_dsl.sim.run import run_program
+from hubero_dsl.pipeline import compile_file
+from hubero_dsl.sim.loop import run_program
 from hubero_dsl.sim.simulation import Simulation
 frames = []
 sim = Simulation(compile_file(sys.argv[1]), variant=sys.argv[2], seed=int(sys.argv[3]))

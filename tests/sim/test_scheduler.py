@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from hubero_dsl.sim.run import RunResult, run_program
+from hubero_dsl.sim.loop import RunResult, run_program
 from hubero_dsl.sim.scheduler import RunState
 from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.sim.status import TaskStatus

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from hubero_dsl.errors import InputError
-from hubero_dsl.lang.compile import compile_file
+from hubero_dsl.pipeline import compile_file
 from hubero_dsl.sweep.plan import (
     MAX_RUNS,
     parse_seeds,

@@ -10,8 +10,8 @@ from typing import Any
 
 import pytest
 
-from hubero_dsl.lang.compile import compile_file
 from hubero_dsl.log.reader import LoggedRun, load_run
+from hubero_dsl.pipeline import compile_file
 from hubero_dsl.sweep.executors import SerialExecutor, open_executor
 from hubero_dsl.sweep.index import write_index
 from hubero_dsl.sweep.plan import SweepPlan, plan_sweep

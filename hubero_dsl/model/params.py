@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass
 from enum import StrEnum
 
-from hubero_dsl.lang.units import Dimension
+from hubero_dsl.model.units import Dimension
 from hubero_dsl.world.shapes import Circle, Shape
 
 

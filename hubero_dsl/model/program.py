@@ -1,9 +1,11 @@
 """The checked program: what a scenario means, resolved to SI values, ready to simulate.
 
-`Program` is what the compiler hands downstream. Names are resolved (places to poses, areas to
-shapely polygons), quantities are SI floats, parameters are layered (built-in defaults <
-`defaults` < human block < variant) and the activity graph is built. Distributions stay
-unresolved (`Distribution`) until a run draws them from its seed.
+`Program` is what the compiler hands downstream (the engine, the scheduler, the log, the
+analyses); nothing downstream reads the syntax tree. Names are resolved (places to poses, areas
+to shapely polygons), quantities are SI floats, parameters are layered (built-in defaults <
+`defaults` < human block < variant), activities and expectations are lowered
+(`hubero_dsl.model.activities`) and the activity graph is built. Distributions stay unresolved
+(`Distribution`) until a run draws them from its seed.
 """
 
 from __future__ import annotations
@@ -12,10 +14,11 @@ import itertools
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Literal
 
-from hubero_dsl.lang import ast
-from hubero_dsl.params import HUMAN_PARAMS
+from hubero_dsl.diagnostics import SourceFile, Span
+from hubero_dsl.model.activities import Activity, Expectation
+from hubero_dsl.model.params import HUMAN_PARAMS
 from hubero_dsl.world.shapes import Shape
 
 if TYPE_CHECKING:
@@ -68,7 +71,7 @@ class HumanSpec:
     name: str
     start: Pose
     params: ParamLayer
-    span: Any
+    span: Span
 
 
 @dataclass(frozen=True, slots=True)
@@ -80,7 +83,7 @@ class RobotSpec:
     path: tuple[tuple[float, float], ...]
     loop: bool
     controller: str | None
-    span: Any
+    span: Span
 
 
 @dataclass(frozen=True, slots=True)
@@ -93,8 +96,7 @@ class Variant:
 class Program:
     """A checked scenario. Read-only; a run never changes it."""
 
-    source: ast.SourceFile
-    module: ast.Module
+    source: SourceFile
     title: str
     map_path: Path
     grid: OccupancyGrid
@@ -109,8 +111,8 @@ class Program:
     humans: tuple[HumanSpec, ...]
     robots: tuple[RobotSpec, ...]
     variants: Mapping[str, Variant]
-    activities: tuple[ast.ActivityDecl, ...]
-    expectations: tuple[ast.ExpectDecl, ...]
+    activities: tuple[Activity, ...]
+    expectations: tuple[Expectation, ...]
     graph: nx.DiGraph
 
     @property
@@ -131,46 +133,6 @@ class Program:
                 values.update(layer.per_human.get(human.name, {}))
             resolved[human.name] = values
         return resolved
-
-    # ---- name resolution for the engine -------------------------------------------------
-
-    def point(self, value: ast.PointValue) -> Pose | str:
-        """A fixed pose, or the name of the human/robot whose position it means at the time."""
-        if isinstance(value, ast.Point):
-            return Pose(coordinate(value.x), coordinate(value.y))
-        if value.name in self.places:
-            return self.places[value.name]
-        return value.name
-
-    def area(self, value: ast.AreaValue) -> Polygon:
-        if isinstance(value, ast.NameRef):
-            return self.areas[value.name]
-        return area_polygon(value, self.places)
-
-
-def coordinate(value: ast.Coordinate) -> float:
-    return value.value if isinstance(value, ast.Number) else value.si
-
-
-def fixed_point(value: ast.PointValue, places: Mapping[str, Pose]) -> tuple[float, float] | None:
-    """The coordinates of a literal point or a place; None for bodies and unknown names."""
-    if isinstance(value, ast.Point):
-        return (coordinate(value.x), coordinate(value.y))
-    pose = places.get(value.name)
-    return pose.xy if pose else None
-
-
-def area_polygon(value: ast.RectArea | ast.PolygonArea, places: Mapping[str, Pose]) -> Polygon:
-    """The polygon of a literal area (names inside must be places; checked before)."""
-    from shapely.geometry import Polygon
-
-    if isinstance(value, ast.RectArea):
-        a = fixed_point(value.corner_a, places) or (0.0, 0.0)
-        b = fixed_point(value.corner_b, places) or (0.0, 0.0)
-        (x0, x1), (y0, y1) = sorted((a[0], b[0])), sorted((a[1], b[1]))
-        return Polygon([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
-    vertices = [fixed_point(v, places) or (0.0, 0.0) for v in value.vertices]
-    return Polygon(vertices)
 
 
 def sweep_products(sweeps: list[tuple[str, list[tuple[str, ParamLayer]]]]

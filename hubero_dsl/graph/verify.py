@@ -1,7 +1,7 @@
-"""Concurrency and wait analyses over the activity graph: the E3xx diagnostics.
+"""Verification of the activity graph: the E3xx diagnostics.
 
-They run on the graph of `hubero_dsl.graph.build` and find what would make a scenario hang or
-fight over a human at run time:
+The checks run on the graph of `hubero_dsl.graph.build`, built from the lowered activities, and
+find what would make a scenario hang or fight over a human at run time:
 
 - E301 a human commanded by two activities (activities run concurrently; one controller each).
 - E302 a human commanded by two steps of one activity that can run at the same time.
@@ -47,40 +47,39 @@ from hubero_dsl.graph.build import (
     node_sort_key,
     nodes_of_kind,
 )
-from hubero_dsl.graph.render import describe_node, format_condition
-from hubero_dsl.lang import ast
-
-ENDS_BY_ITSELF = frozenset({"move_to", "run_to"})
+from hubero_dsl.graph.render import describe_node
+from hubero_dsl.model import activities as m
+from hubero_dsl.model.conditions import (
+    Condition,
+    Label,
+    LabelCondition,
+    LabelEvent,
+    required_labels,
+    walk_conditions,
+)
+from hubero_dsl.model.tasks import TASKS, Task
 
 Event = tuple[str, str]  # (node, "s" | "e")
 
 
-def ends_by_itself(task: ast.Task) -> bool:
-    """Whether a task ends without `until`: it reaches its goal, or its `for`/`times` run out."""
-    return (task.kind in ENDS_BY_ITSELF or task.option("for") is not None
-            or task.option("times") is not None)
+def ends_by_itself(task: Task) -> bool:
+    """Whether a task ends without `until`: it reaches its goal, or its `for`/`times` run out.
+    (An unknown task kind is the checker's error; it is not reported again here.)"""
+    kind = TASKS.get(task.kind)
+    return kind is None or kind.ends(task.arguments)
 
 
-def needs_forever(step: ast.TaskStep) -> bool:
+def needs_forever(step: m.TaskStep) -> bool:
     """A task with no natural end, no `for`/`times` and no `until`: it must say `forever`."""
     return step.until is None and not ends_by_itself(step.task)
 
 
-def never_ends(step: ast.TaskStep) -> bool:
+def never_ends(step: m.TaskStep) -> bool:
     """A task that nothing ends: not even `within` (which ends it by aborting it)."""
     return needs_forever(step) and step.within is None
 
 
-def required_labels(condition: ast.Condition) -> list[ast.LabelCondition]:
-    """The label events that must have happened for the condition to hold (`and` operands)."""
-    if isinstance(condition, ast.LabelCondition):
-        return [condition]
-    if isinstance(condition, ast.AllOf):
-        return [part for operand in condition.operands for part in required_labels(operand)]
-    return []
-
-
-def analyse_activities(activities: Sequence[ast.ActivityDecl], graph: nx.DiGraph, *,
+def verify_activities(activities: Sequence[m.Activity], graph: nx.DiGraph, *,
                        label_names: bool = True) -> list[Diagnostic]:
     """Every E3xx diagnostic of the scenario's activities, in source order.
 
@@ -103,7 +102,7 @@ class _Wait:
     """One ordering a `wait until` imposes: `source` happens before the wait ends."""
 
     accept: str
-    condition: ast.LabelCondition
+    condition: LabelCondition
     scope: LabelScope
     source: Event
 
@@ -111,7 +110,7 @@ class _Wait:
 class _Context:
     """The graph, its label scopes, and the happens-before relation, built once."""
 
-    def __init__(self, graph: nx.DiGraph, activities: Sequence[ast.ActivityDecl]) -> None:
+    def __init__(self, graph: nx.DiGraph, activities: Sequence[m.Activity]) -> None:
         self.graph = graph
         self.activities = dict(zip(activity_keys(activities), activities, strict=True))
         self.scopes = label_scopes(graph)
@@ -147,11 +146,11 @@ class _Context:
         return nodes_of_kind(self.graph, NodeKind.ACTION)
 
 
-def label_event(scope: LabelScope, event: ast.LabelEvent) -> Event:
+def label_event(scope: LabelScope, event: LabelEvent) -> Event:
     """The event after which `LABEL event` holds (a composite step fails from its start on)."""
-    if event is ast.LabelEvent.STARTED:
+    if event is LabelEvent.STARTED:
         return (scope.begin, "s")
-    if event is ast.LabelEvent.FAILED and scope.begin != scope.end:
+    if event is LabelEvent.FAILED and scope.begin != scope.end:
         return (scope.begin, "s")
     return (scope.end, "e")
 
@@ -172,20 +171,20 @@ def _quoted(graph: nx.DiGraph, node: str) -> str:
 
 def _repeat_counts(context: _Context) -> Iterator[Diagnostic]:
     for start in nodes_of_kind(context.graph, NodeKind.REPEAT_START):
-        count: ast.Number = context.graph.nodes[start]["step"].count
-        if not count.is_integer:
-            problem = f"`repeat` needs a whole number of rounds, not {count.text}"
-        elif count.value < 1:
-            problem = f"`repeat {count.text}` never runs its body"
+        step: m.RepeatStep = context.graph.nodes[start]["step"]
+        if not step.count_is_whole:
+            problem = f"`repeat` needs a whole number of rounds, not {step.count_text}"
+        elif step.count < 1:
+            problem = f"`repeat {step.count_text}` never runs its body"
         else:
             continue
-        yield error("E309", problem, count.span, "write `repeat N` with N = 1, 2, 3, ...")
+        yield error("E309", problem, step.count_span, "write `repeat N` with N = 1, 2, 3, ...")
 
 
 def _empty_blocks(context: _Context) -> Iterator[Diagnostic]:
     for fork in nodes_of_kind(context.graph, NodeKind.FORK, NodeKind.RACE_FORK):
-        step: ast.ParallelStep | ast.RaceStep = context.graph.nodes[fork]["step"]
-        word = "race" if isinstance(step, ast.RaceStep) else "parallel"
+        step: m.ParallelStep | m.RaceStep = context.graph.nodes[fork]["step"]
+        word = "race" if isinstance(step, m.RaceStep) else "parallel"
         if not step.branches:
             yield warning("E311", f"this `{word}` has no branches and does nothing", step.span,
                           "remove it, or add branches")
@@ -205,7 +204,7 @@ def _empty_blocks(context: _Context) -> Iterator[Diagnostic]:
 
 
 def _duplicate_labels(context: _Context) -> Iterator[Diagnostic]:
-    first_seen: dict[str, ast.NameRef] = {}
+    first_seen: dict[str, Label] = {}
     for ref, _ in label_definitions(context.graph):
         first = first_seen.setdefault(ref.name, ref)
         if first is not ref:
@@ -219,14 +218,15 @@ def _duplicate_labels(context: _Context) -> Iterator[Diagnostic]:
 
 def _task_ends(context: _Context) -> Iterator[Diagnostic]:
     for action in context.actions():
-        step: ast.TaskStep = context.graph.nodes[action]["step"]
+        step: m.TaskStep = context.graph.nodes[action]["step"]
         kind = step.task.kind
         if not step.forever and needs_forever(step):
             yield error("E306", f"`{kind}` has no natural end, so this step would never end",
                         step.span, "add `for 10 s`, `until ...`, or `forever`")
         elif step.forever and ends_by_itself(step.task):
-            why = ("it ends when the human gets there" if kind in ENDS_BY_ITSELF
-                   else "its `for`/`times` ends it")
+            spec = TASKS.get(kind)
+            why = ("it ends when the human gets there" if spec is not None
+                   and spec.ends_by_itself else "its `for`/`times` ends it")
             yield warning("E307", f"`forever` has no effect on this `{kind}`: {why}",
                           step.span, "remove `forever`")
 
@@ -237,7 +237,7 @@ def _forever_flow(context: _Context) -> tuple[list[Diagnostic], dict[str, str]]:
     found: list[Diagnostic] = []
     never_done: dict[str, str] = {}
     for action in context.actions():
-        step: ast.TaskStep = context.graph.nodes[action]["step"]
+        step: m.TaskStep = context.graph.nodes[action]["step"]
         if step.forever and never_ends(step):
             diagnostic, held = _follow_forever(context, action)
             found += [diagnostic] if diagnostic is not None else []
@@ -321,7 +321,7 @@ def _blocks_join(context: _Context, action: str, blocked: str) -> Diagnostic:
 def _untils(context: _Context) -> Iterator[Diagnostic]:
     """E313: `until` conditions that need a label event only possible after the task."""
     for action in context.actions():
-        step: ast.TaskStep = context.graph.nodes[action]["step"]
+        step: m.TaskStep = context.graph.nodes[action]["step"]
         if step.until is None:
             continue
         for condition in required_labels(step.until):
@@ -329,7 +329,7 @@ def _untils(context: _Context) -> Iterator[Diagnostic]:
             if scope is None or not context.structurally_after(
                     (action, "e"), label_event(scope, condition.event)):
                 continue
-            message = (f"`until {format_condition(step.until)}` can never hold while this task "
+            message = (f"`until {step.until.text}` can never hold while this task "
                        f"runs: `{scope.label}` can only {_verb(condition.event)} after it")
             related = (Related(f"`{scope.label}` is here", scope.ref.span),)
             if ends_by_itself(step.task):
@@ -342,9 +342,9 @@ def _untils(context: _Context) -> Iterator[Diagnostic]:
             break
 
 
-def _verb(event: ast.LabelEvent) -> str:
-    return {ast.LabelEvent.DONE: "finish", ast.LabelEvent.STARTED: "start",
-            ast.LabelEvent.FAILED: "fail"}[event]
+def _verb(event: LabelEvent) -> str:
+    return {LabelEvent.DONE: "finish", LabelEvent.STARTED: "start",
+            LabelEvent.FAILED: "fail"}[event]
 
 
 # ---- who commands whom --------------------------------------------------------------------
@@ -406,7 +406,7 @@ def _waits(context: _Context, never_done: dict[str, str],
     found: list[Diagnostic] = list(_unknown_labels(context)) if label_names else []
     possible: list[_Wait] = []
     for wait in context.waits:
-        if wait.condition.event is ast.LabelEvent.DONE and wait.scope.label in never_done:
+        if wait.condition.event is LabelEvent.DONE and wait.scope.label in never_done:
             found.append(_never_done(context, wait, never_done[wait.scope.label]))
         elif context.structurally_after((wait.accept, "e"), wait.source):
             found.append(_waits_for_later(context, wait))
@@ -417,9 +417,9 @@ def _waits(context: _Context, never_done: dict[str, str],
 
 def _unknown_labels(context: _Context) -> Iterator[Diagnostic]:
     for accept in nodes_of_kind(context.graph, NodeKind.ACCEPT):
-        condition: ast.Condition = context.graph.nodes[accept]["condition"]
-        for part in ast.walk_conditions(condition):
-            if isinstance(part, ast.LabelCondition) and part.label.name not in context.scopes:
+        condition: Condition = context.graph.nodes[accept]["condition"]
+        for part in walk_conditions(condition):
+            if isinstance(part, LabelCondition) and part.label.name not in context.scopes:
                 yield error("E303", f"no step is labelled `{part.label.name}`, so this wait "
                             "would never end", part.label.span,
                             f"label the step to wait for: `{part.label.name}: HUMAN TASK ...`")
@@ -442,7 +442,7 @@ def _waits_for_later(context: _Context, wait: _Wait) -> Diagnostic:
               "before the wait ends"
     else:
         why = f"`{label}` can only {_verb(wait.condition.event)} after this wait has ended"
-    return error("E304", f"`wait until {format_condition(wait.condition)}` can never be "
+    return error("E304", f"`wait until {wait.condition.text}` can never be "
                  f"satisfied: {why}", graph.nodes[wait.accept]["span"],
                  f"move the step labelled `{label}` before this wait, or into a branch of a "
                  "`parallel` that runs beside it",
@@ -486,11 +486,11 @@ def _deadlock(context: _Context, cycle: list[_Wait]) -> Diagnostic:
         if following is not cycle[0]:
             place = _where(context, following.accept, cycle[0].accept)
             where = f"{_quoted(graph, following.accept)} ({place})"
-        steps.append(f"needs `{format_condition(wait.condition)}`, which can only happen after "
+        steps.append(f"needs `{wait.condition.text}`, which can only happen after "
                      f"{where}")
     message = (f"deadlock: {_quoted(graph, cycle[0].accept)} " + ", which ".join(steps))
     related = tuple(Related(f"this wait is part of the cycle: it needs "
-                            f"`{format_condition(w.condition)}`", graph.nodes[w.accept]["span"])
+                            f"`{w.condition.text}`", graph.nodes[w.accept]["span"])
                     for w in cycle[1:])
     related += tuple(Related(f"`{w.scope.label}` is here", w.scope.ref.span) for w in cycle)
     return error("E305", message, graph.nodes[cycle[0].accept]["span"],

@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from hubero_dsl.cli.render import (
+from hubero_dsl.cli.diagnostic_formats import (
     FileReport,
     Printer,
     SourceLines,

@@ -10,9 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
-from hubero_dsl.lang import ast
-from hubero_dsl.lang.units import Dimension
-from hubero_dsl.sim.conditions import si
+from hubero_dsl.model.activities import Expectation, ExpectMode
 from hubero_dsl.sim.scheduler import RunState
 from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.sim.status import TaskEvent, TaskStatus
@@ -21,38 +19,35 @@ Observer = Callable[[Simulation], None]
 
 
 @dataclass
-class Expectation:
+class Verdict:
     """One `expect`, judged as the run goes: holds / fails and when it was decided."""
 
-    decl: ast.ExpectDecl
-    text: str
+    expectation: Expectation
     held: bool | None = None      # None: not decided yet
     decided_at: float | None = None
+
+    @property
+    def text(self) -> str:
+        return self.expectation.text
 
     def observe(self, holds: bool, time: float) -> None:
         if self.held is not None:
             return
-        mode = self.decl.mode
-        if mode is ast.ExpectMode.ALWAYS and not holds:
+        mode, deadline = self.expectation.mode, self.expectation.deadline
+        if mode is ExpectMode.ALWAYS and not holds:
             self.held, self.decided_at = False, time
-        elif mode is not ast.ExpectMode.ALWAYS and holds:
-            if mode is ast.ExpectMode.WITHIN and self.deadline is not None \
-                    and time > self.deadline + 1e-9:
-                self.held, self.decided_at = False, self.deadline
+        elif mode is not ExpectMode.ALWAYS and holds:
+            if mode is ExpectMode.WITHIN and deadline is not None and time > deadline + 1e-9:
+                self.held, self.decided_at = False, deadline
             else:
                 self.held, self.decided_at = True, time
-        elif mode is ast.ExpectMode.WITHIN and self.deadline is not None \
-                and time > self.deadline + 1e-9:
-            self.held, self.decided_at = False, self.deadline
+        elif mode is ExpectMode.WITHIN and deadline is not None and time > deadline + 1e-9:
+            self.held, self.decided_at = False, deadline
 
     def finish(self, time: float) -> None:
         if self.held is None:
-            self.held = self.decl.mode is ast.ExpectMode.ALWAYS
+            self.held = self.expectation.mode is ExpectMode.ALWAYS
             self.decided_at = time
-
-    @property
-    def deadline(self) -> float | None:
-        return si(self.decl.deadline, Dimension.TIME) if self.decl.deadline is not None else None
 
 
 @dataclass
@@ -74,7 +69,7 @@ class RunResult:
     variant: str | None
     seed: int
     events: list[TaskEvent]
-    expectations: list[Expectation] = field(default_factory=list)
+    expectations: list[Verdict] = field(default_factory=list)
     humans: list[HumanSummary] = field(default_factory=list)
 
     @property
@@ -90,8 +85,7 @@ def run_program(sim: Simulation, observers: Sequence[Observer] = ()) -> RunResul
     """Run to the end: every activity done, the time limit, or a stopping failure."""
     scheduler = sim.scheduler
     assert scheduler is not None, "run_program needs a simulation with activities"
-    source = sim.program.source
-    expectations = [Expectation(e, _text(source, e)) for e in sim.program.expectations]
+    expectations = [Verdict(e) for e in sim.program.expectations]
     while True:
         scheduler.update()  # also decides when the run is over (done, failed, timed out)
         _judge(sim, expectations)
@@ -107,19 +101,12 @@ def run_program(sim: Simulation, observers: Sequence[Observer] = ()) -> RunResul
                      sim.seed, list(sim.events), expectations, summarise(sim))
 
 
-def _judge(sim: Simulation, expectations: list[Expectation]) -> None:
+def _judge(sim: Simulation, expectations: list[Verdict]) -> None:
     assert sim.scheduler is not None
-    for expectation in expectations:
-        if expectation.held is None:
-            expectation.observe(sim.scheduler.conditions.holds(expectation.decl.condition),
-                                sim.time)
-
-
-def _text(source: ast.SourceFile, decl: ast.ExpectDecl) -> str:
-    span = decl.span
-    line = source.line(span.line)
-    end = span.end_column - 1 if span.end_line == span.line else len(line)
-    return line[span.column - 1:end].strip().removeprefix("expect").strip()
+    for verdict in expectations:
+        if verdict.held is None:
+            verdict.observe(sim.scheduler.conditions.holds(verdict.expectation.condition),
+                            sim.time)
 
 
 def summarise(sim: Simulation) -> list[HumanSummary]:

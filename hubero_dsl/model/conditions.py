@@ -1,0 +1,124 @@
+"""Conditions as lowered: `wait until`, `until` and `expect` read these, never the syntax.
+
+Names are resolved (a place is its point, an area its polygon), thresholds are SI floats, and
+every condition keeps its span and its text as the scenario's words (`invite done`) for messages
+and diagrams.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import StrEnum
+from typing import TYPE_CHECKING, TypeAlias
+
+from hubero_dsl.model.tasks import Target
+
+if TYPE_CHECKING:
+    from shapely.geometry import Polygon
+
+    from hubero_dsl.diagnostics import Span
+
+
+class LabelEvent(StrEnum):
+    DONE = "done"
+    STARTED = "started"
+    FAILED = "failed"
+
+
+@dataclass(frozen=True, slots=True)
+class Label:
+    """A label as written: its name and where (a definition, or a reference in a condition)."""
+
+    name: str
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class LabelCondition:
+    label: Label
+    event: LabelEvent
+    span: Span
+    text: str
+
+
+@dataclass(frozen=True, slots=True)
+class Reaches:
+    """`NAME reaches TARGET`: within the subject's goal tolerance of it."""
+
+    subject: str
+    target: Target
+    span: Span
+    text: str
+
+
+@dataclass(frozen=True, slots=True)
+class DistanceTo:
+    """`distance(NAME, TARGET) OP Q`, centre to centre, in metres."""
+
+    subject: str
+    target: Target
+    operator: str
+    threshold: float
+    span: Span
+    text: str
+
+
+@dataclass(frozen=True, slots=True)
+class Inside:
+    subject: str
+    area: Polygon
+    span: Span
+    text: str
+
+
+@dataclass(frozen=True, slots=True)
+class TimeCompare:
+    operator: str
+    threshold: float   # s
+    span: Span
+    text: str
+
+
+@dataclass(frozen=True, slots=True)
+class Not:
+    operand: Condition
+    span: Span
+    text: str
+
+
+@dataclass(frozen=True, slots=True)
+class AllOf:
+    operands: tuple[Condition, ...]
+    span: Span
+    text: str
+
+
+@dataclass(frozen=True, slots=True)
+class AnyOf:
+    operands: tuple[Condition, ...]
+    span: Span
+    text: str
+
+
+Condition: TypeAlias = (LabelCondition | Reaches | DistanceTo | Inside | TimeCompare | Not
+                        | AllOf | AnyOf)
+
+
+def walk_conditions(condition: Condition) -> list[Condition]:
+    """The condition and every condition inside it, depth first."""
+    found: list[Condition] = [condition]
+    if isinstance(condition, Not):
+        found += walk_conditions(condition.operand)
+    elif isinstance(condition, AllOf | AnyOf):
+        for operand in condition.operands:
+            found += walk_conditions(operand)
+    return found
+
+
+def required_labels(condition: Condition) -> list[LabelCondition]:
+    """The label events that must have happened for the condition to hold (`and` operands)."""
+    if isinstance(condition, LabelCondition):
+        return [condition]
+    if isinstance(condition, AllOf):
+        return [part for operand in condition.operands for part in required_labels(operand)]
+    return []

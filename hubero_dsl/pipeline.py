@@ -1,0 +1,172 @@
+"""The compiler pipeline: text -> syntax tree -> checks -> map -> lowered model -> activity
+graph -> verification -> `Program`.
+
+It sits above the language (`hubero_dsl.lang`) and the graph (`hubero_dsl.graph`), which know
+nothing of each other: the language lowers a module to the model, the graph is built from the
+model. `check_file` / `check_source` collect every diagnostic of a file and return them with the
+program (None when there are errors). `compile_file` / `compile_source` return the program or
+raise `CompileError` with all diagnostics.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Literal, cast
+
+from hubero_dsl.diagnostics import Diagnostic, SourceFile
+from hubero_dsl.errors import CompileError
+from hubero_dsl.graph.build import build_activity_graph
+from hubero_dsl.graph.verify import verify_activities
+from hubero_dsl.lang import ast
+from hubero_dsl.lang.checks import Checker, Facts
+from hubero_dsl.lang.lower import Lowering, named_areas
+from hubero_dsl.lang.parse import parse_source, read_source
+from hubero_dsl.lang.placement import check_positions, load_scenario_map, map_path
+from hubero_dsl.model.activities import Activity
+from hubero_dsl.model.program import HumanSpec, ParamLayer, Program, Variant, sweep_products
+
+if TYPE_CHECKING:
+    from shapely.geometry import Polygon
+
+
+@dataclass(frozen=True)
+class CheckResult:
+    source: SourceFile | None
+    diagnostics: tuple[Diagnostic, ...]
+    program: Program | None
+
+    @property
+    def errors(self) -> list[Diagnostic]:
+        return [d for d in self.diagnostics if d.is_error]
+
+    @property
+    def warnings(self) -> list[Diagnostic]:
+        return [d for d in self.diagnostics if not d.is_error]
+
+
+def check_source(text: str, path: str = "<string>") -> CheckResult:
+    """Parse and check scenario text; never raises for a bad scenario."""
+    source = SourceFile(path, text)
+    try:
+        module = parse_source(text, path)
+    except CompileError as exc:
+        return CheckResult(source, tuple(sorted(exc.diagnostics, key=Diagnostic.sort_key)), None)
+    diagnostics: list[Diagnostic] = []
+    program = _check_module(module, diagnostics)
+    ordered = tuple(sorted(diagnostics, key=Diagnostic.sort_key))
+    has_errors = any(d.is_error for d in ordered)
+    return CheckResult(source, ordered, None if has_errors else program)
+
+
+def check_file(path: str | Path) -> CheckResult:
+    """Read (InputError if it cannot be read), parse and check a scenario file."""
+    return check_source(read_source(path), str(path))
+
+
+def compile_source(text: str, path: str = "<string>") -> Program:
+    result = check_source(text, path)
+    if result.program is None:
+        raise CompileError(result.diagnostics)
+    return result.program
+
+
+def compile_file(path: str | Path) -> Program:
+    return compile_source(read_source(path), str(path))
+
+
+DEFAULT_ROBOT_RADIUS = 0.3  # m, as the robot parameters declare it
+
+
+@dataclass(frozen=True)
+class Outline:
+    """What a scenario's text says without its map: its activities and its robots' sizes. For
+    tools that read a log's copy of the scenario, whose map may be gone."""
+
+    activities: tuple[Activity, ...]
+    radii: dict[str, float]                        # robot -> radius, as declared
+    variant_radii: dict[str, dict[str, float]]     # variant -> robot -> radius it sets
+
+    def robot_radii(self, variant: str | None) -> dict[str, float]:
+        """Robots' radii as the scenario and the variant set them (declared ones only)."""
+        return {**self.radii, **self.variant_radii.get(variant or "", {})}
+
+
+def outline_source(text: str, path: str = "<string>") -> Outline:
+    """Parse `text` (CompileError for a syntax error) and read its outline; no checks."""
+    module = parse_source(text, path)
+    radii = {}
+    for robot in module.of_type(ast.RobotDecl):
+        for param in robot.params:
+            if param.path == ("radius",) and (metres := _metres(param.value)) is not None:
+                radii[robot.name.name] = metres
+    variant_radii: dict[str, dict[str, float]] = {}
+    for declared in module.of_type(ast.VariantDecl):
+        for param in declared.params:
+            if len(param.path) == 2 and param.path[1] == "radius" and param.path[0] in radii \
+                    and (metres := _metres(param.value)) is not None:
+                variant_radii.setdefault(declared.name.name, {})[param.path[0]] = metres
+    return Outline(lower_activities(module), radii, variant_radii)
+
+
+def _metres(value: ast.Value) -> float | None:
+    if isinstance(value, ast.Quantity):
+        return value.si if value.known_unit else DEFAULT_ROBOT_RADIUS
+    if isinstance(value, ast.Number):
+        return float(value.value)
+    return None
+
+
+def lower_activities(module: ast.Module) -> tuple[Activity, ...]:
+    """A module's activities lowered on their own, without its map or places (named targets stay
+    names): what the graph's renderings and verification need, for tools and tests."""
+    return Lowering(module.source, {}, {}, None).activities(module.of_type(ast.ActivityDecl))
+
+
+def _check_module(module: ast.Module, diagnostics: list[Diagnostic]) -> Program | None:
+    checker = Checker(module)
+    facts = checker.run()
+    diagnostics.extend(checker.diagnostics)
+    grid = None
+    if facts.map is not None:
+        grid = load_scenario_map(module.source, facts.map, diagnostics)
+        if grid is not None:
+            check_positions(grid, facts.positions, diagnostics)
+    areas = named_areas(module, facts.places)
+    lowering = Lowering(module.source, facts.places, areas,
+                        cast("Polygon | None", facts.settings.get("bounds")))
+    activities = lowering.activities(module.of_type(ast.ActivityDecl))
+    graph = build_activity_graph(activities)
+    diagnostics.extend(verify_activities(activities, graph, label_names=False))
+    if grid is None or facts.map is None or any(d.is_error for d in diagnostics):
+        return None
+    return Program(
+        source=module.source, title=facts.title, map_path=map_path(module.source, facts.map),
+        grid=grid, seed=cast(int, facts.settings.get("seed") or 0),
+        step=cast(float, facts.settings.get("step") or 0.05),
+        time_limit=cast(float, facts.settings.get("time_limit") or 600.0),
+        on_failure=cast(Literal["stop", "continue"],
+                        facts.settings.get("on_failure") or "stop"),
+        bounds=lowering.bounds, places=dict(facts.places), areas=areas,
+        defaults=facts.defaults, humans=_humans(module, facts), robots=tuple(facts.robots),
+        variants=_variants(facts), activities=activities,
+        expectations=lowering.expectations(module.of_type(ast.ExpectDecl)), graph=graph)
+
+
+def _humans(module: ast.Module, facts: Facts) -> tuple[HumanSpec, ...]:
+    return tuple(
+        HumanSpec(decl.name.name, facts.human_starts[decl.name.name],
+                  facts.human_layers.get(decl.name.name, ParamLayer()), decl.span)
+        for decl in module.of_type(ast.HumanDecl))
+
+
+def _variants(facts: Facts) -> dict[str, Variant]:
+    """Named variants, then sweeps multiplied (with every named variant, if there are any)."""
+    named = [Variant(name, (layer,)) for name, layer in facts.variants]
+    swept = sweep_products(facts.sweeps)
+    if not swept:
+        return {v.name: v for v in named}
+    if not named:
+        return {name: Variant(name, layers) for name, layers in swept}
+    return {f"{v.name},{name}": Variant(f"{v.name},{name}", v.layers + layers)
+            for v in named for name, layers in swept}
