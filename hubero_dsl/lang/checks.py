@@ -29,6 +29,7 @@ from hubero_dsl.model.units import Dimension
 from hubero_dsl.planners.registry import global_planner_names, local_planner_names
 
 BODIES = (NameKind.HUMAN, NameKind.ROBOT)
+DEFAULT_STEP = 0.05  # s, the language's default `step`
 TARGETS = (NameKind.PLACE, NameKind.HUMAN, NameKind.ROBOT)
 
 @dataclass
@@ -57,6 +58,7 @@ class Checker:
         self.symbols = SymbolTable(self.diagnostics)
         self.facts = Facts()
         self.planners = sorted(set(global_planner_names()) | set(local_planner_names()))
+        self.planner_values: list[tuple[type, str, str, float, Span]] = []
         self.planners_by_param = {"global_planner": global_planner_names(),
                                   "local_planner": local_planner_names()}
 
@@ -70,6 +72,7 @@ class Checker:
         for statement in self._in_definition_order():
             self._statement(statement)
         self._unused()
+        self._inert_planner_values()
         return self.facts
 
     def _in_definition_order(self) -> list[ast.Statement]:
@@ -336,7 +339,21 @@ class Checker:
             problem = exc.errors()[0]
             self.report("E203", f"{what}: {problem['msg'].lower()}", span)
             return None
+        self.planner_values.append((model, name, what, number, span))
         return number
+
+    def _inert_planner_values(self) -> None:
+        """W106: a planner parameter set above what the time step lets act (known only once
+        every statement, `step` among them, has been read)."""
+        step = self.facts.settings.get("step")
+        step = step if isinstance(step, float) and step > 0 else DEFAULT_STEP
+        for model, name, what, number, span in self.planner_values:
+            bound = model.inert_above(step).get(name)  # type: ignore[attr-defined]
+            if bound is not None and number > bound:
+                self.diagnostics.append(warning(
+                    "W106", f"{what} {number:g} acts as {bound:g}: the step of {step * 1e3:g} ms "
+                    "caps it", span, f"a value above {bound:g} changes nothing at this step; "
+                    "a smaller `step` lets a larger value act"))
 
     # ---- places, points, areas -------------------------------------------------------------
 

@@ -29,6 +29,12 @@ class PlannerParams(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
+    @classmethod
+    def inert_above(cls, step: float) -> dict[str, float]:
+        """Parameters whose effect the time step caps: above the value given here (for a step
+        of `step` seconds) a larger value changes nothing. `hubero check` warns about them."""
+        return {}
+
 
 class NoPath(Exception):  # noqa: N818 - reads as the outcome it is
     """The goal cannot be reached from the start; `reason` says why, for the task's status."""

@@ -131,6 +131,8 @@ class HumanHandle:
 
     def set_velocity(self, vx: float, vy: float) -> None:
         """The velocity a `teleop` task applies (walls still stop the human)."""
+        if not (np.isfinite(vx) and np.isfinite(vy)):
+            raise SimulationError(f"{self.name}: a velocity must be finite, got ({vx}, {vy})")
         speed = float(np.hypot(vx, vy))
         limit = float(self._engine.humans.run_speed[self._index])
         scale = 1.0 if speed <= limit else limit / speed

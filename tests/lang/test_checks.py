@@ -66,8 +66,15 @@ SINGLE = {
     "empty parallel": ("activity { parallel { } }", ("E311", 5, 12, 24)),
     "until never holds": ("activity { actor1 stand until n done; n: actor2 stand for 1 s }",
                           ("E313", 5, 12, 37)),
+    "unknown task": ("activity { actor1 move_too (5.5, 1.0) }", ("E108", 5, 19, 27)),
+    "k above the step's cap": ("defaults { social_force.k 1000 }", ("W106", 5, 27, 31)),
     "unused place": ("place sofa (5.5, 1.0)", ("W501", 5, 7, 11)),
 }
+
+
+def test_k_within_the_cap_of_a_smaller_step_is_no_warning(check: Check) -> None:
+    assert codes(check("step 10 ms\ndefaults { social_force.k 1000 }")) == []
+    assert codes(check("step 10 ms\ndefaults { social_force.k 6000 }")) == ["W106"]
 
 
 @pytest.mark.parametrize(("body", "expected"), SINGLE.values(), ids=SINGLE.keys())

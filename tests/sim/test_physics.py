@@ -7,13 +7,18 @@ small crowd without a tree. Each is compared bit for bit with the computation it
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
+from hubero_dsl.errors import SimulationError
 from hubero_dsl.planners.neighbours import PairFinder
 from hubero_dsl.sim import physics
+from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.world.grid import OccupancyGrid
+from tests.sim.conftest import ScenarioFactory
 
 
 def furnished_room() -> OccupancyGrid:
@@ -88,3 +93,14 @@ def test_lengths_are_numpys_norms_bit_for_bit() -> None:
     with np.errstate(over="ignore"):
         np.testing.assert_array_equal(physics.lengths(vectors), np.linalg.norm(vectors, axis=1))
     assert physics.lengths(np.zeros((0, 2))).shape == (0,)
+
+
+def test_a_position_that_is_not_a_number_ends_the_run(scenario: ScenarioFactory) -> None:
+    """NaN or infinity is an error of the run, named with the human and the time, never a
+    jump in the log."""
+    sim = Simulation(scenario("human alice at (2, 2)\nhuman bob at (6, 2)\n"),
+                     activities=False)
+    sim.human("alice").teleop()
+    sim.engine.humans.teleop_velocity[0] = (math.inf, 0.0)
+    with pytest.raises(SimulationError, match=r"diverged at t = 0\.05 s: the position of alice"):
+        sim.step()
