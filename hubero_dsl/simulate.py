@@ -12,7 +12,7 @@ behaves the same from each of them: the same simulation, the same observers, the
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from contextlib import ExitStack
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -21,6 +21,7 @@ from hubero_dsl.sim.loop import Observer, RunResult, run_program
 from hubero_dsl.sim.simulation import Simulation
 
 if TYPE_CHECKING:
+    from hubero_dsl.controllers.base import RobotController
     from hubero_dsl.model.program import Program
 
 DEFAULT_LOG_RATE = 10.0  # Hz
@@ -28,17 +29,18 @@ DEFAULT_LOG_RATE = 10.0  # Hz
 
 def simulate(program: Program, *, variant: str | None = None, seed: int | None = None,
              log: str | Path | None = None, log_rate: float = DEFAULT_LOG_RATE,
-             observers: Sequence[Observer] = (), writer_process: bool | None = None
-             ) -> RunResult:
+             observers: Sequence[Observer] = (), writer_process: bool | None = None,
+             controllers: Mapping[str, type | RobotController] | None = None) -> RunResult:
     """Run one variant of `program` with one seed to its end, writing an MCAP log to `log`
     (none when None). `observers` are called after every tick, after the log's.
 
     `writer_process` chooses where the log is encoded: None lets the writer decide (a process
     of its own where the platform can fork one), False keeps it in this process (as a sweep's
     workers need). The log is complete under its name only when the run ended; an exception,
-    Ctrl-C or SIGTERM leaves no file there.
+    Ctrl-C or SIGTERM leaves no file there. `controllers` hands robots to the caller's own
+    controllers (classes or instances), by robot name.
     """
-    sim = Simulation(program, variant=variant, seed=seed)
+    sim = Simulation(program, variant=variant, seed=seed, controllers=controllers)
     with ExitStack() as stack:
         everyone: list[Observer] = []
         run_log = None

@@ -44,6 +44,9 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, metavar="N", help="override the scenario's seed")
     parser.add_argument("--quiet", "-q", action="store_true",
                         help="no progress bar and no summary, only problems")
+    parser.add_argument("--controller", metavar="ROBOT=MODULE:CLASS", action="append",
+                        default=[], help="drive robot ROBOT with your own controller class "
+                        "(importable MODULE; repeat for several robots)")
 
 
 def variants_to_run(program: Program, args: argparse.Namespace) -> list[str | None]:
@@ -73,10 +76,15 @@ def run(args: argparse.Namespace) -> int:
         from hubero_dsl.log.writer import ensure_directory
 
         ensure_directory(args.out_dir)
+    controllers = handed_controllers(args)
+    unknown = sorted(set(controllers) - {robot.name for robot in program.robots})
+    if unknown:
+        raise InputError(f"--controller: no robot named '{unknown[0]}' in {args.file}")
     failed = False
     for variant in variants:
         output = _log_path(args, variant)
-        result = run_one(program, variant, args.seed, output, args.log_rate, quiet=args.quiet)
+        result = run_one(program, variant, args.seed, output, args.log_rate, quiet=args.quiet,
+                         controllers=controllers)
         if not args.quiet:
             from hubero_dsl.cli.summary import print_summary
 
@@ -95,8 +103,23 @@ def _log_path(args: argparse.Namespace, variant: str | None) -> Path | None:
     return None
 
 
+def handed_controllers(args: argparse.Namespace) -> dict[str, type]:
+    """`--controller ROBOT=MODULE:CLASS` options: each robot's class (InputError if bad)."""
+    from hubero_dsl.controllers.registry import import_controller
+    from hubero_dsl.errors import InputError
+
+    handed: dict[str, type] = {}
+    for option in args.controller:
+        robot, equals, target = option.partition("=")
+        if not equals or not robot:
+            raise InputError(f"--controller takes ROBOT=MODULE:CLASS, not '{option}'")
+        handed[robot] = import_controller(target)
+    return handed
+
+
 def run_one(program: Program, variant: str | None, seed: int | None, output: Path | None,
-            log_rate: float, *, quiet: bool) -> RunResult:
+            log_rate: float, *, quiet: bool,
+            controllers: dict[str, type] | None = None) -> RunResult:
     """Simulate one variant with a progress bar unless quiet, and a log if asked."""
     from hubero_dsl.simulate import simulate
 
@@ -107,4 +130,4 @@ def run_one(program: Program, variant: str | None, seed: int | None, output: Pat
 
             observers.append(stack.enter_context(progress_observer(program, variant)))
         return simulate(program, variant=variant, seed=seed, log=output, log_rate=log_rate,
-                        observers=observers)
+                        observers=observers, controllers=controllers)

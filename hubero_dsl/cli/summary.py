@@ -20,7 +20,7 @@ from hubero_dsl.cli.console import make_console
 
 if TYPE_CHECKING:
     from hubero_dsl.model.program import Program
-    from hubero_dsl.sim.loop import RunResult
+    from hubero_dsl.sim.loop import HumanSummary, RunResult
     from hubero_dsl.sim.simulation import Simulation
 
 STATE_STYLE = {"completed": "green", "failed": "red", "timed_out": "yellow"}
@@ -60,17 +60,19 @@ def print_summary(program: Program, result: RunResult, output: Path | None,
     console.print(title)
     if result.reason:
         console.print(f"  reason: {result.reason}")
-    console.print(_humans_table(result))
+    console.print(_actors_table(result.humans, "human", "humans"))
+    if result.robots:
+        console.print(_actors_table(result.robots, "robot", "robots"))
     if result.expectations:
         console.print(_expectations_table(result))
     if output is not None:
         console.print(f"log written to {output}")
 
 
-def _humans_table(result: RunResult) -> Table:
-    table = Table("human", "tasks done", "status", "path length", "time on tasks",
-                  title="humans", title_justify="left")
-    for human in result.humans:
+def _actors_table(actors: list[HumanSummary], column: str, title: str) -> Table:
+    table = Table(column, "tasks done", "status", "path length", "time on tasks",
+                  title=title, title_justify="left")
+    for human in actors:
         style = STATUS_STYLE.get(human.last_status, "")
         table.add_row(human.name, f"{human.tasks_done}/{human.tasks_total}",
                       f"[{style}]{human.last_status}[/]" if style else human.last_status,

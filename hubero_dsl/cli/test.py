@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from hubero_dsl.cli.run import add_run_options, run_one, variants_to_run
+from hubero_dsl.cli.run import add_run_options, handed_controllers, run_one, variants_to_run
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -31,12 +31,14 @@ def run(args: argparse.Namespace) -> int:
     console = make_console()
     failures = 0
     runs = 0
+    controllers = handed_controllers(args)
     for file in args.files:
         program = compile_file(file)
         if args.variant is not None:
             args.all_variants = False
         for variant in variants_to_run(program, args):
-            result = run_one(program, variant, args.seed, None, 10.0, quiet=True)
+            result = run_one(program, variant, args.seed, None, 10.0, quiet=True,
+                             controllers=controllers)
             runs += 1
             name = escape(file + (f" [{variant}]" if variant else ""))
             ok = result.succeeded

@@ -160,7 +160,9 @@ class RobotPath:
 
 @dataclass(frozen=True, slots=True)
 class RobotController:
-    target: String
+    """`controller NAME`; a string here is an error the checker explains (files name no code)."""
+
+    target: NameRef | String
     span: Span
 
 

@@ -10,13 +10,15 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field
+from typing import Literal
 
+from hubero_dsl.controllers.registry import controller_names
 from hubero_dsl.diagnostics import Diagnostic, Related, Span, error, warning
 from hubero_dsl.lang import ast
 from hubero_dsl.lang.lower import area_polygon, coordinate
 from hubero_dsl.lang.symbols import NameKind, SymbolTable, alias_depths
 from hubero_dsl.lang.values import ValueReader, did_you_mean, field_dimension
-from hubero_dsl.model.params import HUMAN_PARAMS, ROBOT_PARAMS
+from hubero_dsl.model.params import HUMAN_PARAMS, KINEMATICS, ROBOT_PARAMS
 from hubero_dsl.model.program import (
     Distribution,
     ParamLayer,
@@ -59,6 +61,8 @@ class Checker:
         self.facts = Facts()
         self.planners = sorted(set(global_planner_names()) | set(local_planner_names()))
         self.planner_values: list[tuple[type, str, str, float, Span]] = []
+        self.controllers = controller_names()
+        self.robot_steps: list[tuple[ast.NameRef, ast.TaskStep]] = []
         self.planners_by_param = {"global_planner": global_planner_names(),
                                   "local_planner": local_planner_names()}
 
@@ -73,6 +77,7 @@ class Checker:
             self._statement(statement)
         self._unused()
         self._inert_planner_values()
+        self._robot_tasks()
         return self.facts
 
     def _in_definition_order(self) -> list[ast.Statement]:
@@ -207,32 +212,87 @@ class Checker:
         name = robot.name.name
         start = self._fixed_point(robot.start, f"the start of robot '{name}'") or (0.0, 0.0)
         heading = self._heading(robot.heading) or 0.0
+        controller = self._controller(robot)
         values: dict[str, float] = {n: float(s.default) for n, s in ROBOT_PARAMS.items()
                                     if isinstance(s.default, float)}
+        kinematics: Literal["holonomic", "unicycle"] = "holonomic"
+        goal: tuple[float, float] | None = None
+        controller_params: dict[str, float] = {}
         for param in self._unique_params(robot.params):
-            spec = ROBOT_PARAMS.get(param.dotted)
-            if spec is None:
-                self.report("E105", f"robots have no parameter '{param.dotted}'", param.name_span,
-                            did_you_mean(param.dotted, [*ROBOT_PARAMS, "path", "controller"]))
-                continue
-            number = self.values.quantity(param.value, spec.dimension, f"'{spec.name}'",
-                                          positive=True, maximum=spec.maximum)
-            if number is not None:
-                values[spec.name] = number
+            if param.dotted == "kinematics":
+                kinematics = self._kinematics(param)
+            elif param.dotted == "goal":
+                goal = self._robot_goal(param, name)
+            elif len(param.path) == 2 and param.path[0] == controller:
+                number = self._controller_param(param, controller, param.path[1])
+                if number is not None:
+                    controller_params[param.path[1]] = number
+            elif (spec := ROBOT_PARAMS.get(param.dotted)) is not None:
+                number = self.values.quantity(param.value, spec.dimension, f"'{spec.name}'",
+                                              positive=True, maximum=spec.maximum)
+                if number is not None:
+                    values[spec.name] = number
+            else:
+                self.report("E105", f"robots have no parameter '{param.dotted}'",
+                            param.name_span, did_you_mean(param.dotted, [
+                                *ROBOT_PARAMS, "kinematics", "goal", "path", "controller"]))
         for extra in robot.extra_items:
             self.report("E106", "a robot has one path and one controller", extra.span)
-        if robot.path is not None and robot.controller is not None:
-            self.report("E106", "a robot follows a `path` or a `controller`, not both",
-                        robot.controller.span)
         path = tuple(self._fixed_point(p, f"the path of robot '{name}'") or start
                      for p in (robot.path.waypoints if robot.path else ()))
-        controller = robot.controller.target.value if robot.controller else None
-        if controller is not None and ":" not in controller:
-            self.report("E201", f"controller \"{controller}\" is not of the form \"module:Class\"",
-                        robot.controller.span if robot.controller else robot.span)
+        if robot.path is not None and controller not in ("path", ""):
+            self.report("E106", f"a robot with a `path` drives it (controller path), not "
+                        f"controller {controller}", robot.path.span,
+                        "remove the path, or the controller")
         self.facts.robots.append(RobotSpec(
             name, Pose(start[0], start[1], heading), values["radius"], values["speed"], path,
-            bool(robot.path and robot.path.loop), controller, robot.span))
+            bool(robot.path and robot.path.loop), controller or "external", robot.span,
+            controller_params, kinematics, goal, values["max_speed"],
+            values["max_acceleration"], values["max_angular_speed"], values["goal_tolerance"],
+            values["sensor_range"], values["field_of_view"]))
+
+    def _controller(self, robot: ast.RobotDecl) -> str:
+        """The controller's name: the one written (checked), `path` for a robot with a path,
+        else `external` (it stays put unless driven from outside). "" when it is wrong."""
+        written = robot.controller
+        if written is None:
+            return "path" if robot.path is not None else "external"
+        if isinstance(written.target, ast.String):
+            self.report("E110", "a scenario file names no Python code", written.target.span,
+                        "name a registered controller (`controller navigator`), or hand the "
+                        "robot to your class with `hubero run FILE --controller "
+                        f"{robot.name.name}=MODULE:CLASS`")
+            return ""
+        name = written.target.name
+        if name not in self.controllers:
+            self.report("E110", f"no robot controller named '{name}'", written.target.span,
+                        did_you_mean(name, self.controllers)
+                        or "controllers: " + ", ".join(self.controllers))
+            return ""
+        return name
+
+    def _kinematics(self, param: ast.Param) -> Literal["holonomic", "unicycle"]:
+        value = param.value
+        if isinstance(value, ast.NameRef) and value.name in KINEMATICS:
+            return "unicycle" if value.name == "unicycle" else "holonomic"
+        self.report("E201", "kinematics is `holonomic` or `unicycle`", value.span,
+                    did_you_mean(value.name, KINEMATICS)
+                    if isinstance(value, ast.NameRef) else None)
+        return "holonomic"
+
+    def _robot_goal(self, param: ast.Param, robot: str) -> tuple[float, float] | None:
+        if isinstance(param.value, ast.Point | ast.NameRef):
+            return self._fixed_point(param.value, f"the goal of robot '{robot}'")
+        self.report("E201", "a robot's goal is a point or a place", param.value.span)
+        return None
+
+    def _controller_param(self, param: ast.Param, controller: str, name: str) -> float | None:
+        from hubero_dsl.controllers.registry import controller_params
+
+        model = controller_params(controller)
+        if model is None:
+            return None
+        return self._model_param(param, model, controller, name)
 
     def _sweep(self, sweep: ast.SweepDecl) -> None:
         options: list[tuple[str, ParamLayer]] = []
@@ -310,13 +370,19 @@ class Checker:
             self.report("E105", f"'{planner}' is neither a planner nor a human", param.name_span,
                         hint or "planners: " + ", ".join(self.planners))
             return None
-        fields = {f.alias or n: n for n, f in model.model_fields.items()}
+        return self._model_param(param, model, planner, name)
+
+    def _model_param(self, param: ast.Param, model: type, owner: str,
+                     name: str) -> float | None:
+        """A parameter of a planner or controller, checked against its pydantic model."""
+        kind = "planner" if owner in self.planners else "controller"
+        fields = {f.alias or n: n for n, f in model.model_fields.items()}  # type: ignore[attr-defined]
         if name not in fields:
-            hint = did_you_mean(name, fields) or f"{planner} takes " + ", ".join(sorted(fields))
-            self.report("E105", f"planner '{planner}' has no parameter '{name}'",
+            hint = did_you_mean(name, fields) or f"{owner} takes " + ", ".join(sorted(fields))
+            self.report("E105", f"{kind} '{owner}' has no parameter '{name}'",
                         param.name_span, hint)
             return None
-        value, what = param.value, f"'{planner}.{name}'"
+        value, what = param.value, f"'{owner}.{name}'"
         number: float | None
         if isinstance(value, ast.Quantity):  # its unit must fit the dimension the planner declares
             number = self.values.quantity(value, field_dimension(model, fields[name]), what)
@@ -348,7 +414,8 @@ class Checker:
         step = self.facts.settings.get("step")
         step = step if isinstance(step, float) and step > 0 else DEFAULT_STEP
         for model, name, what, number, span in self.planner_values:
-            bound = model.inert_above(step).get(name)  # type: ignore[attr-defined]
+            inert_above = getattr(model, "inert_above", None)  # planners declare it
+            bound = inert_above(step).get(name) if inert_above is not None else None
             if bound is not None and number > bound:
                 self.diagnostics.append(warning(
                     "W106", f"{what} {number:g} acts as {bound:g}: the step of {step * 1e3:g} ms "
@@ -421,8 +488,17 @@ class Checker:
         if kind is None:
             self._unknown_task(task)
             return
-        human = self.symbols.resolve(step.human, NameKind.HUMAN,
-                                     role=f"the subject of {task.kind}")
+        if self.symbols.kind_of(step.human.name) is NameKind.ROBOT:
+            if kind.robot_options is None:
+                robot_kinds = ", ".join(k.name for k in TASKS.values() if k.robots)
+                self.report("E109", f"robots take {robot_kinds}, not {task.kind}",
+                            task.kind_span)
+                return
+            kind = kind.for_robots()
+            self.robot_steps.append((step.human, step))
+        human = self.symbols.resolve(step.human, *BODIES, role=f"the subject of {task.kind}") \
+            if self.symbols.kind_of(step.human.name) is NameKind.ROBOT else \
+            self.symbols.resolve(step.human, NameKind.HUMAN, role=f"the subject of {task.kind}")
         self._bare_target(step, kind)
         self._task_options(step, kind)
         if step.until is not None:
@@ -437,6 +513,16 @@ class Checker:
         if kind.target is TargetRule.BODY and isinstance(task.target, ast.Point):
             self.report("E201", f"{task.kind} needs a human or robot, not a point",
                         task.target.span, "to walk to a point, use move_to")
+
+    def _robot_tasks(self) -> None:
+        """E109: tasks given to a robot that drives a scripted path (known once every robot
+        has been read, wherever it is declared)."""
+        controllers = {robot.name: robot.controller for robot in self.facts.robots}
+        for ref, step in self.robot_steps:
+            if controllers.get(ref.name) == "path":
+                self.report("E109", f"robot '{ref.name}' drives its `path` and takes no tasks",
+                            step.task.kind_span, "give it `controller navigator` (or "
+                            "`external`) and a task, or drop the task")
 
     def _unknown_task(self, task: ast.Task) -> None:
         self.report("E108", f"unknown task '{task.kind}'", task.kind_span,

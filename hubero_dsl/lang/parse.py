@@ -379,10 +379,15 @@ class _ToAst(Transformer[Token, Any]):
         return ast.RobotPath(tuple(points), loop, self._span(meta))
 
     def robot_controller(self, meta: Any, children: list[Any]) -> ast.RobotController:
-        return ast.RobotController(children[0] if isinstance(children[0], ast.String)
-                                   else ast.String(_unquote(str(children[0])),
-                                                   self._token_span(children[0])),
-                                   self._span(meta))
+        written = children[0]
+        if isinstance(written, ast.String):
+            return ast.RobotController(written, self._span(meta))
+        if isinstance(written, Token) and written.type == "STRING":
+            target: ast.NameRef | ast.String = ast.String(_unquote(str(written)),
+                                                          self._token_span(written))
+        else:
+            target = self._name(written)
+        return ast.RobotController(target, self._span(meta))
 
     def robot_block(self, meta: Any, children: list[Any]) -> list[Any]:
         return children

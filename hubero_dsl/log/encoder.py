@@ -44,6 +44,7 @@ class LogSetup:
     shapes: list[Shape]
     robots: list[str]
     robot_radius: list[float]
+    robot_controllers: list[str]
     source_path: str
     source_lines: list[str]
     metadata: dict[str, str]
@@ -92,6 +93,12 @@ class LogEncoder:
                                          schema_id[s.HUMAN_STATE])
         self._frame = FrameEncoder(humans, self._setup.robots, poses, states,
                                    self._setup.dt_ns)
+        self._robot_states: list[int] = []
+        self._robot_status = [s.IDLE] * len(self._setup.robots)
+        if self._setup.robots:  # logs without robots keep the schemas they always had
+            robot_schema = self._mcap.add_schema(s.ROBOT_STATE, s.schema_bytes(s.ROBOT_STATE))
+            self._robot_states = self._mcap.add_channels(
+                [s.robot_state_topic(n) for n in self._setup.robots], robot_schema)
 
     # ---- updates ----------------------------------------------------------------------------
 
@@ -134,7 +141,23 @@ class LogEncoder:
         self._mcap.add_message(self._channel[s.TF_TOPIC], ns, tf)
         for block in blocks:
             self._mcap.add_block(block.data, block.channels, block.offsets, ns)
+        self._write_robots(frame, ns)
         self._frames += 1
+
+    def _write_robots(self, frame: FrameState, ns: int) -> None:
+        setup = self._setup
+        for i, channel in enumerate(self._robot_states):
+            status, task = frame.robot_task[i]
+            if status:  # a robot without a task shows its last task's status
+                self._robot_status[i] = status
+            x, y = frame.robot_position[i]
+            vx, vy = frame.robot_velocity[i]
+            self._mcap.add_message(channel, ns, s.dumps({
+                "timestamp": s.timestamp(ns), "position": {"x": s.number(x), "y": s.number(y)},
+                "velocity": {"x": s.number(vx), "y": s.number(vy)},
+                "heading": s.number(frame.robot_heading[i]),
+                "controller": setup.robot_controllers[i], "status": self._robot_status[i],
+                "task": task}).encode())
 
     def _log(self, level: int, message: str, span: Span | None, ns: int) -> None:
         self._mcap.add_message(self._channel[s.LOG_TOPIC], ns, s.dumps({
@@ -170,7 +193,8 @@ class LogEncoder:
         self._mcap.add_metadata(s.RESULT_METADATA_NAME, {
             "state": result["state"], "reason": result["reason"], "time": result["time"],
             "ticks": result["ticks"], "succeeded": "true" if result["succeeded"] else "false",
-            "expectations": s.dumps(expectations), "humans": s.dumps(result["humans"])})
+            "expectations": s.dumps(expectations), "humans": s.dumps(result["humans"]),
+            **({"robots": s.dumps(result["robots"])} if result["robots"] else {})})
 
     def discard(self) -> None:
         """Stop and delete the temporary file (the run failed or was interrupted)."""

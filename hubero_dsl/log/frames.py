@@ -122,6 +122,8 @@ class FrameState:
     removed: tuple[str, ...]
     robot_position: FloatArray    # (R, 2)
     robot_heading: FloatArray     # (R,)
+    robot_velocity: FloatArray    # (R, 2)
+    robot_task: list[tuple[str, str]]  # (status, description) of each robot's task now
 
 
 class Capturer:
@@ -143,7 +145,10 @@ class Capturer:
             cursor=self._cursor, end=self._end,
             paths={i: paths.waypoints(i).copy() for i in changed.tolist()},
             removed=tuple(sorted(engine.removed)),
-            robot_position=robots.position.copy(), robot_heading=robots.heading.copy())
+            robot_position=robots.position.copy(), robot_heading=robots.heading.copy(),
+            robot_velocity=robots.velocity.copy(),
+            robot_task=[(t.handle.status.value, t.handle.description) if t is not None
+                        else ("", "") for t in robots.tasks])
 
 
 class FrameEncoder:

@@ -5,7 +5,8 @@ Every message is JSON (MCAP message encoding `json`) described by a JSON Schema 
 the official schema (vendored in `foxglove/`, see its README): `/map` foxglove.Grid,
 `/scene` foxglove.SceneUpdate, `/tf` foxglove.FrameTransforms, `/humans/NAME/pose`
 foxglove.PoseInFrame, `/log` foxglove.Log. hubero's own schemas cover the rest:
-`/humans/NAME/state` hubero.HumanState and `/tasks` hubero.TaskEvent.
+`/humans/NAME/state` hubero.HumanState, `/robots/NAME/state` hubero.RobotState (in logs with
+robots) and `/tasks` hubero.TaskEvent.
 
 Frames: everything is in the fixed frame `map` (the map's coordinates, z up); `/tf` places one
 frame per human (`human/NAME`) and per robot (`robot/NAME`) in it, so scene bodies drawn in those
@@ -54,6 +55,7 @@ FRAME_TRANSFORMS = "foxglove.FrameTransforms"
 POSE_IN_FRAME = "foxglove.PoseInFrame"
 LOG = "foxglove.Log"
 HUMAN_STATE = "hubero.HumanState"
+ROBOT_STATE = "hubero.RobotState"
 TASK_EVENT = "hubero.TaskEvent"
 
 FOXGLOVE_FILES = {GRID: "Grid.json", SCENE_UPDATE: "SceneUpdate.json",
@@ -79,6 +81,10 @@ def human_pose_topic(name: str) -> str:
 
 def human_state_topic(name: str) -> str:
     return f"/humans/{name}/state"
+
+
+def robot_state_topic(name: str) -> str:
+    return f"/robots/{name}/state"
 
 
 def human_frame(name: str) -> str:
@@ -156,7 +162,8 @@ def schema_of(name: str) -> dict[str, Any]:
     """The JSON Schema embedded in the log for schema `name`, Foxglove's or hubero's."""
     if name in FOXGLOVE_FILES:
         return foxglove_schema(name)
-    return {HUMAN_STATE: HUMAN_STATE_SCHEMA, TASK_EVENT: TASK_EVENT_SCHEMA}[name]
+    return {HUMAN_STATE: HUMAN_STATE_SCHEMA, ROBOT_STATE: ROBOT_STATE_SCHEMA,
+            TASK_EVENT: TASK_EVENT_SCHEMA}[name]
 
 
 def schema_bytes(name: str) -> bytes:
@@ -207,6 +214,29 @@ HUMAN_STATE_SCHEMA: dict[str, Any] = {
     },
     "required": ["timestamp", "position", "velocity", "heading", "posture", "status",
                  "fsm_state", "task"],
+    "additionalProperties": False,
+}
+
+ROBOT_STATE_SCHEMA: dict[str, Any] = {
+    "title": ROBOT_STATE,
+    "description": "One robot's state at one tick of a hubero run",
+    "type": "object",
+    "properties": {
+        "timestamp": _TIME,
+        "position": _vector2("Position in the map frame, metres"),
+        "velocity": _vector2("Velocity in the map frame, metres per second"),
+        "heading": {"type": "number",
+                    "description": "Heading in the map frame, radians, 0 along +x, "
+                                   "counter-clockwise"},
+        "controller": {"type": "string", "description": "The controller driving it"},
+        "status": {"enum": list(STATUS_NAMES),
+                   "description": "Status of the current task, or of the last one when the "
+                                  "robot has none (IDLE before the first)"},
+        "task": {"type": "string",
+                 "description": "The current task's description, '' when it has none"},
+    },
+    "required": ["timestamp", "position", "velocity", "heading", "controller", "status",
+                 "task"],
     "additionalProperties": False,
 }
 

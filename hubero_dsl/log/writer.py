@@ -50,7 +50,7 @@ from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle
 if TYPE_CHECKING:
     from multiprocessing.connection import Connection
 
-    from hubero_dsl.sim.loop import RunResult
+    from hubero_dsl.sim.loop import HumanSummary, RunResult
     from hubero_dsl.sim.simulation import Simulation
     from hubero_dsl.sim.status import TaskEvent
 
@@ -174,6 +174,10 @@ class RunLog:
                 handle = engine.handle[engine.index_of(event.human)]
                 if handle is not None and handle.task_id == event.task_id:
                     description = handle.description
+            elif event.human in engine.robots.names:
+                current = engine.robots.current(event.human)
+                if current is not None and current.handle.task_id == event.task_id:
+                    description = current.handle.description
             described.append((event, description))
         return described
 
@@ -188,6 +192,7 @@ class RunLog:
             dt_ns=s.nanoseconds(engine.dt), humans=list(humans.names),
             radius=[float(r) for r in humans.radius], shapes=list(humans.shapes),
             robots=list(robots.names), robot_radius=[float(r) for r in robots.radius],
+            robot_controllers=robots.controller_names(),
             source_path=program.source.path, source_lines=program.source.text.splitlines(),
             metadata=metadata, attachments=attachments,
             grid=s.dumps(s.grid_message(program.grid)).encode(),
@@ -391,9 +396,14 @@ def _result_json(result: RunResult) -> dict[str, Any]:
             {"text": e.text, "held": bool(e.held), "line": e.expectation.span.line,
              "decided_at": None if e.decided_at is None else s.number(e.decided_at),
              "span": e.expectation.span} for e in result.expectations],
-        "humans": [{"name": h.name, "tasks_done": h.tasks_done, "tasks_total": h.tasks_total,
-                    "last_status": h.last_status, "path_length": s.number(h.path_length),
-                    "busy_time": s.number(h.busy_time)} for h in result.humans]}
+        "humans": [_summary_json(h) for h in result.humans],
+        "robots": [_summary_json(r) for r in result.robots]}
+
+
+def _summary_json(actor: HumanSummary) -> dict[str, Any]:
+    return {"name": actor.name, "tasks_done": actor.tasks_done,
+            "tasks_total": actor.tasks_total, "last_status": actor.last_status,
+            "path_length": s.number(actor.path_length), "busy_time": s.number(actor.busy_time)}
 
 
 # ---- files -------------------------------------------------------------------------------------

@@ -61,5 +61,19 @@ HUMAN_PARAMS: dict[str, ParamSpec] = {spec.name: spec for spec in (
 
 ROBOT_PARAMS: dict[str, ParamSpec] = {spec.name: spec for spec in (
     _q("radius", Dimension.LENGTH, 0.3, "robot body radius", maximum=5.0),
-    _q("speed", Dimension.SPEED, 0.5, "speed along the scripted path"),
+    _q("speed", Dimension.SPEED, 0.5, "cruise speed: along the scripted path, and the "
+       "navigator's desired speed"),
+    _q("max_speed", Dimension.SPEED, math.inf, "speed never exceeded, whatever the controller "
+       "asks (unlimited unless set)"),
+    _q("max_acceleration", Dimension.NUMBER, math.inf, "m/s^2, written as a bare number: how "
+       "fast the speed may change (unlimited unless set)"),
+    _q("max_angular_speed", Dimension.NUMBER, math.inf, "rad/s, written as a bare number: how "
+       "fast a unicycle robot may turn (unlimited unless set)"),
+    _q("goal_tolerance", Dimension.LENGTH, 0.2, "how close counts as arrived for move_to"),
+    _q("sensor_range", Dimension.LENGTH, 5.0, "people and robots further away are not seen by "
+       "the controller"),
+    _q("field_of_view", Dimension.ANGLE, 2 * math.pi, "angle the controller sees people within",
+       maximum=2 * math.pi),
 )}
+
+KINEMATICS = ("holonomic", "unicycle")  # `kinematics NAME`: how a robot's commands move it

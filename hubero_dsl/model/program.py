@@ -11,6 +11,7 @@ to shapely polygons), quantities are SI floats, parameters are layered (built-in
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -76,14 +77,29 @@ class HumanSpec:
 
 @dataclass(frozen=True, slots=True)
 class RobotSpec:
+    """A robot as declared: its body, kinematics and limits, and who drives it.
+
+    `controller` is a registered controller's name (`path`, `navigator`, `external`, or a
+    plugin's); `controller_params` its own parameters (`navigator.safety_margin 0.3`).
+    Limits that were not set are infinite."""
+
     name: str
     start: Pose
     radius: float
     speed: float
     path: tuple[tuple[float, float], ...]
     loop: bool
-    controller: str | None
+    controller: str
     span: Span
+    controller_params: Mapping[str, float] = field(default_factory=dict)
+    kinematics: Literal["holonomic", "unicycle"] = "holonomic"
+    goal: tuple[float, float] | None = None
+    max_speed: float = math.inf
+    max_acceleration: float = math.inf
+    max_angular_speed: float = math.inf
+    goal_tolerance: float = 0.2
+    sensor_range: float = 5.0
+    field_of_view: float = 2 * math.pi
 
 
 @dataclass(frozen=True, slots=True)

@@ -15,7 +15,7 @@ the API's argument names.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import StrEnum
 from typing import TYPE_CHECKING, Any
 
@@ -75,12 +75,23 @@ class TaskKind:
     described_option: str | None = None  # an option the description names (`stand facing x`)
     marks_goal: bool = False         # plots mark where it ended as a goal reached
     keeps_posture: bool = False      # starting it does not make a sitting human stand up
+    robot_options: tuple[str, ...] | None = None  # robots take it, with these options
 
     def option(self, keyword: str) -> OptionSpec | None:
         return next((o for o in self.options if o.keyword == keyword), None)
 
     def argument(self, argument: str) -> OptionSpec | None:
         return next((o for o in self.options if o.argument == argument), None)
+
+    @property
+    def robots(self) -> bool:
+        """Whether robots take this kind (humans take every kind)."""
+        return self.robot_options is not None
+
+    def for_robots(self) -> TaskKind:
+        """The kind as a robot takes it: only the options a controller's goal can carry."""
+        keep = self.robot_options or ()
+        return replace(self, options=tuple(o for o in self.options if o.keyword in keep))
 
     @property
     def keywords(self) -> tuple[str, ...]:
@@ -112,17 +123,18 @@ def _heading() -> OptionSpec:
 TASKS: dict[str, TaskKind] = {kind.name: kind for kind in (
     TaskKind("stand", "stand still, optionally facing a target", TargetRule.NONE,
              (OptionSpec("facing", "facing", ValueKind.TARGET), _duration()),
-             hint_keyword="facing", described_option="facing"),
+             hint_keyword="facing", described_option="facing", robot_options=("for",)),
     TaskKind("move_to", "walk to a target along a global plan", TargetRule.POINT,
              (_heading(), OptionSpec("speed", "speed", ValueKind.SPEED)),
-             ends_by_itself=True, marks_goal=True),
+             ends_by_itself=True, marks_goal=True, robot_options=("speed",)),
     TaskKind("run_to", "run to a target at run_speed", TargetRule.POINT, (_heading(),),
              ends_by_itself=True, marks_goal=True),
     TaskKind("move_around", "wander to random reachable goals", TargetRule.NONE,
              (OptionSpec("in", "area", ValueKind.AREA), _duration(),
               OptionSpec("times", "times", ValueKind.COUNT))),
     TaskKind("follow", "follow a human or robot at a distance", TargetRule.BODY,
-             (OptionSpec("at", "distance", ValueKind.LENGTH, default=1.0), _duration())),
+             (OptionSpec("at", "distance", ValueKind.LENGTH, default=1.0), _duration()),
+             robot_options=("at", "for")),
     TaskKind("talk", "stand and face the person spoken to", TargetRule.NONE,
              (OptionSpec("to", "to", ValueKind.TARGET), _duration()),
              hint_keyword="to", described_option="to"),

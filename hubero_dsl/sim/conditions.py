@@ -23,7 +23,6 @@ if TYPE_CHECKING:
 
 COMPARE: dict[str, Callable[[float, float], bool]] = {
     "<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
-ROBOT_TOLERANCE = 0.2  # m: how close a robot must come to "reach" a target
 
 
 @dataclass
@@ -80,7 +79,4 @@ class Conditions:
         return math.hypot(there[0] - here[0], there[1] - here[1])
 
     def _tolerance(self, subject: str) -> float:
-        if subject in self.engine.humans.names:
-            index = self.engine.index_of(subject)
-            return float(self.engine.humans.goal_tolerance[index])
-        return ROBOT_TOLERANCE
+        return self.engine.goal_tolerance_of(subject)

@@ -26,6 +26,7 @@ from hubero_dsl.world.shapes import ShapeArrays, lateral_extent
 if TYPE_CHECKING:
     from shapely.geometry import Polygon
 
+    from hubero_dsl.model.tasks import Task
     from hubero_dsl.planners.base import GlobalPlanner, LocalPlanner
     from hubero_dsl.world.grid import OccupancyGrid
 
@@ -99,6 +100,14 @@ class Engine:
             x, y = self.humans.position[self.index_of(target)]
             return (float(x), float(y))
         return self.robots.position_of(target)
+
+    def goal_tolerance_of(self, name: str) -> float:
+        """How close `name` must come to a target to have reached it."""
+        if name in self.humans.names:
+            return float(self.humans.goal_tolerance[self.index_of(name)])
+        if name in self.robots.names:
+            return self.robots.specs[self.robots.index_of(name)].goal_tolerance
+        return 0.0
 
     def body_radius_of(self, name: str) -> float:
         if name in self.humans.names:
@@ -232,10 +241,38 @@ class Engine:
         self._set_status(handle, status, reason)
 
     def cancel(self, handle: TaskHandle) -> None:
-        if handle.human in self.humans.names:
-            index = self.index_of(handle.human)
+        self.abort(handle, "cancelled", TaskStatus.PREEMPTED)
+
+    def abort(self, handle: TaskHandle, reason: str,
+              status: TaskStatus = TaskStatus.ABORTED) -> None:
+        """End `handle`'s task (a human's or a robot's) if it is still the actor's current one."""
+        actor = handle.human
+        if actor in self.humans.names:
+            index = self.index_of(actor)
             if self.handle[index] is handle:
-                self.finish(index, TaskStatus.PREEMPTED, "cancelled")
+                self.finish(index, status, reason)
+        elif actor in self.robots.names:
+            current = self.robots.current(actor)
+            if current is not None and current.handle is handle:
+                self.finish_robot(actor, status, reason)
+
+    # ---- robots' tasks -------------------------------------------------------------------
+
+    def command_robot(self, index: int, task: Task, handle: TaskHandle) -> None:
+        """Give robot `index` a new task, preempting the one it has."""
+        name = self.robots.names[index]
+        current = self.robots.current(name)
+        if current is not None:
+            self.finish_robot(name, TaskStatus.PREEMPTED, f"replaced by {handle.kind}")
+        self.robots.start(name, task, handle, self.tick, self.dt, self.body_radius_of)
+        self._set_status(handle, TaskStatus.ACTIVE, "")
+
+    def finish_robot(self, name: str, status: TaskStatus, reason: str = "") -> None:
+        current = self.robots.current(name)
+        if current is None:
+            return
+        self.robots.clear(name)
+        self._set_status(current.handle, status, reason)
 
     def _set_status(self, handle: TaskHandle, status: TaskStatus, reason: str) -> None:
         handle.status = status
@@ -257,7 +294,7 @@ class Engine:
         dt = self.dt
         humans = self.humans
         if self.robots.count:
-            self.robots.advance(dt, self.time)
+            self.robots.advance(dt, self.tick, humans, self.position_of)
         velocity = self._velocities()
         old = humans.position
         moved = old + velocity * dt
@@ -275,6 +312,9 @@ class Engine:
         self._turn(dt)
         self.tick += 1
         self._dispatch_events()
+        if self.robots.count:
+            self.robots.settle(self.tick, dt, self.ticks(self.stuck_time), self.position_of,
+                               self.finish_robot)
 
     def _diverged(self, moved: FloatArray) -> None:
         """A position that is not a finite number is an error of the run: the parameters drove

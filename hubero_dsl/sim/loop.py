@@ -10,6 +10,9 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
+import numpy as np
+import numpy.typing as npt
+
 from hubero_dsl.model.activities import Expectation, ExpectMode
 from hubero_dsl.sim.scheduler import RunState
 from hubero_dsl.sim.simulation import Simulation
@@ -52,6 +55,8 @@ class Verdict:
 
 @dataclass
 class HumanSummary:
+    """How one actor (a human, or a robot) did: tasks, last status, distance, busy time."""
+
     name: str
     tasks_done: int
     tasks_total: int
@@ -71,6 +76,7 @@ class RunResult:
     events: list[TaskEvent]
     expectations: list[Verdict] = field(default_factory=list)
     humans: list[HumanSummary] = field(default_factory=list)
+    robots: list[HumanSummary] = field(default_factory=list)
 
     @property
     def succeeded(self) -> bool:
@@ -98,7 +104,8 @@ def run_program(sim: Simulation, observers: Sequence[Observer] = ()) -> RunResul
     for expectation in expectations:
         expectation.finish(sim.time)
     return RunResult(scheduler.state, scheduler.reason, sim.time, sim.tick, sim.variant,
-                     sim.seed, list(sim.events), expectations, summarise(sim))
+                     sim.seed, list(sim.events), expectations, summarise(sim),
+                     summarise_robots(sim))
 
 
 def _judge(sim: Simulation, expectations: list[Verdict]) -> None:
@@ -111,20 +118,31 @@ def _judge(sim: Simulation, expectations: list[Verdict]) -> None:
 
 def summarise(sim: Simulation) -> list[HumanSummary]:
     """Per human: tasks finished, the last status, metres walked, time spent on tasks."""
+    engine = sim.engine
+    currents = [h.status.value if h is not None else None for h in engine.handle]
+    return _summaries(sim.events, engine.humans.names, currents, engine.humans.path_length)
+
+
+def summarise_robots(sim: Simulation) -> list[HumanSummary]:
+    """Per robot, the same as for humans."""
+    robots = sim.engine.robots
+    currents = [t.handle.status.value if t is not None else None for t in robots.tasks]
+    return _summaries(sim.events, robots.names, currents, robots.path_length)
+
+
+def _summaries(events: list[TaskEvent], names: list[str], currents: list[str | None],
+               path_length: npt.NDArray[np.float64]) -> list[HumanSummary]:
     summaries = []
-    events_of: dict[str, list[TaskEvent]] = {}  # one pass over the events, not one per human
-    for event in sim.events:
+    events_of: dict[str, list[TaskEvent]] = {}  # one pass over the events, not one per actor
+    for event in events:
         events_of.setdefault(event.human, []).append(event)
-    for index, name in enumerate(sim.engine.humans.names):
+    for index, name in enumerate(names):
         own = events_of.get(name, [])
         finals = [e for e in own if e.status.is_final]
         starts = {e.task_id: e.time for e in own if e.status is TaskStatus.ACTIVE}
         busy = sum(e.time - starts.get(e.task_id, e.time) for e in finals)
-        current = sim.engine.handle[index]
         total = len(starts)
         done = sum(1 for e in finals if e.status is not TaskStatus.ABORTED)
-        last = current.status.value if current is not None else (
-            finals[-1].status.value if finals else "-")
-        summaries.append(HumanSummary(name, done, total, last,
-                                      float(sim.engine.humans.path_length[index]), busy))
+        last = currents[index] or (finals[-1].status.value if finals else "-")
+        summaries.append(HumanSummary(name, done, total, last, float(path_length[index]), busy))
     return summaries

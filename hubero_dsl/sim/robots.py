@@ -1,59 +1,97 @@
-"""Robots: moving objects that are not humans. They follow a scripted path, are driven from
-Python (a controller class or `set_velocity`), or stay put. Humans see them as obstacles."""
+"""Robots under test: bodies driven by controllers, with kinematics, limits and tasks.
+
+Every tick each robot's controller is asked for a velocity command given what its sensors
+report (`hubero_dsl.controllers.base.Observation`); the command is shaped by the robot's
+kinematics and limits (speed, acceleration, turn rate) and the robot moves, never through a
+wall. A velocity set through the API overrides the controller until it is cleared.
+
+Robots take tasks from activities like humans (`move_to`, `stand`, `follow`): a task sets the
+goal the controller is given and ends as a human's would (arrived, time up, stuck, the target
+gone), with the same statuses and events. An exception or a wrong answer from a controller
+is the controller's error: `ControllerError`, naming the robot, the time and the cause.
+"""
 
 from __future__ import annotations
 
-import importlib
-from typing import Any, Protocol
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from hubero_dsl.errors import InputError
-from hubero_dsl.model.program import RobotSpec
-from hubero_dsl.sim.arrays import FloatArray
+from hubero_dsl.controllers.base import Neighbour, Observation, RobotBody, RobotController
+from hubero_dsl.errors import SimulationError
+from hubero_dsl.model.tasks import Target, Task
+from hubero_dsl.sim import physics
+from hubero_dsl.sim.arrays import FloatArray, HumanArrays
+from hubero_dsl.sim.status import TaskHandle, TaskStatus
 from hubero_dsl.world.shapes import Circle, ShapeArrays
 
+if TYPE_CHECKING:
+    from hubero_dsl.model.program import RobotSpec
+    from hubero_dsl.world.grid import OccupancyGrid
 
-class RobotController(Protocol):
-    """A class named by `controller "module:Class"`: asked for a velocity every tick."""
-
-    def __init__(self, name: str) -> None: ...
-
-    def velocity(self, time: float, position: tuple[float, float]) -> tuple[float, float]: ...
+PROGRESS = 0.5   # m a robot with a goal must make within the stuck time
+StatusSetter = Callable[[TaskHandle, TaskStatus, str], None]
 
 
-def load_controller(target: str, name: str) -> RobotController:
-    module_name, _, class_name = target.partition(":")
-    try:
-        cls = getattr(importlib.import_module(module_name), class_name)
-        controller: RobotController = cls(name)
-    except Exception as exc:  # user code: any failure is a bad-input error, not a crash
-        raise InputError(f"robot '{name}': controller \"{target}\" cannot be loaded: {exc}") \
-            from None
-    return controller
+class ControllerError(SimulationError):
+    """A robot's controller raised, or answered something that is not a velocity."""
+
+
+@dataclass
+class RobotTask:
+    """What a robot's current task asks of it."""
+
+    handle: TaskHandle
+    task: Task
+    deadline: int | None          # tick at which a timed task succeeds
+    stop_distance: float
+    speed: float
 
 
 class Robots:
-    """All robots as arrays; the few per-robot decisions (next waypoint) are cheap."""
+    """All robots: their state as arrays, their controllers and their tasks."""
 
-    def __init__(self, specs: tuple[RobotSpec, ...]) -> None:
+    def __init__(self, specs: tuple[RobotSpec, ...], grid: OccupancyGrid, dt: float,
+                 controllers: Mapping[str, RobotController] | None = None) -> None:
         self.specs = specs
         self.names = [s.name for s in specs]
+        self.grid = grid
         count = len(specs)
         self.position: FloatArray = np.array([s.start.xy for s in specs], float).reshape(count, 2)
         self.velocity: FloatArray = np.zeros((count, 2))
         self.heading: FloatArray = np.array([s.start.heading or 0.0 for s in specs], float)
         self.radius: FloatArray = np.array([s.radius for s in specs], float)
         self.speed: FloatArray = np.array([s.speed for s in specs], float)
+        self.path_length: FloatArray = np.zeros(count)
         self.personal_space = ShapeArrays.from_shapes([Circle(s.radius) for s in specs])
-        self.waypoint = np.zeros(count, dtype=np.intp)
         self.commanded: dict[int, tuple[float, float]] = {}
-        self.controllers: dict[int, RobotController] = {
-            i: load_controller(s.controller, s.name) for i, s in enumerate(specs) if s.controller}
+        self.controllers: list[RobotController] = [
+            (controllers or {})[s.name] for s in specs] if count else []
+        self.tasks: list[RobotTask | None] = [None] * count
+        self._anchor = self.position.copy()
+        self._anchor_tick = np.zeros(count, dtype=np.int64)
 
     @property
     def count(self) -> int:
         return len(self.specs)
+
+    def controller_names(self) -> list[str]:
+        """Who drives each robot: the registered controller its declaration names, or
+        `MODULE:CLASS` of a controller handed over in its place."""
+        from hubero_dsl.controllers.registry import controller_class
+
+        names = []
+        for spec, controller in zip(self.specs, self.controllers, strict=True):
+            cls = type(controller)
+            registered = spec.controller and controller_class(spec.controller) is cls
+            names.append(spec.controller if registered else f"{cls.__module__}:{cls.__qualname__}")
+        return names
+
+    def index_of(self, name: str) -> int:
+        return self.names.index(name)
 
     def position_of(self, name: str) -> tuple[float, float] | None:
         if name not in self.names:
@@ -64,31 +102,192 @@ class Robots:
     def radius_of(self, name: str) -> float:
         return float(self.radius[self.names.index(name)]) if name in self.names else 0.0
 
-    def set_velocity(self, name: str, velocity: tuple[float, float]) -> None:
-        self.commanded[self.names.index(name)] = velocity
+    def set_velocity(self, name: str, velocity: tuple[float, float] | None) -> None:
+        """Drive the robot at `velocity` from now on (None: back to its controller)."""
+        index = self.names.index(name)
+        if velocity is None:
+            self.commanded.pop(index, None)
+        else:
+            self.commanded[index] = velocity
 
-    def advance(self, dt: float, time: float) -> None:
-        for i, spec in enumerate(self.specs):
-            self.velocity[i] = self._velocity(i, spec, dt, time)
-        self.position = self.position + self.velocity * dt
-        moving = np.linalg.norm(self.velocity, axis=1) > 1e-6
-        self.heading = np.where(moving, np.arctan2(self.velocity[:, 1], self.velocity[:, 0]),
-                                self.heading)
+    # ---- one tick ----------------------------------------------------------------------------
 
-    def _velocity(self, i: int, spec: RobotSpec, dt: float, time: float) -> Any:
-        if i in self.controllers:
-            x, y = self.position[i]
-            return np.asarray(self.controllers[i].velocity(time, (float(x), float(y))), float)
-        if i in self.commanded:
-            return np.asarray(self.commanded[i], float)
-        if not spec.path or self.waypoint[i] >= len(spec.path):
-            return np.zeros(2)
-        target = np.asarray(spec.path[self.waypoint[i]])
-        offset = target - self.position[i]
-        distance = float(np.linalg.norm(offset))
-        if distance <= self.speed[i] * dt:
-            self.waypoint[i] += 1
-            if spec.loop and self.waypoint[i] >= len(spec.path):
-                self.waypoint[i] = 0
-            return offset / dt
-        return offset / distance * self.speed[i]
+    def advance(self, dt: float, tick: int, humans: HumanArrays,
+                position_of: Callable[[Target], tuple[float, float] | None]) -> None:
+        """Ask every controller, shape the commands, move (never through a wall)."""
+        time = tick * dt
+        wanted = np.zeros((self.count, 2))
+        for i in range(self.count):
+            if i in self.commanded:
+                wanted[i] = self._limited(i, np.asarray(self.commanded[i], float), dt)
+            else:
+                command = self._ask(i, self._observe(i, time, humans, position_of), time)
+                wanted[i] = self._move(i, command, dt)
+        old = self.position
+        moved = physics.keep_out_of_walls(self.grid, old, old + wanted * dt, self.radius)
+        step = moved - old
+        self.velocity = step / dt if not np.array_equal(moved, old + wanted * dt) else wanted
+        self.path_length += np.hypot(step[:, 0], step[:, 1])
+        self.position = moved
+        turning = [i for i, s in enumerate(self.specs) if s.kinematics == "holonomic"]
+        moving = np.hypot(self.velocity[:, 0], self.velocity[:, 1]) > 1e-6
+        if turning:
+            rows = np.array(turning)
+            self.heading[rows] = np.where(moving[rows], np.arctan2(self.velocity[rows, 1],
+                                                                   self.velocity[rows, 0]),
+                                          self.heading[rows])
+
+    def _observe(self, i: int, time: float, humans: HumanArrays,
+                 position_of: Callable[[Target], tuple[float, float] | None]) -> Observation:
+        spec = self.specs[i]
+        here = self.position[i]
+        goal, stop, speed = None, spec.goal_tolerance, float(self.speed[i])
+        task = self.tasks[i]
+        if task is not None:
+            stop, speed = task.stop_distance, task.speed
+            if task.task.kind != "stand" and task.task.target is not None:
+                goal = position_of(task.task.target)
+        return Observation(
+            time=time, position=(float(here[0]), float(here[1])),
+            velocity=(float(self.velocity[i, 0]), float(self.velocity[i, 1])),
+            heading=float(self.heading[i]), goal=goal, stop_distance=stop, speed=speed,
+            people=self._seen(i, humans.names, humans.position, humans.velocity,
+                              humans.radius),
+            robots=self._seen(i, self.names, self.position, self.velocity, self.radius))
+
+    def _seen(self, i: int, names: list[str], position: FloatArray, velocity: FloatArray,
+              radius: FloatArray) -> tuple[Neighbour, ...]:
+        """Bodies within the robot's sensor range and field of view, nearest first."""
+        spec = self.specs[i]
+        if not len(names):
+            return ()
+        offset = position - self.position[i]
+        distance = np.hypot(offset[:, 0], offset[:, 1])
+        visible = distance - radius <= spec.sensor_range
+        if position is self.position:
+            visible[i] = False
+        if spec.field_of_view < 2 * math.pi:
+            bearing = np.arctan2(offset[:, 1], offset[:, 0]) - self.heading[i]
+            visible &= np.abs(physics.wrap_angle(bearing)) <= spec.field_of_view / 2
+        rows = np.flatnonzero(visible)
+        rows = rows[np.argsort(distance[rows], kind="stable")]
+        return tuple(Neighbour(names[r], (float(position[r, 0]), float(position[r, 1])),
+                               (float(velocity[r, 0]), float(velocity[r, 1])), float(radius[r]))
+                     for r in rows)
+
+    def _ask(self, i: int, observation: Observation, time: float) -> tuple[float, float]:
+        controller = self.controllers[i]
+        try:
+            command = controller.command(observation)
+        except Exception as exc:  # user code: its failure is the user's error, not hubero's
+            raise ControllerError(
+                f"robot '{self.names[i]}' at t = {time:g} s: its controller "
+                f"{type(controller).__name__} raised {type(exc).__name__}: {exc}") from None
+        return _velocity_command(command, self.names[i], type(controller).__name__, time)
+
+    def _move(self, i: int, command: tuple[float, float], dt: float) -> FloatArray:
+        """The velocity a command gives this tick, under the robot's kinematics and limits."""
+        spec = self.specs[i]
+        if spec.kinematics == "holonomic":
+            return self._limited(i, np.asarray(command, float), dt)
+        forward, turn = command
+        limit = spec.max_angular_speed
+        turn = max(-limit, min(limit, turn))
+        self.heading[i] = physics.wrap_angle(np.array([self.heading[i] + turn * dt]))[0]
+        direction = np.array([math.cos(self.heading[i]), math.sin(self.heading[i])])
+        return self._limited(i, direction * forward, dt)
+
+    def _limited(self, i: int, velocity: FloatArray, dt: float) -> FloatArray:
+        spec = self.specs[i]
+        speed = float(np.hypot(*velocity))
+        if speed > spec.max_speed:
+            velocity = velocity * (spec.max_speed / speed)
+        change = velocity - self.velocity[i]
+        most = spec.max_acceleration * dt
+        size = float(np.hypot(*change))
+        if size > most:
+            velocity = self.velocity[i] + change * (most / size)
+        return velocity
+
+    # ---- tasks -------------------------------------------------------------------------------
+
+    def start(self, name: str, task: Task, handle: TaskHandle, tick: int, dt: float,
+              radius_of: Callable[[str], float]) -> None:
+        """Give the robot `task` (the caller has preempted the one it had)."""
+        i = self.index_of(name)
+        spec = self.specs[i]
+        duration = task.get("duration")
+        deadline = tick + max(1, round(duration / dt)) if duration is not None else None
+        stop = spec.goal_tolerance
+        if task.kind == "follow":
+            stop = float(task.get("distance"))
+        if isinstance(task.target, str):  # a body: stop beside it, not on it
+            stop += radius_of(task.target) + spec.radius
+        speed = float(task.get("speed") or spec.speed)
+        self.tasks[i] = RobotTask(handle, task, deadline, stop, speed)
+        self._anchor[i] = self.position[i]
+        self._anchor_tick[i] = tick
+
+    def current(self, name: str) -> RobotTask | None:
+        return self.tasks[self.index_of(name)]
+
+    def clear(self, name: str) -> None:
+        self.tasks[self.index_of(name)] = None
+
+    def settle(self, tick: int, dt: float, stuck_ticks: int,
+               position_of: Callable[[Target], tuple[float, float] | None],
+               finish: Callable[[str, TaskStatus, str], None]) -> None:
+        """End the tasks whose end has come: arrived, time up, stuck, or the target gone."""
+        for i, task in enumerate(self.tasks):
+            if task is None:
+                continue
+            name, kind = self.names[i], task.task.kind
+            goal = position_of(task.task.target) if task.task.target is not None else None
+            if task.task.target is not None and goal is None:
+                finish(name, TaskStatus.ABORTED, f"target '{task.task.target}' disappeared")
+            elif self._done(i, task, goal, tick):
+                finish(name, TaskStatus.SUCCEEDED, "")
+            elif kind == "move_to" and (problem := self._problem(i)) is not None:
+                finish(name, TaskStatus.ABORTED, problem)  # its controller cannot get there
+            elif kind == "move_to" and self._stuck(i, tick, stuck_ticks):
+                finish(name, TaskStatus.ABORTED, f"stuck: no progress for {stuck_ticks * dt:g} s")
+
+    def _problem(self, i: int) -> str | None:
+        """Why the controller cannot reach the goal, if it says (the navigator's `problem`)."""
+        problem = getattr(self.controllers[i], "problem", None)
+        return problem if isinstance(problem, str) else None
+
+    def _done(self, i: int, task: RobotTask, goal: tuple[float, float] | None,
+              tick: int) -> bool:
+        if task.deadline is not None and tick >= task.deadline:
+            return True
+        return task.task.kind == "move_to" and goal is not None and \
+            math.dist(goal, self.position[i]) <= task.stop_distance
+
+    def _stuck(self, i: int, tick: int, stuck_ticks: int) -> bool:
+        if math.dist(self.position[i], self._anchor[i]) > PROGRESS:
+            self._anchor[i] = self.position[i]
+            self._anchor_tick[i] = tick
+        return tick - int(self._anchor_tick[i]) > stuck_ticks
+
+
+def _velocity_command(command: Any, robot: str, controller: str,
+                      time: float) -> tuple[float, float]:
+    """Two finite numbers, or the controller's error."""
+    try:
+        vx, vy = (float(v) for v in command)
+        if math.isfinite(vx) and math.isfinite(vy):
+            return (vx, vy)
+    except (TypeError, ValueError):
+        pass
+    raise ControllerError(f"robot '{robot}' at t = {time:g} s: its controller {controller} "
+                          f"returned {command!r:.80}, not a velocity (two finite numbers)")
+
+
+def robot_body(spec: RobotSpec, grid: OccupancyGrid, dt: float) -> RobotBody:
+    return RobotBody(name=spec.name, radius=spec.radius, kinematics=spec.kinematics,
+                     speed=spec.speed, max_speed=spec.max_speed,
+                     max_acceleration=spec.max_acceleration,
+                     max_angular_speed=spec.max_angular_speed,
+                     goal_tolerance=spec.goal_tolerance, path=spec.path, loop=spec.loop,
+                     grid=grid, dt=dt)

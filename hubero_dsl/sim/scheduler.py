@@ -219,8 +219,7 @@ class Scheduler:
             if data["until"] is not None and self.conditions.holds(data["until"]):
                 handle.cancel()
             elif token.until_tick is not None and self.engine.tick >= token.until_tick:
-                self.engine.finish(self.engine.index_of(handle.human), TaskStatus.ABORTED,
-                                   f"did not finish within {data['within']:g} s")
+                self.engine.abort(handle, f"did not finish within {data['within']:g} s")
             if not handle.done:
                 return False
         return self._action_ended(token, data, handle)

@@ -5,7 +5,11 @@
     sim.run_until(lambda: task.done)
 
 With `activities=True` (the default) the scenario's own activities are executed by the
-scheduler through the same human API; with `activities=False` the caller commands everyone.
+scheduler through the same API; with `activities=False` the caller commands everyone.
+
+Robots are driven by the controllers their declarations name (`controller navigator`), built
+from the controller registry; `controllers={"cart": MyController}` hands a robot to a class (or
+an instance) of the caller's instead, as `hubero run --controller cart=my_pkg:Planner` does.
 """
 
 from __future__ import annotations
@@ -13,7 +17,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import zlib
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -25,13 +29,14 @@ from hubero_dsl.planners.base import GlobalPlanner, LocalPlanner, PlannerParams
 from hubero_dsl.planners.registry import global_planner, local_planner
 from hubero_dsl.sim.arrays import HumanArrays
 from hubero_dsl.sim.engine import Engine
-from hubero_dsl.sim.human import HumanHandle
-from hubero_dsl.sim.robots import Robots
+from hubero_dsl.sim.handles import HumanHandle, RobotHandle
+from hubero_dsl.sim.robots import Robots, robot_body
 from hubero_dsl.sim.scheduler import Scheduler
 from hubero_dsl.sim.status import TaskEvent, TaskHandle
 from hubero_dsl.world.shapes import Shape, ShapeArrays
 
 if TYPE_CHECKING:
+    from hubero_dsl.controllers.base import RobotController
     from hubero_dsl.diagnostics import Span
     from hubero_dsl.model.tasks import Task
 
@@ -71,7 +76,8 @@ class Simulation:
     """A run of one program variant with one seed. Deterministic: same inputs, same run."""
 
     def __init__(self, program: Program, *, variant: str | None = None, seed: int | None = None,
-                 activities: bool = True) -> None:
+                 activities: bool = True,
+                 controllers: Mapping[str, type | RobotController] | None = None) -> None:
         if variant is not None and variant not in program.variants:
             known = ", ".join(program.variants) or "none"
             raise SimulationError(f"unknown variant '{variant}' (variants: {known})")
@@ -79,11 +85,13 @@ class Simulation:
         self.variant = variant
         self.seed = program.seed if seed is None else seed
         self.params = draw_params(program, variant, self.seed)
-        self.engine = self._build_engine()
+        self.engine = self._build_engine(build_controllers(program, controllers or {}))
         self._ids = itertools.count(1)
         places = {name: pose.xy for name, pose in program.places.items()}
         self._humans = {name: HumanHandle(self.engine, name, places, self._ids)
                         for name in program.human_names}
+        self._robots = {spec.name: RobotHandle(self.engine, spec.name, places, self._ids)
+                        for spec in program.robots}
         self.scheduler: Scheduler | None = None
         if activities:
             self.scheduler = Scheduler(program.graph, self.engine, self._command,
@@ -118,10 +126,19 @@ class Simulation:
     def humans(self) -> list[HumanHandle]:
         return list(self._humans.values())
 
+    def robot(self, name: str) -> RobotHandle:
+        try:
+            return self._robots[name]
+        except KeyError:
+            raise SimulationError(f"no robot named '{name}'") from None
+
+    @property
+    def robots(self) -> list[RobotHandle]:
+        return list(self._robots.values())
+
     def set_robot_velocity(self, name: str, vx: float, vy: float) -> None:
-        if name not in self.engine.robots.names:
-            raise SimulationError(f"no robot named '{name}'")
-        self.engine.robots.set_velocity(name, (vx, vy))
+        """Drive robot `name` at (vx, vy) from now on (see `RobotHandle.set_velocity`)."""
+        self.robot(name).set_velocity(vx, vy)
 
     def remove(self, name: str) -> None:
         """Make a human or robot unknown as a target: tasks that follow, face or walk to it
@@ -132,7 +149,8 @@ class Simulation:
     def _command(self, actor: str, task: Task, span: Span | None) -> TaskHandle:
         """How the scheduler gives a scenario's task: through the same API as any caller,
         with the span of the step that gave it."""
-        return self.human(actor).give(dataclasses.replace(task, span=span))
+        actor_handle = self._robots.get(actor) or self.human(actor)
+        return actor_handle.give(dataclasses.replace(task, span=span))
 
     def step(self) -> None:
         """Advance one tick: the scheduler reacts to the world, then the world moves."""
@@ -154,7 +172,7 @@ class Simulation:
 
     # ---- building --------------------------------------------------------------------------
 
-    def _build_engine(self) -> Engine:
+    def _build_engine(self, controllers: dict[str, RobotController]) -> Engine:
         program, params = self.program, self.params
         names = program.human_names
         humans = _human_arrays(program, params)
@@ -168,7 +186,7 @@ class Simulation:
                 cls = global_planner(planner_name)
                 planners_by_key[key] = cls(program.grid, cls.Params.model_validate(own))
             global_of.append(planners_by_key[key])
-        robots = Robots(program.robots)
+        robots = Robots(program.robots, program.grid, program.step, controllers)
         local_of = [str(params[n]["local_planner"]) for n in names]
         local = {planner_name: _local_planner(program, params, planner_name, robots.count)
                  for planner_name in sorted(set(local_of))}
@@ -179,6 +197,34 @@ class Simulation:
                       follow_replan=follow_replan,
                       rng_for=lambda purpose, i: np.random.default_rng(
                           stable_seed(seed, purpose, names[i])))
+
+
+def build_controllers(program: Program, given: Mapping[str, type | RobotController]
+                      ) -> dict[str, RobotController]:
+    """Each robot's controller: the caller's (a class is built with the robot and default
+    parameters), else the registered one its declaration names, with its parameters."""
+    from hubero_dsl.controllers.base import ControllerParams
+    from hubero_dsl.controllers.registry import controller_class
+
+    unknown = sorted(set(given) - {spec.name for spec in program.robots})
+    if unknown:
+        raise SimulationError(f"no robot named '{unknown[0]}' to hand a controller to")
+    built: dict[str, RobotController] = {}
+    for spec in program.robots:
+        body = robot_body(spec, program.grid, program.step)
+        chosen = given.get(spec.name)
+        if chosen is not None and not isinstance(chosen, type):
+            built[spec.name] = chosen
+            continue
+        cls = chosen or controller_class(spec.controller)
+        params_model = getattr(cls, "Params", ControllerParams)
+        values = spec.controller_params if chosen is None else {}
+        try:
+            built[spec.name] = cls(body, params_model.model_validate(dict(values)))
+        except Exception as exc:  # user code: its failure is the user's error
+            raise SimulationError(f"robot '{spec.name}': controller {cls.__name__} cannot be "
+                                  f"built: {type(exc).__name__}: {exc}") from None
+    return built
 
 
 def _planner_values(values: dict[str, ParamValue], planner: str) -> dict[str, float]:

@@ -67,3 +67,15 @@ def test_the_reserved_words_are_listed() -> None:
     section = REFERENCE.read_text(encoding="utf-8").split("## Reserved words", 1)[1]
     (listing,) = _blocks(section, "")[:1]
     assert set(listing.split()) == reserved_words()
+
+
+ROBOTS = REPO_ROOT / "docs" / "robots.md"
+
+
+def test_the_robots_page_examples_check_clean() -> None:
+    blocks = [b for b in _blocks(ROBOTS.read_text(encoding="utf-8"), "hub")
+              if b.lstrip().startswith("scenario")]
+    assert blocks
+    for block in blocks:
+        result = check_source(block, str(ROBOTS))
+        assert not result.diagnostics, [d.message for d in result.diagnostics]

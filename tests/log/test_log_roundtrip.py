@@ -45,7 +45,8 @@ def test_topics_have_their_schemas(meeting: LoggedMeeting) -> None:
         "/humans/alice/pose": "foxglove.PoseInFrame",
         "/humans/bob/pose": "foxglove.PoseInFrame",
         "/humans/alice/state": "hubero.HumanState",
-        "/humans/bob/state": "hubero.HumanState"}
+        "/humans/bob/state": "hubero.HumanState",
+        "/robots/r2/state": "hubero.RobotState"}
     with meeting.log.open("rb") as stream:
         summary = make_reader(stream).get_summary()
     assert summary is not None

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hubero_dsl.controllers.registry import import_controller
 from hubero_dsl.errors import InputError, SimulationError
 from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.sim.status import TaskStatus
@@ -65,21 +66,34 @@ def test_robot_velocity_from_python(scenario: ScenarioFactory) -> None:
         sim.set_robot_velocity("nobody", 0.0, 0.0)
 
 
-def test_a_controller_class_drives_a_robot(scenario: ScenarioFactory, tmp_path: Path,
-                                           monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_controller_class_handed_over_drives_a_robot(scenario: ScenarioFactory,
+                                                       tmp_path: Path,
+                                                       monkeypatch: pytest.MonkeyPatch) -> None:
     (tmp_path / "my_robots.py").write_text(
-        "class Circler:\n"
-        "    def __init__(self, name):\n        self.name = name\n"
-        "    def velocity(self, time, position):\n        return (0.0, 0.4)\n")
+        "class Climber:\n"
+        "    def __init__(self, body, params):\n        self.body = body\n"
+        "    def command(self, observation):\n        return (0.0, 0.4)\n")
     monkeypatch.syspath_prepend(str(tmp_path))
-    sim = Simulation(scenario('robot r at (2, 2) { controller "my_robots:Circler" }\n'),
-                     activities=False)
+    program = scenario("robot r at (2, 2) { controller external }\n")
+    sim = Simulation(program, activities=False,
+                     controllers={"r": import_controller("my_robots:Climber")})
     sim.run_until(lambda: sim.time >= 1.0)
     assert sim.engine.robots.position[0] == pytest.approx((2.0, 2.4), abs=0.03)
     sys.modules.pop("my_robots", None)
 
 
-def test_a_controller_that_cannot_be_loaded_is_bad_input(scenario: ScenarioFactory) -> None:
-    program = scenario('robot r at (2, 2) { controller "no_such_module:Thing" }\n')
-    with pytest.raises(InputError, match="cannot be loaded"):
-        Simulation(program, activities=False)
+def test_a_controller_that_cannot_be_imported_is_bad_input() -> None:
+    with pytest.raises(InputError, match="cannot be imported"):
+        import_controller("no_such_module:Thing")
+    with pytest.raises(InputError, match="not of the form MODULE:CLASS"):
+        import_controller("no_colon")
+
+
+def test_a_scenario_file_names_no_code(room_map: Path) -> None:
+    from hubero_dsl.pipeline import check_source
+
+    text = (f'scenario "t"\nmap "{room_map}"\n'
+            'robot r at (2, 2) { controller "shutil:rmtree" }\n')
+    (diagnostic,) = check_source(text, "t.hub").errors
+    assert (diagnostic.code, diagnostic.message) == ("E110", "a scenario file names no Python code")
+    assert diagnostic.span is not None and diagnostic.span.column == 32

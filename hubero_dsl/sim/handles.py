@@ -1,0 +1,268 @@
+"""The control API (the paper's requirement a): command each human, and each robot, on its own.
+
+`HumanHandle` is what `Simulation.human(name)` returns, `RobotHandle` what `Simulation.robot(name)`
+returns. Every command returns a `TaskHandle`
+whose status goes PENDING -> ACTIVE -> SUCCEEDED / PREEMPTED / ABORTED (with a reason); a new
+command preempts the current one. Targets are `(x, y)` points in metres, or the name of a place,
+a human or a robot (that body's position when the task starts or re-plans). Angles are radians,
+durations seconds, speeds m/s.
+
+`do(kind, target, **arguments)` gives a task of any kind in the task registry
+(`hubero_dsl.model.tasks.TASKS`), with the registry's argument names; the named methods
+(`move_to`, `talk`, ...) are the same calls spelt out. The scheduler gives scenario tasks through
+`give`, so scenario files and Python callers command humans the same way. Robots take the kinds
+the registry marks for robots (`move_to`, `stand`, `follow`); their controller drives them
+towards the goal a task gives.
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from hubero_dsl.errors import SimulationError
+from hubero_dsl.model.tasks import TASKS, Target, TargetRule, Task, TaskKind, ValueKind
+from hubero_dsl.sim.behaviours import BEHAVIOURS, Behaviour
+from hubero_dsl.sim.status import Posture, TaskHandle
+
+if TYPE_CHECKING:
+    from shapely.geometry import Polygon
+
+    from hubero_dsl.diagnostics import Span
+    from hubero_dsl.sim.engine import Engine
+
+
+
+class _Actor:
+    """What humans and robots share: tasks given by kind, checked against the registry."""
+
+    def __init__(self, engine: Engine, name: str, places: dict[str, tuple[float, float]],
+                 ids: itertools.count[int]) -> None:
+        self._engine = engine
+        self.name = name
+        self._places = places
+        self._ids = ids
+
+    def do(self, kind: str, target: Target | None = None, *, span: Span | None = None,
+           **arguments: Any) -> TaskHandle:
+        """Give a task of any registered kind: `do("move_to", (2, 3), speed=1.0)`.
+        Arguments left None are not given (the kind's default applies)."""
+        given = {name: value for name, value in arguments.items() if value is not None}
+        return self.give(Task(kind, target, given, span))
+
+    def give(self, task: Task) -> TaskHandle:
+        """Give `task` (checked against the registry), preempting the current one."""
+        kind = self._kind(task.kind)
+        target = self._task_target(kind, task.target)
+        arguments = {name: self._argument(kind, name, value)
+                     for name, value in task.arguments.items()}
+        resolved = Task(kind.name, target, arguments, task.span)
+        handle = TaskHandle(next(self._ids), self.name, kind.name,
+                            kind.describe(task.target, task.arguments), task.span)
+        handle._cancel = self._engine.cancel
+        self._start(resolved, handle)
+        return handle
+
+    def _kind(self, name: str) -> TaskKind:
+        kind = TASKS.get(name)
+        if kind is None:
+            raise SimulationError(f"unknown task '{name}' (tasks: {', '.join(TASKS)})")
+        return kind
+
+    def _start(self, task: Task, handle: TaskHandle) -> None:
+        raise NotImplementedError
+
+    def _task_target(self, kind: TaskKind, target: Target | None) -> Target | None:
+        if kind.target is TargetRule.NONE:
+            if target is not None:
+                raise SimulationError(f"{kind.name} takes no target (use "
+                                      f"{kind.hint_keyword}=...)")
+            return None
+        if target is None:
+            raise SimulationError(f"{kind.name} needs a target")
+        if kind.target is TargetRule.BODY:
+            if not isinstance(target, str):
+                raise SimulationError(f"{kind.name} needs a human or robot, not a point")
+            if target == self.name:
+                raise SimulationError(f"{self.name} cannot {kind.name} itself")
+            self._required_target(target)
+            return target  # the body itself, wherever it goes
+        return self._required_target(target)
+
+    def _argument(self, kind: TaskKind, name: str, value: Any) -> Any:
+        spec = kind.argument(name)
+        if spec is None:
+            takes = ", ".join(o.argument for o in kind.options) or "nothing"
+            raise SimulationError(f"{kind.name} takes no '{name}' (it takes {takes})")
+        if spec.value is ValueKind.TARGET:
+            return self._required_target(value)
+        if spec.value is ValueKind.COUNT and value < 1:
+            raise SimulationError(f"{kind.name}: {name} must be at least 1")
+        if spec.value in (ValueKind.SPEED, ValueKind.LENGTH, ValueKind.TIME) and not value > 0:
+            raise SimulationError(f"{name} must be greater than zero")
+        return value
+
+    def _required_target(self, target: Target) -> Target:
+        if not isinstance(target, str):
+            x, y = target
+            return (float(x), float(y))
+        if target in self._places:
+            return self._places[target]
+        if self._engine.position_of(target) is None:
+            raise SimulationError(f"unknown target '{target}': not a place, human or robot")
+        return target
+
+
+
+class HumanHandle(_Actor):
+    """One human of a running simulation."""
+
+    def __init__(self, engine: Engine, name: str, places: dict[str, tuple[float, float]],
+                 ids: itertools.count[int]) -> None:
+        super().__init__(engine, name, places, ids)
+        self._index = engine.index_of(name)
+
+    # ---- state ---------------------------------------------------------------------------
+
+    @property
+    def position(self) -> tuple[float, float]:
+        x, y = self._engine.humans.position[self._index]
+        return (float(x), float(y))
+
+    @property
+    def velocity(self) -> tuple[float, float]:
+        vx, vy = self._engine.humans.velocity[self._index]
+        return (float(vx), float(vy))
+
+    @property
+    def heading(self) -> float:
+        return float(self._engine.humans.heading[self._index])
+
+    @property
+    def posture(self) -> Posture:
+        return Posture(int(self._engine.humans.posture[self._index]))
+
+    @property
+    def task(self) -> TaskHandle | None:
+        """The task the human is doing now, if any."""
+        return self._engine.handle[self._index]
+
+    @property
+    def state(self) -> str:
+        """The behaviour's FSM state ('walking', 'aligning', 'talking', ... or 'idle')."""
+        behaviour = self._engine.behaviour[self._index]
+        return behaviour.state if behaviour is not None else "idle"
+
+    # ---- commands ------------------------------------------------------------------------
+
+    def stand(self, *, facing: Target | None = None, duration: float | None = None,
+              span: Span | None = None) -> TaskHandle:
+        return self.do("stand", facing=facing, duration=duration, span=span)
+
+    def move_to(self, target: Target, *, heading: float | None = None,
+                speed: float | None = None, span: Span | None = None) -> TaskHandle:
+        return self.do("move_to", target, heading=heading, speed=speed, span=span)
+
+    def run_to(self, target: Target, *, heading: float | None = None,
+               span: Span | None = None) -> TaskHandle:
+        return self.do("run_to", target, heading=heading, span=span)
+
+    def move_around(self, *, area: Polygon | None = None, duration: float | None = None,
+                    times: int | None = None, span: Span | None = None) -> TaskHandle:
+        return self.do("move_around", area=area, duration=duration, times=times, span=span)
+
+    def follow(self, target: str, *, distance: float = 1.0, duration: float | None = None,
+               span: Span | None = None) -> TaskHandle:
+        return self.do("follow", target, distance=distance, duration=duration, span=span)
+
+    def talk(self, *, to: Target | None = None, duration: float | None = None,
+             span: Span | None = None) -> TaskHandle:
+        return self.do("talk", to=to, duration=duration, span=span)
+
+    def sit_down(self, *, at: Target | None = None, duration: float | None = None,
+                 heading: float | None = None, span: Span | None = None) -> TaskHandle:
+        return self.do("sit_down", at=at, duration=duration, heading=heading, span=span)
+
+    def lie_down(self, *, at: Target | None = None, duration: float | None = None,
+                 heading: float | None = None, span: Span | None = None) -> TaskHandle:
+        return self.do("lie_down", at=at, duration=duration, heading=heading, span=span)
+
+    def teleop(self, *, duration: float | None = None, span: Span | None = None) -> TaskHandle:
+        return self.do("teleop", duration=duration, span=span)
+
+    def set_velocity(self, vx: float, vy: float) -> None:
+        """The velocity a `teleop` task applies (walls still stop the human)."""
+        if not (np.isfinite(vx) and np.isfinite(vy)):
+            raise SimulationError(f"{self.name}: a velocity must be finite, got ({vx}, {vy})")
+        speed = float(np.hypot(vx, vy))
+        limit = float(self._engine.humans.run_speed[self._index])
+        scale = 1.0 if speed <= limit else limit / speed
+        self._engine.humans.teleop_velocity[self._index] = (vx * scale, vy * scale)
+
+    # ---- internals -----------------------------------------------------------------------
+
+    def _start(self, task: Task, handle: TaskHandle) -> None:
+        behaviour: Behaviour = BEHAVIOURS[task.kind](task)
+        self._engine.command(self._index, behaviour, handle)
+
+
+
+class RobotHandle(_Actor):
+    """One robot of a running simulation: its state, its tasks, and a velocity override."""
+
+    def __init__(self, engine: Engine, name: str, places: dict[str, tuple[float, float]],
+                 ids: itertools.count[int]) -> None:
+        super().__init__(engine, name, places, ids)
+        self._index = engine.robots.index_of(name)
+
+    @property
+    def position(self) -> tuple[float, float]:
+        x, y = self._engine.robots.position[self._index]
+        return (float(x), float(y))
+
+    @property
+    def velocity(self) -> tuple[float, float]:
+        vx, vy = self._engine.robots.velocity[self._index]
+        return (float(vx), float(vy))
+
+    @property
+    def heading(self) -> float:
+        return float(self._engine.robots.heading[self._index])
+
+    @property
+    def task(self) -> TaskHandle | None:
+        current = self._engine.robots.tasks[self._index]
+        return current.handle if current is not None else None
+
+    def move_to(self, target: Target, *, speed: float | None = None,
+                span: Span | None = None) -> TaskHandle:
+        return self.do("move_to", target, speed=speed, span=span)
+
+    def stand(self, *, duration: float | None = None, span: Span | None = None) -> TaskHandle:
+        return self.do("stand", duration=duration, span=span)
+
+    def follow(self, target: str, *, distance: float = 1.0, duration: float | None = None,
+               span: Span | None = None) -> TaskHandle:
+        return self.do("follow", target, distance=distance, duration=duration, span=span)
+
+    def set_velocity(self, vx: float, vy: float) -> None:
+        """Drive the robot at (vx, vy) m/s from now on, whatever its controller says (its
+        limits and the walls still apply); `release()` hands it back to its controller."""
+        if not (np.isfinite(vx) and np.isfinite(vy)):
+            raise SimulationError(f"{self.name}: a velocity must be finite, got ({vx}, {vy})")
+        self._engine.robots.set_velocity(self.name, (float(vx), float(vy)))
+
+    def release(self) -> None:
+        self._engine.robots.set_velocity(self.name, None)
+
+    def _kind(self, name: str) -> TaskKind:
+        kind = super()._kind(name)
+        if not kind.robots:
+            robot_kinds = ", ".join(k.name for k in TASKS.values() if k.robots)
+            raise SimulationError(f"robots take {robot_kinds}, not {name}")
+        return kind.for_robots()
+
+    def _start(self, task: Task, handle: TaskHandle) -> None:
+        self._engine.command_robot(self._index, task, handle)

@@ -1,0 +1,300 @@
+"""Robots under test: tasks, the reference navigator, kinematics and limits, what controllers
+see, controller errors, and controllers handed over or installed as plugins."""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hubero_dsl.controllers.base import Observation
+from hubero_dsl.errors import SimulationError
+from hubero_dsl.pipeline import check_source
+from hubero_dsl.sim.loop import RunState, run_program
+from hubero_dsl.sim.robots import ControllerError
+from hubero_dsl.sim.simulation import Simulation
+from hubero_dsl.sim.status import TaskStatus
+from tests.sim.conftest import ScenarioFactory, room_grid
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+
+
+class Recorder:
+    """A controller that drives at a fixed command and keeps what it was shown."""
+
+    def __init__(self, body: object, params: object, command: tuple[float, float] = (0.0, 0.0)
+                 ) -> None:
+        self.command_given = command
+        self.seen: list[Observation] = []
+
+    def command(self, observation: Observation) -> tuple[float, float]:
+        self.seen.append(observation)
+        return self.command_given
+
+
+# ---- tasks and the navigator -------------------------------------------------------------------
+
+
+def test_a_navigator_robot_plans_round_a_wall_and_its_task_keeps_the_run_alive(
+        scenario: ScenarioFactory, tmp_path: Path) -> None:
+    from hubero_dsl.world.mapfile import save_map
+
+    walled = tmp_path / "gap.yaml"  # a wall at x = 5 with a gap at the top
+    save_map(room_grid(walls=((4.9, 0.0, 5.1, 6.0),)), walled)
+    program = scenario("""
+    human alice at (1, 1)
+    robot cart at (2, 2) { controller navigator; speed 0.8 m/s }
+    activity { alice stand for 1 s }
+    activity { go: cart move_to (8, 2) within 60 s }
+    expect cart reaches (8, 2) eventually
+    """, map_path=walled)
+    sim = Simulation(program)
+    track = []
+    result = run_program(sim, [lambda s: track.append(s.robot("cart").position)])
+    assert result.state is RunState.COMPLETED and result.succeeded
+    assert result.time > 10.0          # the robot's task, not alice's, ended the run
+    assert max(y for _, y in track) > 6.0   # it went through the gap
+    assert result.robots[0].tasks_done == 1 and result.robots[0].last_status == "SUCCEEDED"
+    assert [e.status for e in result.events if e.human == "cart"] == [
+        TaskStatus.ACTIVE, TaskStatus.SUCCEEDED]
+
+
+def test_the_navigator_stops_rather_than_come_closer_than_its_margin(
+        scenario: ScenarioFactory) -> None:
+    """A person crosses the robot's way: it waits for them; no gap falls below the margin."""
+    program = scenario("""
+    human bob at (5, 7)
+    robot cart at (1, 4) { controller navigator; speed 1 m/s; navigator.safety_margin 0.4 m }
+    activity { bob move_to (5, 1) }
+    activity { cart move_to (9, 4) within 40 s }
+    """)
+    sim = Simulation(program)
+    gaps = []
+    result = run_program(sim, [lambda s: gaps.append(
+        math.dist(s.robot("cart").position, s.human("bob").position) - 0.3 - 0.2)])
+    assert result.state is RunState.COMPLETED
+    assert min(gaps) >= 0.4 - 0.05
+    assert result.robots[0].last_status == "SUCCEEDED"
+
+
+def test_robot_stand_follow_and_within(scenario: ScenarioFactory) -> None:
+    program = scenario("""
+    human alice at (2, 2)
+    robot cart at (1, 6) { controller navigator; speed 1 m/s }
+    activity { alice move_to (8, 2) }
+    activity {
+        cart stand for 2 s
+        cart follow alice at 1 m for 6 s
+        late: cart move_to (9, 7) within 0.5 s
+    }
+    """)
+    result = Simulation(program)
+    outcome = run_program(result)
+    cart = [(e.kind, e.status, round(e.time, 2)) for e in outcome.events if e.human == "cart"]
+    assert cart[:4] == [("stand", TaskStatus.ACTIVE, 0.0), ("stand", TaskStatus.SUCCEEDED, 2.0),
+                        ("follow", TaskStatus.ACTIVE, 2.0),
+                        ("follow", TaskStatus.SUCCEEDED, 8.0)]
+    assert cart[-1][:2] == ("move_to", TaskStatus.ABORTED)
+    assert outcome.state is RunState.FAILED
+    assert "did not finish within 0.5 s" in outcome.reason
+
+
+def test_robot_tasks_from_the_api(scenario: ScenarioFactory) -> None:
+    sim = Simulation(scenario("robot cart at (2, 2) { controller navigator }\n"),
+                     activities=False)
+    cart = sim.robot("cart")
+    task = cart.move_to((6.0, 2.0), speed=0.5)
+    assert task.status is TaskStatus.ACTIVE and cart.task is task
+    sim.run_until(lambda: sim.time >= 1.0)
+    assert cart.velocity[0] == pytest.approx(0.5, abs=0.05)
+    task.cancel()
+    assert task.status is TaskStatus.PREEMPTED and cart.task is None
+    with pytest.raises(SimulationError, match="robots take stand, move_to, follow, not talk"):
+        cart.do("talk", duration=1.0)
+    with pytest.raises(SimulationError, match="move_to takes no 'heading'"):
+        cart.do("move_to", (3.0, 3.0), heading=1.0)
+
+
+# ---- kinematics and limits ---------------------------------------------------------------------
+
+
+def test_a_unicycle_turns_at_most_its_rate_and_drives_along_its_heading(
+        scenario: ScenarioFactory) -> None:
+    program = scenario("""robot r at (5, 4) heading 0 deg {
+        controller external; kinematics unicycle; max_angular_speed 1.0; max_speed 0.5 m/s
+    }\n""")
+    recorder = Recorder(None, None, (2.0, 3.0))  # asks for 2 m/s and 3 rad/s
+    sim = Simulation(program, activities=False, controllers={"r": recorder})
+    headings = []
+    for _ in range(10):
+        sim.step()
+        headings.append(sim.robot("r").heading)
+    turns = np.diff([0.0, *headings])
+    assert np.allclose(turns, 1.0 * sim.dt)
+    vx, vy = sim.robot("r").velocity
+    assert math.hypot(vx, vy) == pytest.approx(0.5)
+    assert math.atan2(vy, vx) == pytest.approx(headings[-1])
+
+
+def test_acceleration_is_limited(scenario: ScenarioFactory) -> None:
+    program = scenario("robot r at (2, 4) { controller external; max_acceleration 0.5 }\n")
+    sim = Simulation(program, activities=False)
+    sim.robot("r").set_velocity(1.0, 0.0)
+    speeds = []
+    for _ in range(20):
+        sim.step()
+        speeds.append(sim.robot("r").velocity[0])
+    assert np.allclose(np.diff([0.0, *speeds]), 0.5 * sim.dt)
+
+
+def test_no_robot_is_driven_through_a_wall(scenario: ScenarioFactory) -> None:
+    sim = Simulation(scenario("robot r at (9, 4) { radius 0.3 m }\n"), activities=False)
+    sim.robot("r").set_velocity(2.0, 0.0)  # straight at the east wall
+    sim.run_until(lambda: sim.time >= 3.0)
+    # as for people: the body may brush the wall, its centre keeps half its radius clear
+    assert 9.0 < sim.robot("r").position[0] <= 10.0 - 0.05 - 0.3 / 2 + 1e-6
+
+
+# ---- what a controller sees --------------------------------------------------------------------
+
+
+def test_a_controller_sees_people_within_its_range_and_field_of_view(
+        scenario: ScenarioFactory) -> None:
+    program = scenario("""
+    human ahead at (4, 4)
+    human behind at (1, 4)
+    human far at (9, 4)
+    robot r at (2, 4) heading 0 deg {
+        controller external; sensor_range 3 m; field_of_view 180 deg; goal (8, 6)
+    }
+    """)
+    recorder = Recorder(None, None)
+    sim = Simulation(program, activities=False, controllers={"r": recorder})
+    sim.step()
+    seen = recorder.seen[0]
+    assert [p.name for p in seen.people] == ["ahead"]
+    assert seen.people[0].radius == pytest.approx(0.2)
+    assert seen.position == (2.0, 4.0) and seen.goal is None
+
+
+# ---- errors in a controller are the controller's -----------------------------------------------
+
+
+class Raising:
+    def __init__(self, body: object, params: object) -> None:
+        pass
+
+    def command(self, observation: Observation) -> tuple[float, float]:
+        if observation.time >= 1.0:
+            raise ValueError("no map loaded")
+        return (0.1, 0.0)
+
+
+class Nonsense:
+    def __init__(self, body: object, params: object) -> None:
+        pass
+
+    def command(self, observation: Observation) -> object:
+        return "fast"
+
+
+@pytest.mark.parametrize(("controller", "message"), [
+    (Raising, r"robot 'r' at t = 1 s: its controller Raising raised ValueError: no map loaded"),
+    (Nonsense, r"robot 'r' at t = 0 s: its controller Nonsense returned 'fast', not a velocity"),
+])
+def test_a_failing_controller_names_the_robot_the_time_and_the_cause(
+        scenario: ScenarioFactory, controller: type, message: str) -> None:
+    sim = Simulation(scenario("robot r at (2, 4) { controller external }\n"), activities=False,
+                     controllers={"r": controller})
+    with pytest.raises(ControllerError, match=message):
+        sim.run_until(lambda: sim.time >= 3.0)
+
+
+def _hubero(*args: str, cwd: Path, pythonpath: Path) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "PYTHONPATH": str(pythonpath)}
+    return subprocess.run([sys.executable, "-m", "hubero_dsl", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=120, check=False)
+
+
+def _scenario_file(folder: Path, robot: str) -> Path:
+    from hubero_dsl.world.mapfile import save_map
+
+    save_map(room_grid(), folder / "room.yaml")
+    file = folder / "robot.hub"
+    file.write_text('scenario "plugin"\nmap "room.yaml"\n' + robot +
+                    "activity { go: r move_to (6, 4) within 30 s }\n"
+                    "expect go done eventually\n", encoding="utf-8")
+    return file
+
+
+def test_a_user_controller_that_raises_is_exit_1_not_an_internal_error(tmp_path: Path) -> None:
+    (tmp_path / "my_nav.py").write_text(
+        "class Broken:\n    def __init__(self, body, params):\n        pass\n"
+        "    def command(self, observation):\n        raise RuntimeError('boom')\n")
+    file = _scenario_file(tmp_path, "robot r at (2, 4) { controller external }\n")
+    done = _hubero("run", str(file), "--controller", "r=my_nav:Broken", "-o",
+                   str(tmp_path / "out.mcap"), cwd=tmp_path, pythonpath=tmp_path)
+    assert done.returncode == 1, done.stderr
+    assert "robot 'r' at t = 0 s: its controller Broken raised RuntimeError: boom" in done.stderr
+    assert "internal error" not in done.stderr and "Traceback" not in done.stderr
+    assert not (tmp_path / "out.mcap").exists()
+
+
+def test_a_plugin_controller_registered_by_entry_point_runs(tmp_path: Path) -> None:
+    """A package that declares `[hubero.controllers] straight_drive = ...` in its metadata
+    (as `pip install` would write it) is found by name, its parameters are checked, it runs."""
+    site = tmp_path / "site"
+    (site / "straight_drive").mkdir(parents=True)
+    (site / "straight_drive" / "__init__.py").write_text(
+        "from pydantic import Field\n"
+        "from hubero_dsl.controllers.base import ControllerParams\n"
+        "class Params(ControllerParams):\n"
+        "    gain: float = Field(default=1.0, gt=0)\n"
+        "class StraightDrive:\n    Params = Params\n"
+        "    def __init__(self, body, params):\n"
+        "        self.body, self.gain = body, params.gain\n"
+        "    def command(self, observation):\n"
+        "        if observation.goal is None:\n            return (0.0, 0.0)\n"
+        "        dx = observation.goal[0] - observation.position[0]\n"
+        "        dy = observation.goal[1] - observation.position[1]\n"
+        "        d = max((dx * dx + dy * dy) ** 0.5, 1e-9)\n"
+        "        v = min(self.body.speed, self.gain * d)\n"
+        "        return (v * dx / d, v * dy / d)\n")
+    info = site / "straight_drive-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: straight-drive\n"
+                                   "Version: 0.1\n")
+    (info / "entry_points.txt").write_text(
+        "[hubero.controllers]\nstraight_drive = straight_drive:StraightDrive\n")
+    good = _scenario_file(tmp_path, "robot r at (2, 4) { controller straight_drive; "
+                                    "straight_drive.gain 2 }\n")
+    checked = _hubero("check", str(good), cwd=tmp_path, pythonpath=site)
+    assert checked.returncode == 0, checked.stdout + checked.stderr
+    ran = _hubero("test", str(good), cwd=tmp_path, pythonpath=site)
+    assert ran.returncode == 0, ran.stdout + ran.stderr
+    bad = _scenario_file(tmp_path, "robot r at (2, 4) { controller straight_drive; "
+                                   "straight_drive.gain -1 }\n")
+    refused = _hubero("check", str(bad), cwd=tmp_path, pythonpath=site)
+    assert refused.returncode == 1 and "straight_drive.gain" in refused.stdout
+
+
+# ---- the checker on robots' tasks and controllers -----------------------------------------------
+
+
+@pytest.mark.parametrize(("body", "code"), [
+    ("robot r at (2, 2) { controller navigator }\nactivity { r talk for 1 s }", "E109"),
+    ("robot r at (2, 2) { path (2, 2) -> (3, 3) }\nactivity { r move_to (5, 5) }", "E109"),
+    ("robot r at (2, 2) { controller navigator }\nactivity { r move_to (5, 5) heading 0 deg }",
+     "E107"),
+    ('robot r at (2, 2) { controller "os:system" }', "E110"),
+    ("robot r at (2, 2) { controller navigatr }", "E110"),
+    ("robot r at (2, 2) { kinematics tank }", "E201"),
+])
+def test_robot_mistakes_are_reported(room_map: Path, body: str, code: str) -> None:
+    text = f'scenario "t"\nmap "{room_map}"\n{body}\n'
+    assert code in {d.code for d in check_source(text, "t.hub").errors}
