@@ -10,6 +10,6 @@ import sys
 if sys.path and sys.path[0] in ("", os.getcwd()):
     del sys.path[0]
 
-from hubero_dsl.cli.main import main  # noqa: E402 - after the path is made safe
+from hubero_dsl.cli.main import main
 
 raise SystemExit(main())
