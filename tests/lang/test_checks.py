@@ -277,7 +277,9 @@ defaults {
 human actor3 at (2.0, 3.0) heading -90 deg { personal_space square(side: 0.5 m) }
 human actor4 at hall { personal_space rectangle(length: 1 m, width: 0.6 m) }
 robot vacuum at (-4.0, 1.0) { radius 0.17 m; speed 0.3 m/s; path (-4.0, 1.0) -> (-3.0, 0.0) loop }
-robot buddy at (-3.0, 3.0) { controller navigator; kinematics unicycle; goal (1.0, 1.0); navigator.safety_margin 0.4 m }
+robot buddy at (-3.0, 3.0) {
+    controller navigator; kinematics unicycle; goal (1.0, 1.0); navigator.safety_margin 0.4 m
+}
 robot statue at (-4.0, -1.0)
 
 variant circle { personal_space circle(radius: 0.2 m) }
