@@ -151,11 +151,11 @@ class Robots:
             time=time, position=(float(here[0]), float(here[1])),
             velocity=(float(self.velocity[i, 0]), float(self.velocity[i, 1])),
             heading=float(self.heading[i]), goal=goal, stop_distance=stop, speed=speed,
-            people=self._seen(i, humans.names, humans.position, humans.velocity,
+            people=self.seen_by(i, humans.names, humans.position, humans.velocity,
                               humans.radius),
-            robots=self._seen(i, self.names, self.position, self.velocity, self.radius))
+            robots=self.seen_by(i, self.names, self.position, self.velocity, self.radius))
 
-    def _seen(self, i: int, names: list[str], position: FloatArray, velocity: FloatArray,
+    def seen_by(self, i: int, names: list[str], position: FloatArray, velocity: FloatArray,
               radius: FloatArray) -> tuple[Neighbour, ...]:
         """Bodies within the robot's sensor range and field of view, nearest first."""
         spec = self.specs[i]

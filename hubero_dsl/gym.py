@@ -1,0 +1,370 @@
+"""A Gymnasium environment: train or test a robot's policy in any hubero scenario.
+
+    import gymnasium
+    import hubero_dsl.gym  # registers hubero/Scenario-v0
+
+    env = gymnasium.make("hubero/Scenario-v0", scenario="scenarios/robot_among_guests.hub",
+                         robot="cart")
+    observation, info = env.reset(seed=3)
+    observation, reward, terminated, truncated, info = env.step(env.action_space.sample())
+
+One episode is one run of the scenario from a seed: the humans do their activities, the robot
+named is driven by the actions (the scenario gives it `controller external` and a `goal`).
+`reset(seed=...)` runs the scenario with that seed; the same seed and actions give the same
+observations.
+
+- Observation (`Dict`): `robot` = (x, y, vx, vy, heading, goal x - x, goal y - y), `people` =
+  the `max_people` nearest humans the robot's sensors see (relative x, y, their vx, vy,
+  radius), zero-padded, with `mask` 1 for the rows that hold someone; with `map_patch=K`,
+  `map` = the K x K occupancy cells around the robot (1 = blocked or unknown), north up.
+- Action (`Box(2)`): `(vx, vy)` for a holonomic robot, `(v, omega)` for a unicycle, bounded by
+  its `max_speed` (or twice its `speed` when unlimited) and `max_angular_speed` (or pi).
+- Reward (`Reward`, pluggable): the default rewards progress towards the goal and arrival, and
+  penalises collisions and intrusions into people's intimate and personal space (surface gaps
+  below 0.45 m and 1.2 m, HuNavSim's bands, as docs/analysis.md defines them).
+- `terminated` when the robot reaches its goal (within `goal_tolerance`) or touches a person;
+  `truncated` at the scenario's `time_limit`. The last step's `info` holds the episode's
+  `outcome` (reached / collision / time limit), its `metrics` and the expectations' results.
+
+`HuberoVectorEnv` (`gymnasium.make_vec(..., vectorization_mode="vector_entry_point")`) steps
+`num_envs` episodes of one scenario in one process, with batched observations and automatic
+resets (gymnasium's next-step autoreset).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, ClassVar
+
+import gymnasium
+import numpy as np
+import numpy.typing as npt
+from gymnasium import spaces
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from hubero_dsl.controllers.base import ControllerParams, Observation, RobotBody
+from hubero_dsl.errors import InputError
+from hubero_dsl.model.program import Program, RobotSpec
+from hubero_dsl.sim.loop import Verdict
+from hubero_dsl.sim.simulation import Simulation
+
+ENV_ID = "hubero/Scenario-v0"
+INTIMATE, PERSONAL = 0.45, 1.2   # m, surface gaps (HuNavSim's bands)
+
+
+class ActionController:
+    """The robot's controller in an episode: it answers the last action given."""
+
+    Params: ClassVar[type[ControllerParams]] = ControllerParams
+
+    def __init__(self, body: RobotBody | None = None, params: object = None) -> None:
+        self.action = (0.0, 0.0)
+
+    def command(self, observation: Observation) -> tuple[float, float]:
+        return self.action
+
+
+class Reward:
+    """The default reward; subclass and pass `reward=` to change it.
+
+    Per step: `progress` x metres gained towards the goal, `success` on arrival, `collision`
+    (negative) on touching someone, and `intimate` / `personal` (negative) x the step's seconds
+    while the nearest person's surface gap is below 0.45 m / within 0.45-1.2 m.
+    """
+
+    progress = 1.0
+    success = 10.0
+    collision = -10.0
+    intimate = -1.0
+    personal = -0.2
+
+    def __call__(self, gained: float, nearest_gap: float, reached: bool, collided: bool,
+                 dt: float) -> float:
+        reward = self.progress * gained
+        if nearest_gap < INTIMATE:
+            reward += self.intimate * dt
+        elif nearest_gap < PERSONAL:
+            reward += self.personal * dt
+        if collided:
+            reward += self.collision
+        if reached:
+            reward += self.success
+        return float(reward)
+
+
+def load_scenario(scenario: str | Path | Program, robot: str) -> tuple[Program, RobotSpec]:
+    """The compiled scenario and the robot the environment drives (InputError if unfit)."""
+    from hubero_dsl.pipeline import compile_file
+
+    program = scenario if isinstance(scenario, Program) else compile_file(scenario)
+    spec = next((r for r in program.robots if r.name == robot), None)
+    if spec is None:
+        known = ", ".join(r.name for r in program.robots) or "none"
+        raise InputError(f"no robot named '{robot}' in the scenario (robots: {known})")
+    if spec.controller != "external":
+        raise InputError(f"robot '{robot}' must have `controller external` to be driven by "
+                         f"the environment (it has controller {spec.controller})")
+    if spec.goal is None:
+        raise InputError(f"robot '{robot}' needs a `goal` for the environment")
+    return program, spec
+
+
+class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
+    """One episode at a time of a hubero scenario, the robot driven by the actions."""
+
+    metadata: dict[str, Any] = {"render_modes": []}  # noqa: RUF012 - gymnasium's own API
+
+    def __init__(self, scenario: str | Path | Program, robot: str, *,
+                 variant: str | None = None, max_people: int = 8,
+                 map_patch: int | None = None, reward: Reward | None = None,
+                 log: str | Path | None = None) -> None:
+        self.program, self.robot_spec = load_scenario(scenario, robot)
+        self.robot_name = robot
+        self.variant = variant
+        self.max_people = max_people
+        self.map_patch = map_patch
+        self.reward_function = reward or Reward()
+        self.log_path = Path(log) if log is not None else None
+        self.action_box = action_space(self.robot_spec)
+        self.action_space = self.action_box
+        self.observation_space = observation_space(self.program, max_people, map_patch)
+        self._sim: Simulation | None = None
+        self._controller: ActionController | None = None
+        self._verdicts: list[Verdict] = []
+        self._log: Any = None
+        self._gap_min = math.inf
+
+    # ---- the Env API -------------------------------------------------------------------------
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
+              ) -> tuple[dict[str, npt.NDArray[Any]], dict[str, Any]]:
+        super().reset(seed=seed)
+        self._close_log(None)
+        run_seed = seed if seed is not None else int(self.np_random.integers(2**31))
+        self._controller = ActionController()
+        sim = Simulation(self.program, variant=self.variant, seed=run_seed,
+                         controllers={self.robot_name: self._controller})
+        self._sim = sim
+        self._verdicts = [Verdict(e) for e in self.program.expectations]
+        self._gap_min = math.inf
+        self._distance = self._goal_distance()
+        if self.log_path is not None:
+            from hubero_dsl.log.writer import RunLog
+
+            self._log = RunLog(self.log_path, sim, writer_process=False)
+            self._log.open()
+        return self._observe(), {"seed": run_seed}
+
+    def step(self, action: npt.NDArray[np.float32]
+             ) -> tuple[dict[str, npt.NDArray[Any]], float, bool, bool, dict[str, Any]]:
+        sim, controller = self._sim, self._controller
+        if sim is None or controller is None:
+            raise gymnasium.error.ResetNeeded("call reset() before step()")
+        low, high = self.action_box.low, self.action_box.high
+        clipped = np.clip(np.asarray(action, dtype=np.float64), low, high)
+        controller.action = (float(clipped[0]), float(clipped[1]))
+        sim.step()
+        if self._log is not None:
+            self._log.observe(sim)
+        distance = self._goal_distance()
+        gained, self._distance = self._distance - distance, distance
+        gap = self._nearest_gap()
+        self._gap_min = min(self._gap_min, gap)
+        reached = distance <= self.robot_spec.goal_tolerance
+        collided = gap <= 0.0
+        self._judge()
+        truncated = sim.tick >= sim.engine.ticks(self.program.time_limit)
+        terminated = reached or collided
+        reward = self.reward_function(gained, gap, reached, collided, sim.dt)
+        info: dict[str, Any] = {}
+        if terminated or truncated:
+            outcome = "reached" if reached else "collision" if collided else "time limit"
+            info = self._episode_info(outcome)
+            self._close_log(outcome)
+        return self._observe(), reward, terminated, truncated, info
+
+    def close(self) -> None:
+        self._close_log(None)
+        super().close()
+
+    # ---- observations ------------------------------------------------------------------------
+
+    def _observe(self) -> dict[str, npt.NDArray[Any]]:
+        assert self._sim is not None
+        return observe(self._sim, self.robot_spec, self.max_people, self.map_patch)
+
+    def _goal_distance(self) -> float:
+        assert self._sim is not None and self.robot_spec.goal is not None
+        return math.dist(self._sim.robot(self.robot_name).position, self.robot_spec.goal)
+
+    def _nearest_gap(self) -> float:
+        assert self._sim is not None
+        humans = self._sim.engine.humans
+        if not humans.count:
+            return math.inf
+        here = np.asarray(self._sim.robot(self.robot_name).position)
+        gaps = np.hypot(*(humans.position - here).T) - humans.radius - self.robot_spec.radius
+        return float(gaps.min())
+
+    # ---- the end of an episode ---------------------------------------------------------------
+
+    def _judge(self) -> None:
+        sim = self._sim
+        assert sim is not None and sim.scheduler is not None
+        for verdict in self._verdicts:
+            if verdict.held is None:
+                verdict.observe(sim.scheduler.conditions.holds(verdict.expectation.condition),
+                                sim.time)
+
+    def _episode_info(self, outcome: str) -> dict[str, Any]:
+        sim = self._sim
+        assert sim is not None
+        for verdict in self._verdicts:
+            verdict.finish(sim.time)
+        robot = sim.engine.robots
+        index = robot.index_of(self.robot_name)
+        return {"outcome": outcome, "time": sim.time,
+                "metrics": {"path_length": float(robot.path_length[index]),
+                            "min_distance": self._gap_min, "time_to_goal":
+                                sim.time if outcome == "reached" else None},
+                "expectations": {v.text: bool(v.held) for v in self._verdicts}}
+
+    def _close_log(self, outcome: str | None) -> None:
+        if self._log is None:
+            return
+        if outcome is None:
+            self._log._discard()
+        else:
+            self._log.close()
+        self._log = None
+
+
+def action_space(spec: RobotSpec) -> spaces.Box:
+    top = spec.max_speed if math.isfinite(spec.max_speed) else 2.0 * spec.speed
+    if spec.kinematics == "holonomic":
+        return spaces.Box(-top, top, shape=(2,), dtype=np.float32)
+    turn = spec.max_angular_speed if math.isfinite(spec.max_angular_speed) else math.pi
+    return spaces.Box(np.array([-top, -turn], dtype=np.float32),
+                      np.array([top, turn], dtype=np.float32), dtype=np.float32)
+
+
+SPEED_BOUND = 20.0  # m/s: no body of a scenario moves faster
+
+
+def observation_space(program: Program, max_people: int, map_patch: int | None) -> spaces.Dict:
+    """Bounded by the map: positions within it, offsets within its diagonal."""
+    grid = program.grid
+    x0, y0, x1, y1 = grid.bounds
+    reach = float(math.hypot(x1 - x0, y1 - y0))
+    robot_low = np.array([x0, y0, -SPEED_BOUND, -SPEED_BOUND, -math.pi, -reach, -reach])
+    robot_high = np.array([x1, y1, SPEED_BOUND, SPEED_BOUND, math.pi, reach, reach])
+    person_low = np.tile([-reach, -reach, -SPEED_BOUND, -SPEED_BOUND, 0.0], (max_people, 1))
+    person_high = np.tile([reach, reach, SPEED_BOUND, SPEED_BOUND, 5.0], (max_people, 1))
+    entries: dict[str, spaces.Space[Any]] = {
+        "robot": spaces.Box(robot_low.astype(np.float32), robot_high.astype(np.float32),
+                            dtype=np.float32),
+        "people": spaces.Box(person_low.astype(np.float32), person_high.astype(np.float32),
+                             dtype=np.float32),
+        "mask": spaces.Box(0, 1, shape=(max_people,), dtype=np.int8),
+    }
+    if map_patch is not None:
+        entries["map"] = spaces.Box(0, 1, shape=(map_patch, map_patch), dtype=np.int8)
+    return spaces.Dict(entries)
+
+
+def observe(sim: Simulation, spec: RobotSpec, max_people: int,
+            map_patch: int | None) -> dict[str, npt.NDArray[Any]]:
+    """What the robot knows now, as the observation space lays it out."""
+    robots = sim.engine.robots
+    i = robots.index_of(spec.name)
+    x, y = robots.position[i]
+    assert spec.goal is not None
+    robot = np.array([x, y, robots.velocity[i, 0], robots.velocity[i, 1], robots.heading[i],
+                      spec.goal[0] - x, spec.goal[1] - y], dtype=np.float32)
+    people = np.zeros((max_people, 5), dtype=np.float32)
+    mask = np.zeros(max_people, dtype=np.int8)
+    seen = robots.seen_by(i, sim.engine.humans.names, sim.engine.humans.position,
+                        sim.engine.humans.velocity, sim.engine.humans.radius)[:max_people]
+    for row, person in enumerate(seen):
+        people[row] = (person.position[0] - x, person.position[1] - y, *person.velocity,
+                       person.radius)
+        mask[row] = 1
+    observation: dict[str, npt.NDArray[Any]] = {"robot": robot, "people": people, "mask": mask}
+    if map_patch is not None:
+        observation["map"] = _patch(sim, (float(x), float(y)), map_patch)
+    return observation
+
+
+def _patch(sim: Simulation, centre: tuple[float, float], size: int) -> npt.NDArray[np.int8]:
+    """The size x size cells around `centre` (1: blocked or unknown or off the map), north up."""
+    grid = sim.program.grid
+    (row, col), = grid.world_to_cell([centre])
+    half = size // 2
+    blocked = grid.occupied  # unknown cells included
+    out = np.ones((size, size), dtype=np.int8)
+    rows = np.arange(row - half, row - half + size)
+    cols = np.arange(col - half, col - half + size)
+    inside_r = (rows >= 0) & (rows < blocked.shape[0])
+    inside_c = (cols >= 0) & (cols < blocked.shape[1])
+    out[np.ix_(inside_r, inside_c)] = blocked[np.ix_(rows[inside_r], cols[inside_c])]
+    return out[::-1]  # grid row 0 is the lowest y; the patch's first row is the northmost
+
+
+class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
+    """`num_envs` episodes of one scenario in one process, batched, with next-step autoreset."""
+
+    metadata: dict[str, Any] = {  # noqa: RUF012 - gymnasium's own API
+        "render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(self, scenario: str | Path | Program, robot: str, num_envs: int = 1,
+                 **options: Any) -> None:
+        program, _ = load_scenario(scenario, robot)
+        self.num_envs = num_envs
+        self.envs = [ScenarioEnv(program, robot, **options) for _ in range(num_envs)]
+        self.single_action_space = self.envs[0].action_space
+        self.single_observation_space = self.envs[0].observation_space
+        self.action_space = batch_space(self.single_action_space, num_envs)
+        self.observation_space = batch_space(self.single_observation_space, num_envs)
+        self._done = np.zeros(num_envs, dtype=bool)
+
+    def reset(self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
+              ) -> tuple[dict[str, npt.NDArray[Any]], dict[str, Any]]:
+        super().reset(seed=seed if isinstance(seed, int) else None)
+        seeds = seed if isinstance(seed, list) else [
+            None if seed is None else seed + i for i in range(self.num_envs)]
+        observations = [env.reset(seed=s)[0] for env, s in zip(self.envs, seeds, strict=True)]
+        self._done[:] = False
+        return self._batch(observations), {}
+
+    def step(self, actions: npt.NDArray[np.float32]
+             ) -> tuple[dict[str, npt.NDArray[Any]], npt.NDArray[np.float64],
+                        npt.NDArray[np.bool_], npt.NDArray[np.bool_], dict[str, Any]]:
+        observations = []
+        rewards = np.zeros(self.num_envs)
+        terminated = np.zeros(self.num_envs, dtype=bool)
+        truncated = np.zeros(self.num_envs, dtype=bool)
+        infos: dict[str, Any] = {}
+        for i, env in enumerate(self.envs):
+            if self._done[i]:  # next-step autoreset: this step only resets the episode
+                observation, _ = env.reset()
+            else:
+                observation, rewards[i], terminated[i], truncated[i], info = env.step(actions[i])
+                if info:
+                    infos = self._add_info(infos, info, i)
+            observations.append(observation)
+        self._done = terminated | truncated
+        return self._batch(observations), rewards, terminated, truncated, infos
+
+    def close_extras(self, **kwargs: Any) -> None:
+        for env in self.envs:
+            env.close()
+
+    def _batch(self, observations: list[dict[str, npt.NDArray[Any]]]
+               ) -> dict[str, npt.NDArray[Any]]:
+        return {key: np.stack([o[key] for o in observations]) for key in observations[0]}
+
+
+gymnasium.register(id=ENV_ID, entry_point="hubero_dsl.gym:ScenarioEnv",
+                   vector_entry_point="hubero_dsl.gym:HuberoVectorEnv")

@@ -1,0 +1,135 @@
+"""The Gymnasium environment, tested with gymnasium's own checker and its make/make_vec."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+gymnasium = pytest.importorskip("gymnasium")
+
+from gymnasium.utils.env_checker import check_env  # noqa: E402
+
+import hubero_dsl.gym  # noqa: E402 - registers hubero/Scenario-v0
+from hubero_dsl.errors import InputError  # noqa: E402
+from hubero_dsl.log.reader import load_run  # noqa: E402
+from hubero_dsl.world.mapfile import save_map  # noqa: E402
+from tests.sim.conftest import room_grid  # noqa: E402
+
+SCENARIO = """\
+scenario "gym room"
+map "room.yaml"
+seed 2
+time_limit 20 s
+human alice at (5, 6)
+human bob at (8, 2)
+robot cart at (1, 1) {{
+    controller external; kinematics {kinematics}; goal (8, 6); radius 0.3 m
+    speed 0.8 m/s; max_speed 1 m/s; max_angular_speed 2.0
+}}
+activity {{ parallel {{ alice move_to (5, 1); bob move_around for 20 s }} }}
+expect cart reaches (8, 6) within 20 s
+"""
+
+
+def _scenario(folder: Path, kinematics: str = "holonomic") -> Path:
+    save_map(room_grid(), folder / "room.yaml")
+    file = folder / f"gym_{kinematics}.hub"
+    file.write_text(SCENARIO.format(kinematics=kinematics), encoding="utf-8")
+    return file
+
+
+@pytest.mark.parametrize("kinematics", ["holonomic", "unicycle"])
+def test_gymnasiums_checker_passes(tmp_path: Path, kinematics: str) -> None:
+    env = gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(_scenario(tmp_path, kinematics)),
+                         robot="cart", map_patch=16)
+    check_env(env.unwrapped, skip_render_check=True)
+    observation, _ = env.reset(seed=0)
+    assert env.observation_space.contains(observation)
+    assert observation["map"].shape == (16, 16)
+
+
+def test_same_seed_and_actions_same_observations(tmp_path: Path) -> None:
+    file = str(_scenario(tmp_path))
+    runs = []
+    for _ in range(2):
+        env = gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=file, robot="cart")
+        observation, _ = env.reset(seed=11)
+        seen = [observation["people"].copy()]
+        rng = np.random.default_rng(5)
+        for _ in range(60):
+            observation, *_ = env.step(rng.uniform(-1, 1, 2).astype(np.float32))
+            seen.append(observation["people"].copy())
+        runs.append(np.stack(seen))
+    assert np.array_equal(runs[0], runs[1])
+    env.reset(seed=12)
+    other = [env.step(np.zeros(2, np.float32))[0]["people"] for _ in range(60)]
+    assert not np.array_equal(np.stack(other), runs[0][1:])
+
+
+def test_driving_to_the_goal_terminates_with_success_and_metrics(tmp_path: Path) -> None:
+    env = gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(_scenario(tmp_path)), robot="cart")
+    observation, _ = env.reset(seed=1)
+    total, info, terminated, truncated = 0.0, {}, False, False
+    while not (terminated or truncated):
+        to_goal = observation["robot"][5:7]
+        action = to_goal / max(float(np.linalg.norm(to_goal)), 1e-6)
+        observation, reward, terminated, truncated, info = env.step(action.astype(np.float32))
+        total += reward
+    assert terminated and info["outcome"] == "reached"
+    assert info["metrics"]["path_length"] > 7.0 and info["metrics"]["time_to_goal"] < 15.0
+    assert info["expectations"] == {"cart reaches (8, 6) within 20 s": True}
+    assert total > 10.0
+
+
+def test_driving_into_a_person_is_a_collision(tmp_path: Path) -> None:
+    file = tmp_path / "bump.hub"
+    save_map(room_grid(), tmp_path / "room.yaml")
+    file.write_text('scenario "bump"\nmap "room.yaml"\nhuman alice at (3, 1)\n'
+                    "robot cart at (1, 1) { controller external; goal (8, 1) }\n")
+    env = gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(file), robot="cart")
+    env.reset(seed=0)
+    for _ in range(100):
+        _, reward, terminated, _, info = env.step(np.array([1.0, 0.0], np.float32))
+        if terminated:
+            break
+    assert info["outcome"] == "collision" and reward < 0
+
+
+def test_an_episode_is_saved_as_a_log(tmp_path: Path) -> None:
+    log = tmp_path / "episode.mcap"
+    env = gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(_scenario(tmp_path)), robot="cart",
+                         log=str(log))
+    env.reset(seed=4)
+    truncated = terminated = False
+    while not (terminated or truncated):
+        _, _, terminated, truncated, _ = env.step(np.array([0.2, 0.1], np.float32))
+    run = load_run(log)
+    assert set(run.humans) == {"alice", "bob"} and set(run.robots) == {"cart"}
+    assert run.robots["cart"].position[-1][0] > 1.0
+
+
+def test_the_vector_env_batches_and_resets_by_itself(tmp_path: Path) -> None:
+    envs = gymnasium.make_vec(hubero_dsl.gym.ENV_ID, num_envs=3,
+                              vectorization_mode="vector_entry_point",
+                              scenario=str(_scenario(tmp_path)), robot="cart")
+    observations, _ = envs.reset(seed=7)
+    assert observations["robot"].shape == (3, 7) and observations["people"].shape == (3, 8, 5)
+    assert envs.observation_space.contains(observations)
+    ended = False
+    for _ in range(450):  # the 20 s limit is 400 steps: every episode ends and restarts
+        observations, rewards, terminated, truncated, _ = envs.step(
+            np.tile([0.0, 0.0], (3, 1)).astype(np.float32))
+        ended = ended or bool((terminated | truncated).all())
+    assert ended and rewards.shape == (3,)
+    envs.close()
+
+
+def test_a_robot_the_environment_cannot_drive_is_refused(tmp_path: Path) -> None:
+    file = tmp_path / "nav.hub"
+    save_map(room_grid(), tmp_path / "room.yaml")
+    file.write_text('scenario "nav"\nmap "room.yaml"\n'
+                    "robot cart at (1, 1) { controller navigator; goal (8, 1) }\n")
+    with pytest.raises(InputError, match="must have `controller external`"):
+        gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(file), robot="cart")
