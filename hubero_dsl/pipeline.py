@@ -19,10 +19,16 @@ from hubero_dsl.errors import CompileError
 from hubero_dsl.graph.build import build_activity_graph
 from hubero_dsl.graph.verify import verify_activities
 from hubero_dsl.lang import ast
-from hubero_dsl.lang.checks import Checker, Facts
+from hubero_dsl.lang.checks import Checker, Facts, no_activity
 from hubero_dsl.lang.lower import Lowering, named_areas
 from hubero_dsl.lang.parse import parse_source, read_source
-from hubero_dsl.lang.placement import check_positions, load_scenario_map, map_path
+from hubero_dsl.lang.placement import (
+    check_bodies,
+    check_positions,
+    check_robot_paths,
+    load_scenario_map,
+    map_path,
+)
 from hubero_dsl.model.activities import Activity
 from hubero_dsl.model.program import HumanSpec, ParamLayer, Program, Variant, sweep_products
 
@@ -131,7 +137,9 @@ def _check_module(module: ast.Module, diagnostics: list[Diagnostic]) -> Program 
     if facts.map is not None:
         grid = load_scenario_map(module.source, facts.map, diagnostics)
         if grid is not None:
-            check_positions(grid, facts.positions, diagnostics)
+            check_positions(grid, facts.positions, diagnostics, facts.bodies)
+            check_bodies(grid, facts.bodies, diagnostics)
+            check_robot_paths(grid, facts.robots, diagnostics)
     areas = named_areas(module, facts.places)
     lowering = Lowering(module.source, facts.places, areas,
                         cast("Polygon | None", facts.settings.get("bounds")))
@@ -140,6 +148,8 @@ def _check_module(module: ast.Module, diagnostics: list[Diagnostic]) -> Program 
     diagnostics.extend(verify_activities(activities, graph, label_names=False))
     if grid is None or facts.map is None or any(d.is_error for d in diagnostics):
         return None
+    if (idle := no_activity(module)) is not None:
+        diagnostics.append(idle)
     return Program(
         source=module.source, title=facts.title, map_path=map_path(module.source, facts.map),
         grid=grid, seed=cast(int, facts.settings.get("seed") or 0),

@@ -32,6 +32,9 @@ from hubero_dsl.planners.registry import global_planner_names, local_planner_nam
 
 BODIES = (NameKind.HUMAN, NameKind.ROBOT)
 DEFAULT_STEP = 0.05  # s, the language's default `step`
+DEFAULT_TIME_LIMIT = 600.0  # s, the language's default `time_limit`
+MIN_STEP, MAX_STEP = 1e-3, 1.0  # s: the range of `step`
+MAX_TICKS = 1e8  # ticks in a run (time_limit / step): about 14 h of computing at 2000 ticks/s
 TARGETS = (NameKind.PLACE, NameKind.HUMAN, NameKind.ROBOT)
 
 @dataclass
@@ -50,6 +53,8 @@ class Facts:
     sweeps: list[tuple[str, list[tuple[str, ParamLayer]]]] = field(default_factory=list)
     # every fixed point written in the file, with what it is, for the map checks
     positions: list[tuple[str, tuple[float, float], Span]] = field(default_factory=list)
+    # where bodies start or are sent, with the largest radius they may have there
+    bodies: list[tuple[str, tuple[float, float], float, Span]] = field(default_factory=list)
 
 
 class Checker:
@@ -63,6 +68,7 @@ class Checker:
         self.planner_values: list[tuple[type, str, str, float, Span]] = []
         self.controllers = controller_names()
         self.robot_steps: list[tuple[ast.NameRef, ast.TaskStep]] = []
+        self.goals: list[tuple[str, str, ast.PointValue]] = []  # actor, task, fixed target
         self.planners_by_param = {"global_planner": global_planner_names(),
                                   "local_planner": local_planner_names()}
 
@@ -78,7 +84,23 @@ class Checker:
         self._unused()
         self._inert_planner_values()
         self._robot_tasks()
+        self._body_places()
+        self._tick_count()
         return self.facts
+
+    def _tick_count(self) -> None:
+        """A run's ticks are bounded: time_limit / step at most MAX_TICKS."""
+        settings = self.facts.settings
+        step = settings.get("step") if isinstance(settings.get("step"), float) else DEFAULT_STEP
+        limit = settings.get("time_limit")
+        limit = limit if isinstance(limit, float) else DEFAULT_TIME_LIMIT
+        assert isinstance(step, float)
+        if limit / step > MAX_TICKS:
+            span = next((s.value.span for s in self.module.of_type(ast.SettingDecl)
+                         if s.keyword in ("time_limit", "step")), None)
+            self.report("E203", f"a time limit of {limit:g} s at a step of {step:g} s is "
+                        f"{limit / step:.3g} ticks; a run has at most {MAX_TICKS:.0e}", span,
+                        "shorten the time limit or lengthen the step")
 
     def _in_definition_order(self) -> list[ast.Statement]:
         """Places first, each after the place it is defined by, so that a place may be used
@@ -182,9 +204,13 @@ class Checker:
             settings["seed"] = self.values.integer(value, "the seed")
         elif keyword in ("step", "time_limit"):
             what = "the time step" if keyword == "step" else "the time limit"
-            settings[keyword] = self.values.quantity(
-                value, Dimension.TIME, what, positive=True,
-                maximum=1.0 if keyword == "step" else math.inf)
+            number = self.values.quantity(value, Dimension.TIME, what, positive=True,
+                                          maximum=MAX_STEP if keyword == "step" else math.inf)
+            if keyword == "step" and number is not None and number < MIN_STEP:
+                self.report("E203", f"the time step is {number:g} s; the least it may be is "
+                            f"{MIN_STEP * 1e3:g} ms", value.span)
+                number = None
+            settings[keyword] = number
         elif keyword == "on_failure":
             assert isinstance(value, ast.NameRef)
             if value.name not in ("stop", "continue"):
@@ -462,6 +488,11 @@ class Checker:
             return None
         corners = (value.corner_a, value.corner_b) if isinstance(value, ast.RectArea) \
             else value.vertices
+        if isinstance(value, ast.PolygonArea) and len(value.vertices) < 3:
+            self.report("E203", f"{what}: a polygon needs at least three corners, not "
+                        f"{len(value.vertices)}", value.span,
+                        "write polygon(P, P, P, ...) or rect(P, P)")
+            return None
         points = [self._fixed_point(c, what) for c in corners]
         if any(p is None for p in points):
             return None
@@ -514,6 +545,53 @@ class Checker:
             self.report("E201", f"{task.kind} needs a human or robot, not a point",
                         task.target.span, "to walk to a point, use move_to")
 
+    def _body_places(self) -> None:
+        """Where bodies start and are sent, with the largest radius each may have (any variant,
+        the upper end of a distribution), for the map check that they fit there."""
+        radius = {name: self._largest_radius(name) for name in self.facts.human_starts}
+        for robot in self.facts.robots:
+            radius[robot.name] = robot.radius
+        for decl in self.module.of_type(ast.HumanDecl):
+            name = decl.name.name
+            start = self.facts.human_starts.get(name)
+            if start is not None:
+                self.facts.bodies.append((f"the start of '{name}'", start.xy, radius[name],
+                                          decl.start.span))
+        for robot_decl, robot in zip(self.module.of_type(ast.RobotDecl), self.facts.robots,
+                                     strict=False):
+            self.facts.bodies.append((f"the start of robot '{robot.name}'", robot.start.xy,
+                                      robot.radius, robot_decl.start.span))
+        for actor, kind, target in self.goals:
+            where = self._point_of(target)
+            if where is not None and actor in radius:
+                self.facts.bodies.append((f"the goal of {actor}'s {kind}", where,
+                                          radius[actor], target.span))
+
+    def _point_of(self, target: ast.PointValue) -> tuple[float, float] | None:
+        if isinstance(target, ast.Point):
+            return next((xy for what, xy, span in self.facts.positions if span == target.span),
+                        None)
+        pose = self.facts.places.get(target.name)
+        return pose.xy if pose is not None else None
+
+    def _largest_radius(self, human: str) -> float:
+        layers = [self.facts.defaults, self.facts.human_layers.get(human, ParamLayer()),
+                  *(layer for _, layer in self.facts.variants),
+                  *(layer for _, options in self.facts.sweeps for _, layer in options)]
+        found = [float(HUMAN_PARAMS["radius"].default)]  # type: ignore[arg-type]
+        for layer in layers:
+            for value in (layer.values.get("radius"), layer.per_human.get(human, {}).get(
+                    "radius")):
+                if isinstance(value, float):
+                    found.append(value)
+                elif isinstance(value, Distribution):  # a draw may be this large
+                    found.append(value.second if value.kind == "uniform"
+                                 else value.first + 2 * value.second)
+        base = [self.facts.defaults, self.facts.human_layers.get(human, ParamLayer())]
+        if any("radius" in layer.values for layer in base):  # the file's own, not built-in
+            found = found[1:] or found
+        return max(found)
+
     def _robot_tasks(self) -> None:
         """E109: tasks given to a robot that drives a scripted path (known once every robot
         has been read, wherever it is declared)."""
@@ -541,6 +619,8 @@ class Checker:
         else:
             self._target(task.target, f"the target of {task.kind}")
             self._not_self(step, task.target)
+            if kind.marks_goal:  # the actor's body must fit where it is sent
+                self.goals.append((step.human.name, task.kind, task.target))
 
     def _not_self(self, step: ast.TaskStep, target: ast.Value, keyword: str = "") -> None:
         if isinstance(target, ast.NameRef) and target.name == step.human.name:
@@ -602,6 +682,17 @@ class Checker:
                     self._area(area, "`in`")
                 case ast.TimeCondition(threshold=threshold):
                     self.values.quantity(threshold, Dimension.TIME, "a time", non_negative=True)
+
+
+def no_activity(module: ast.Module) -> Diagnostic | None:
+    """W502 for a scenario in which nobody does anything (a run would end at once). The
+    pipeline asks only of a file with no errors, where it is not the least of its problems."""
+    activities = module.of_type(ast.ActivityDecl)
+    if not module.statements or any(a.steps for a in activities):
+        return None
+    return warning("W502", "the scenario has no activity: nobody does anything and a run ends "
+                   "at once", Span.whole_file(module.source.path),
+                   "add `activity { HUMAN TASK ... }`")
 
 
 def _singleton_keyword(statement: ast.Statement) -> str | None:

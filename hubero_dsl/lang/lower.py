@@ -48,7 +48,7 @@ def area_polygon(value: ast.RectArea | ast.PolygonArea, places: Mapping[str, Pos
         (x0, x1), (y0, y1) = sorted((a[0], b[0])), sorted((a[1], b[1]))
         return Polygon([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
     vertices = [fixed_point(v, places) or (0.0, 0.0) for v in value.vertices]
-    return Polygon(vertices)
+    return Polygon(vertices) if len(vertices) >= 3 else Polygon()  # fewer: the checker's error
 
 
 def named_areas(module: ast.Module, places: Mapping[str, Pose]) -> dict[str, Polygon]:

@@ -6,14 +6,17 @@ occupied cells; a point in an obstacle is reported with the distance to the near
 
 from __future__ import annotations
 
+import itertools
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from hubero_dsl.diagnostics import Diagnostic, Related, Span, error
+from hubero_dsl.diagnostics import Diagnostic, Related, Span, error, warning
 from hubero_dsl.errors import MapError
 from hubero_dsl.lang import ast
 
 if TYPE_CHECKING:
+    from hubero_dsl.model.program import RobotSpec
     from hubero_dsl.world.grid import OccupancyGrid
 
 
@@ -47,17 +50,74 @@ def load_scenario_map(source: ast.SourceFile, written: ast.String,
         return None
 
 
+def check_bodies(grid: OccupancyGrid,
+                 bodies: list[tuple[str, tuple[float, float], float, Span]],
+                 diagnostics: list[Diagnostic]) -> None:
+    """Every body must fit where it starts and where it is sent: its whole radius clear of
+    obstacles, as the planners require (points outside the map or in an obstacle are reported
+    by `check_positions`)."""
+    from hubero_dsl.errors import MapError
+
+    for what, (x, y), radius, span in bodies:
+        if not (bool(grid.contains((x, y))) and bool(grid.is_free((x, y)))):
+            continue
+        try:
+            (fx, fy), distance = grid.nearest_free((x, y), radius)
+        except MapError:
+            diagnostics.append(error("E405", f"no place on the map fits a body of radius "
+                                     f"{radius:g} m ({what})", span))
+            continue
+        if distance > 0:
+            clearance = float(grid.clearance_at((x, y)))
+            diagnostics.append(error(
+                "E405", f"{what} ({x:g}, {y:g}) is {clearance:.2f} m from an obstacle; a body "
+                f"of radius {radius:g} m does not fit", span,
+                f"the nearest point where it fits is {distance:.2f} m away, at "
+                f"({fx:.2f}, {fy:.2f})"))
+
+
+def check_robot_paths(grid: OccupancyGrid, robots: Sequence[RobotSpec],
+                      diagnostics: list[Diagnostic]) -> None:
+    """W503: a scripted route that crosses an obstacle (the robot would stop at it: no body is
+    moved through a wall)."""
+    for robot in robots:
+        if not robot.path:
+            continue
+        stops = [robot.start.xy, *robot.path] + ([robot.path[0]] if robot.loop else [])
+        crossed = grid.crosses_obstacle(stops[:-1], stops[1:])
+        for (a, b), blocked in zip(itertools.pairwise(stops), crossed,
+                                   strict=True):
+            if blocked:
+                diagnostics.append(warning(
+                    "W503", f"the path of robot '{robot.name}' crosses an obstacle between "
+                    f"({a[0]:g}, {a[1]:g}) and ({b[0]:g}, {b[1]:g})", robot.span,
+                    "the robot stops at the obstacle: add a waypoint around it"))
+                break
+
+
 def check_positions(grid: OccupancyGrid, positions: list[tuple[str, tuple[float, float], Span]],
-                    diagnostics: list[Diagnostic]) -> None:
-    """Every fixed point must be inside the map and in a free cell."""
+                    diagnostics: list[Diagnostic],
+                    bodies: Sequence[tuple[str, tuple[float, float], float, Span]] = ()
+                    ) -> None:
+    """Every fixed point must be inside the map and in a free cell; for a point where a body
+    stands, the suggested free point is one where that body fits."""
+    from hubero_dsl.errors import MapError
+
     xmin, ymin, xmax, ymax = grid.bounds
+    radius_at = {span: radius for _, _, radius, span in bodies}
     for what, (x, y), span in positions:
         if not bool(grid.contains((x, y))):
             diagnostics.append(error(
                 "E402", f"{what} ({x:g}, {y:g}) is outside the map", span,
                 f"the map spans x {xmin:g} .. {xmax:g} m, y {ymin:g} .. {ymax:g} m"))
         elif not bool(grid.is_free((x, y))):
-            (fx, fy), distance = grid.nearest_free((x, y))
+            radius = radius_at.get(span)
+            try:
+                (fx, fy), distance = grid.nearest_free((x, y), radius or 0.0)
+                hint = (f"the nearest point where a body of radius {radius:g} m fits is "
+                        if radius else "the nearest free cell is ")
+                hint += f"{distance:.2f} m away, at ({fx:.2f}, {fy:.2f})"
+            except MapError as exc:
+                hint = exc.message
             diagnostics.append(error(
-                "E403", f"{what} ({x:g}, {y:g}) is inside an obstacle", span,
-                f"the nearest free cell is {distance:.2f} m away, at ({fx:.2f}, {fy:.2f})"))
+                "E403", f"{what} ({x:g}, {y:g}) is inside an obstacle", span, hint))

@@ -15,7 +15,7 @@ from hubero_dsl.diagnostics import Diagnostic, Span, error
 from hubero_dsl.lang import ast
 from hubero_dsl.model.params import ParamKind, ParamSpec
 from hubero_dsl.model.program import Distribution, ParamValue
-from hubero_dsl.model.units import EXAMPLE_UNIT, UNITS, Dimension, describe
+from hubero_dsl.model.units import EXAMPLE_UNIT, LARGEST, UNITS, Dimension, describe
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, Shape
 
 SHAPE_ARGS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
@@ -80,6 +80,11 @@ class ValueReader:
             return None
         if not math.isfinite(number):
             self.report("E203", f"{what} must be a finite number", value.span)
+            return None
+        maximum = min(maximum, LARGEST.get(dimension, math.inf))
+        if number < -LARGEST.get(dimension, math.inf):
+            self.report("E203", f"{what} is {format_si(number, dimension)}; the least it may be "
+                        f"is {format_si(-LARGEST[dimension], dimension)}", value.span)
             return None
         if positive and number <= 0:
             self.report("E203", f"{what} must be greater than zero, not "

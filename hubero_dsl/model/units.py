@@ -14,6 +14,11 @@ class Dimension(StrEnum):
     NUMBER = "number"
 
 
+# The largest magnitude a value of these dimensions may have in a scenario: beyond it a number
+# describes nothing physical, and would overflow tick counts and floating-point arithmetic.
+LARGEST: dict[Dimension, float] = {Dimension.TIME: 1e6, Dimension.LENGTH: 1e5,
+                                   Dimension.SPEED: 100.0}
+
 # unit -> (dimension, factor to SI)
 UNITS: dict[str, tuple[Dimension, float]] = {
     "m": (Dimension.LENGTH, 1.0),

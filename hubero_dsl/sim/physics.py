@@ -90,7 +90,12 @@ def keep_out_of_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
     stopped.
     """
     needed = 0.5 * radius + WALL_MARGIN
-    check = (~grid.surely_clear(new, needed)).nonzero()[0]
+    near_wall = ~grid.surely_clear(new, needed)
+    # a move longer than the clearance it starts from might pass through a thin wall: check it
+    # too (a push from a robot, or a large step), not just where it ends
+    step = lengths(new - old)
+    long_moves = (step > 0) & ~grid.surely_clear(old, step + needed)
+    check = (near_wall | long_moves).nonzero()[0]
     if check.size == 0:
         return new
     result = new.copy()
@@ -105,9 +110,10 @@ def _slide_along_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
 
     def acceptable(rows: npt.NDArray[np.intp], trial: FloatArray) -> BoolArray:
         # enough room, or at least not closer to the wall than before (a body that starts
-        # near a wall may always move away from it); never a centre in an occupied cell
+        # near a wall may always move away from it); never a centre in an occupied cell, and
+        # never through one on the way
         clear = grid.clearance_at(trial)
-        free = grid.is_free(trial)
+        free = grid.is_free(trial) & ~grid.crosses_obstacle(old[rows], trial)
         return free & ((clear >= needed[rows]) | (clear >= before[rows]))
 
     result = new.copy()

@@ -257,6 +257,19 @@ class OccupancyGrid:
         free: BoolArray = inside & ~self.occupied[row, col]
         return free
 
+    def crosses_obstacle(self, start: ArrayLike, end: ArrayLike) -> BoolArray:
+        """(N,) whether each straight segment from start to end passes an occupied cell (or
+        leaves the map), sampled every half cell."""
+        a, b = _points(start).reshape(-1, 2), _points(end).reshape(-1, 2)
+        step = np.hypot(*(b - a).T)
+        samples = max(2, int(np.ceil(float(step.max(initial=0.0)) / (0.5 * self.resolution)))
+                      + 1)
+        fractions = np.linspace(0.0, 1.0, samples)
+        points = a[:, None, :] + (b - a)[:, None, :] * fractions[None, :, None]
+        free = self.is_free(points.reshape(-1, 2)).reshape(len(a), samples)
+        crossed: BoolArray = np.logical_not(free.all(axis=1))
+        return crossed
+
     # --- distance fields ------------------------------------------------------------------
 
     @cached_property

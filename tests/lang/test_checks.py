@@ -16,6 +16,7 @@ from hubero_dsl.lang.symbols import reserved_words
 from hubero_dsl.model.program import Distribution
 from hubero_dsl.pipeline import CheckResult, check_source
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle
+from tests.lang.conftest import CASE_PATH, ROOM
 
 Check = Callable[..., CheckResult]
 
@@ -69,7 +70,17 @@ SINGLE = {
     "unknown task": ("activity { actor1 move_too (5.5, 1.0) }", ("E108", 5, 19, 27)),
     "k above the step's cap": ("defaults { social_force.k 1000 }", ("W106", 5, 27, 31)),
     "unused place": ("place sofa (5.5, 1.0)", ("W501", 5, 7, 11)),
+    "a huge duration": ("activity { actor1 stand for 1e308 s }", ("E203", 5, 29, 36)),
+    "a step too small": ("step 1e-12 s", ("E203", 5, 6, 13)),
+    "a polygon of two corners": ("activity { actor1 move_around in polygon((0, 0), (1, 1)) "
+                                 "for 1 s }", ("E203", 5, 34, 57)),
 }
+
+
+def test_a_scenario_without_activities_is_warned_about(check: Check) -> None:
+    assert codes(check("")) == ["W502"]
+    assert "W502" in codes(check_source(ROOM + "activity { }", CASE_PATH))
+    assert codes(check("activity { actor1 stand for 1 s }")) == []
 
 
 def test_k_within_the_cap_of_a_smaller_step_is_no_warning(check: Check) -> None:

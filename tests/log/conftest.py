@@ -90,7 +90,7 @@ def write_room(folder: Path) -> Path:
     occupied = np.zeros((80, 100), dtype=bool)
     occupied[[0, -1], :] = occupied[:, [0, -1]] = True
     occupied[30:50, 45:55] = True  # a walled box, x 4.5-5.5 and y 3-5, free inside
-    occupied[33:47, 48:52] = False
+    occupied[33:47, 47:53] = False  # room for a body of 0.2 m at (5, 4)
     return save_map(OccupancyGrid(occupied, 0.1, (0.0, 0.0)), folder / "room.yaml")
 
 

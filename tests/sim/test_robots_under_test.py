@@ -298,3 +298,29 @@ def test_a_plugin_controller_registered_by_entry_point_runs(tmp_path: Path) -> N
 def test_robot_mistakes_are_reported(room_map: Path, body: str, code: str) -> None:
     text = f'scenario "t"\nmap "{room_map}"\n{body}\n'
     assert code in {d.code for d in check_source(text, "t.hub").errors}
+
+
+def test_a_robot_overlapping_a_person_never_pushes_them_through_a_wall(
+        scenario: ScenarioFactory, tmp_path: Path) -> None:
+    from hubero_dsl.world.mapfile import save_map
+
+    thin = tmp_path / "thin.yaml"  # a 10 cm wall at x = 5
+    save_map(room_grid(walls=((4.95, 0.0, 5.05, 8.0),)), thin)
+    sim = Simulation(scenario("human alice at (5.3, 4)\nrobot r at (5.45, 4) { radius 0.4 m }\n",
+                              map_path=thin), activities=False)
+    xs = []
+    for _ in range(20):
+        sim.step()
+        xs.append(sim.human("alice").position[0])
+    assert min(xs) > 5.05
+
+
+def test_a_scripted_path_through_a_wall_is_warned_about(room_map: Path, tmp_path: Path) -> None:
+    from hubero_dsl.world.mapfile import save_map
+
+    save_map(room_grid(walls=((4.9, 0.0, 5.1, 8.0),)), tmp_path / "walled.yaml")
+    text = ('scenario "t"\nmap "walled.yaml"\n'
+            "robot r at (2, 2) { path (2, 2) -> (8, 2) }\n")
+    result = check_source(text, str(tmp_path / "t.hub"))
+    (warning,) = [w for w in result.warnings if w.code == "W503"]
+    assert "between (2, 2) and (8, 2)" in warning.message
