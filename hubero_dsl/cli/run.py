@@ -27,10 +27,13 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("file", metavar="FILE", help="scenario file (.hub)")
     add_run_options(parser)
-    parser.add_argument("-o", "--output", metavar="OUT.mcap", type=Path,
-                        help="write an MCAP log of the run")
-    parser.add_argument("--out-dir", metavar="DIR", type=Path,
-                        help="write one MCAP log per run into DIR (VARIANT.mcap)")
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("-o", "--output", metavar="OUT.mcap", type=Path,
+                       help="write the run's MCAP log here (default: runs/SCENARIO.mcap, or "
+                            "runs/SCENARIO-VARIANT.mcap)")
+    where.add_argument("--out-dir", metavar="DIR", type=Path,
+                       help="write one MCAP log per run into DIR (VARIANT.mcap)")
+    where.add_argument("--no-log", action="store_true", help="write no log")
     parser.add_argument("--log-rate", metavar="HZ", type=float, default=10.0,
                         help="how often the log records the humans' state (default 10 Hz)")
     return parser
@@ -66,12 +69,11 @@ def run(args: argparse.Namespace) -> int:
 
     if args.log_rate <= 0:
         raise InputError("--log-rate must be greater than zero")
-    if args.output is not None and args.out_dir is not None:
-        raise InputError("give -o/--output or --out-dir, not both")
     program = compile_file(args.file)
     variants = variants_to_run(program, args)
     if args.output is not None and len(variants) > 1:
-        raise InputError("--all-variants writes several logs: use --out-dir DIR")
+        raise InputError("--all-variants writes several logs: use --out-dir DIR, or leave "
+                         "them in runs/")
     if args.out_dir is not None:
         from hubero_dsl.log.writer import ensure_directory
 
@@ -93,14 +95,45 @@ def run(args: argparse.Namespace) -> int:
     return 1 if failed else 0
 
 
+DEFAULT_LOG_FOLDER = Path("runs")  # where a run's log goes unless told otherwise
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+
 def _log_path(args: argparse.Namespace, variant: str | None) -> Path | None:
+    from hubero_dsl.sweep.plan import safe_name  # the file names `hubero sweep` uses
+
+    if args.no_log:
+        return None
     if args.output is not None:
         return Path(args.output)
     if args.out_dir is not None:
-        from hubero_dsl.sweep.plan import safe_name  # the file names `hubero sweep` uses
-
         return Path(args.out_dir) / f"{safe_name(variant)}.mcap"
-    return None
+    stem = Path(args.file).stem + (f"-{safe_name(variant)}" if variant is not None else "")
+    return default_log_path(stem)
+
+
+def default_log_path(stem: str) -> Path:
+    """`runs/STEM.mcap` in the folder hubero runs in; never over a file that is not a log."""
+    from hubero_dsl.errors import InputError
+    from hubero_dsl.log.writer import ensure_directory
+
+    path = ensure_directory(DEFAULT_LOG_FOLDER) / f"{stem}.mcap"
+    if path.exists() and not _is_log(path):
+        raise InputError(f"{path} exists and is not an MCAP log: not writing over it (give "
+                         "-o OUT.mcap, or --no-log)")
+    return path
+
+
+def _is_log(path: Path) -> bool:
+    """A regular file that starts as an MCAP file does (its magic bytes); nothing else is
+    opened (a FIFO would block)."""
+    if not path.is_file():
+        return False
+    try:
+        with path.open("rb") as stream:
+            return stream.read(len(MCAP_MAGIC)) == MCAP_MAGIC
+    except OSError:
+        return False
 
 
 def handed_controllers(args: argparse.Namespace) -> dict[str, type]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,9 +30,11 @@ def assert_no_traceback(outcome: Outcome) -> None:
 
 
 @pytest.fixture
-def cli(capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
-        ) -> Callable[..., Outcome]:
-    """`cli("check", "x.hub")` runs `hubero check x.hub` in this process."""
+def cli(capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch,
+        tmp_path_factory: pytest.TempPathFactory) -> Callable[..., Outcome]:
+    """`cli("check", "x.hub")` runs `hubero check x.hub` in this process, in a folder of its
+    own unless the test changes to another (`hubero run` writes its log to ./runs/)."""
+    monkeypatch.chdir(tmp_path_factory.mktemp("cwd"))
     monkeypatch.delenv("FORCE_COLOR", raising=False)
     monkeypatch.delenv("HUBERO_DEBUG", raising=False)
 
@@ -53,6 +56,8 @@ def cli_subprocess() -> Callable[..., Outcome]:
 
 
 def _run_subprocess(*argv: str, cwd: Path | None = None, **env: str) -> Outcome:
+    if cwd is None:  # never the checkout: `hubero run` writes its log to ./runs/
+        cwd = Path(tempfile.mkdtemp(prefix="hubero-cli-"))
     environment = {k: v for k, v in os.environ.items()
                    if k not in ("FORCE_COLOR", "HUBERO_DEBUG")}
     environment.update(env)

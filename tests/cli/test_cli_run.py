@@ -71,6 +71,19 @@ def test_seed_changes_a_wandering_run(cli: Callable[..., Outcome], tmp_path: Pat
     assert first.out != other.out
 
 
+def test_run_writes_its_log_to_runs_by_default(cli: Callable[..., Outcome],
+                                               tmp_path: Path) -> None:
+    outcome = cli("run", LIVING_ROOM, "--variant", "circle")
+    log = Path("runs") / "living_room-circle.mcap"
+    assert outcome.status == 0 and f"log written to {log}" in outcome.out
+    assert log.read_bytes().startswith(b"\x89MCAP0\r\n")
+    assert cli("run", LIVING_ROOM, "--variant", "circle", "--no-log").status == 0
+    Path("runs/living_room.mcap").write_text("my notes")  # not a log: never written over
+    refused = cli("run", LIVING_ROOM, "--quiet")
+    assert refused.status == 2 and "is not an MCAP log" in refused.err
+    assert Path("runs/living_room.mcap").read_text() == "my notes"
+
+
 def test_hubero_test_judges_every_variant(cli: Callable[..., Outcome], tmp_path: Path) -> None:
     outcome = cli("test", LIVING_ROOM)
     assert outcome.status == 0
@@ -85,6 +98,7 @@ def test_hubero_test_judges_every_variant(cli: Callable[..., Outcome], tmp_path:
 def test_ctrl_c_during_a_run_stops_cleanly(tmp_path: Path) -> None:
     path = scenario(tmp_path, "time_limit 2 h\nactivity { a move_around for 1 h }\n")
     process = subprocess.Popen([sys.executable, "-m", "hubero_dsl", "run", path, "--quiet"],
+                               cwd=tmp_path,
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                env={**os.environ, "HUBERO_DEBUG": ""})
     time.sleep(2.5)
@@ -95,9 +109,9 @@ def test_ctrl_c_during_a_run_stops_cleanly(tmp_path: Path) -> None:
     assert "Traceback" not in out + err
 
 
-def test_a_closed_pipe_is_reported_as_for_every_command() -> None:
+def test_a_closed_pipe_is_reported_as_for_every_command(tmp_path: Path) -> None:
     command = f'"{sys.executable}" -m hubero_dsl run "{LIVING_ROOM}" | head -1'
     completed = subprocess.run(["bash", "-c", command + "; echo ${PIPESTATUS[0]}"],
-                               capture_output=True, text=True, timeout=120)
+                               capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert completed.stdout.splitlines()[-1] == "141"
     assert "Traceback" not in completed.stderr
