@@ -28,12 +28,24 @@ from hubero_dsl.lang.placement import (
     check_robot_paths,
     load_scenario_map,
     map_path,
+    place_crowd,
 )
 from hubero_dsl.model.activities import Activity
-from hubero_dsl.model.program import HumanSpec, ParamLayer, Program, Variant, sweep_products
+from hubero_dsl.model.params import HUMAN_PARAMS
+from hubero_dsl.model.program import (
+    Distribution,
+    HumanSpec,
+    ParamLayer,
+    Pose,
+    Program,
+    Variant,
+    sweep_products,
+)
 
 if TYPE_CHECKING:
     from shapely.geometry import Polygon
+
+    from hubero_dsl.world.grid import OccupancyGrid
 
 
 @dataclass(frozen=True)
@@ -142,11 +154,15 @@ def _check_module(module: ast.Module, diagnostics: list[Diagnostic]) -> Program 
             check_robot_paths(grid, facts.robots, diagnostics)
     areas = named_areas(module, facts.places)
     lowering = Lowering(module.source, facts.places, areas,
-                        cast("Polygon | None", facts.settings.get("bounds")))
+                        cast("Polygon | None", facts.settings.get("bounds")),
+                        {crowd.name: crowd.members for crowd in facts.crowds})
     activities = lowering.activities(module.of_type(ast.ActivityDecl))
     graph = build_activity_graph(activities)
     diagnostics.extend(verify_activities(activities, graph, label_names=False))
     if grid is None or facts.map is None or any(d.is_error for d in diagnostics):
+        return None
+    crowds = _crowd_members(facts, grid, lowering, diagnostics)
+    if any(d.is_error for d in diagnostics):
         return None
     if (idle := no_activity(module)) is not None:
         diagnostics.append(idle)
@@ -158,7 +174,8 @@ def _check_module(module: ast.Module, diagnostics: list[Diagnostic]) -> Program 
         on_failure=cast(Literal["stop", "continue"],
                         facts.settings.get("on_failure") or "stop"),
         bounds=lowering.bounds, places=dict(facts.places), areas=areas,
-        defaults=facts.defaults, humans=_humans(module, facts), robots=tuple(facts.robots),
+        defaults=facts.defaults, humans=_humans(module, facts) + crowds,
+        robots=tuple(facts.robots),
         variants=_variants(facts), activities=activities,
         expectations=lowering.expectations(module.of_type(ast.ExpectDecl)), graph=graph)
 
@@ -168,6 +185,34 @@ def _humans(module: ast.Module, facts: Facts) -> tuple[HumanSpec, ...]:
         HumanSpec(decl.name.name, facts.human_starts[decl.name.name],
                   facts.human_layers.get(decl.name.name, ParamLayer()), decl.span)
         for decl in module.of_type(ast.HumanDecl))
+
+
+def _crowd_members(facts: Facts, grid: OccupancyGrid, lowering: Lowering,
+                   diagnostics: list[Diagnostic]) -> tuple[HumanSpec, ...]:
+    """Every crowd's members, placed at seeded random places of its area where they fit."""
+    taken = [(*start.xy, _radius(facts.human_layers.get(name), facts))
+             for name, start in facts.human_starts.items()]
+    taken += [(*robot.start.xy, robot.radius) for robot in facts.robots]
+    seed = cast(int, facts.settings.get("seed") or 0)
+    members: list[HumanSpec] = []
+    for crowd in facts.crowds:
+        places = place_crowd(grid, crowd.name, len(crowd.members), lowering.area(crowd.area),
+                             _radius(crowd.layer, facts), taken, seed, crowd.span, diagnostics)
+        members += [HumanSpec(member, Pose(x, y, crowd.heading), crowd.layer, crowd.span,
+                              crowd.name)
+                    for member, (x, y) in zip(crowd.members, places, strict=False)]
+    return tuple(members)
+
+
+def _radius(layer: ParamLayer | None, facts: Facts) -> float:
+    """The largest body radius a human of this layer may have (a distribution's upper end)."""
+    for source in (layer, facts.defaults):
+        value = source.values.get("radius") if source is not None else None
+        if isinstance(value, float):
+            return value
+        if isinstance(value, Distribution):
+            return value.second if value.kind == "uniform" else value.first + 2 * value.second
+    return float(HUMAN_PARAMS["radius"].default)  # type: ignore[arg-type]
 
 
 def _variants(facts: Facts) -> dict[str, Variant]:

@@ -190,6 +190,35 @@ class ReachesCondition:
 
 
 @dataclass(frozen=True, slots=True)
+class AllReach:
+    """`all CROWD reach TARGET`."""
+
+    group: NameRef
+    target: PointValue
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class AnyReaches:
+    """`any CROWD reaches TARGET`."""
+
+    group: NameRef
+    target: PointValue
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
+class CountIn:
+    """`count(CROWD in AREA) OP N`."""
+
+    group: NameRef
+    area: AreaValue
+    operator: str
+    threshold: Value
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
 class DistanceCondition:
     subject: NameRef
     target: PointValue
@@ -230,8 +259,9 @@ class AnyOf:
     span: Span
 
 
-Condition: TypeAlias = (LabelCondition | ReachesCondition | DistanceCondition | InsideCondition
-                        | TimeCondition | NotCondition | AllOf | AnyOf)
+Condition: TypeAlias = (LabelCondition | ReachesCondition | AllReach | AnyReaches | CountIn
+                        | DistanceCondition | InsideCondition | TimeCondition | NotCondition
+                        | AllOf | AnyOf)
 
 
 # ---- tasks and steps ---------------------------------------------------------------------
@@ -404,6 +434,27 @@ class HumanDecl:
 
 
 @dataclass(frozen=True, slots=True)
+class CrowdDecl:
+    """`crowd NAME N in AREA [heading A] [{ PARAM ... }]`: N humans NAME_1 ... NAME_N."""
+
+    name: NameRef
+    count: Number
+    area: AreaValue
+    heading: Value | None
+    params: tuple[Param, ...]
+    span: Span
+
+    @property
+    def members(self) -> tuple[str, ...]:
+        size = int(self.count.value) if self.count.is_integer and 0 < self.count.value <= \
+            MAX_CROWD else 0
+        return tuple(f"{self.name.name}_{i}" for i in range(1, size + 1))
+
+
+MAX_CROWD = 10_000  # people in one crowd
+
+
+@dataclass(frozen=True, slots=True)
 class RobotDecl:
     name: NameRef
     start: PointValue
@@ -451,8 +502,8 @@ class ExpectDecl:
 
 
 Statement: TypeAlias = (ScenarioDecl | MapDecl | SettingDecl | PlaceDecl | AreaDecl | DefaultsDecl
-                        | HumanDecl | RobotDecl | VariantDecl | SweepDecl | ActivityDecl
-                        | ExpectDecl)
+                        | HumanDecl | CrowdDecl | RobotDecl | VariantDecl | SweepDecl
+                        | ActivityDecl | ExpectDecl)
 
 
 @dataclass(frozen=True, slots=True)

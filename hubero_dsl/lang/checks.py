@@ -37,6 +37,18 @@ MIN_STEP, MAX_STEP = 1e-3, 1.0  # s: the range of `step`
 MAX_TICKS = 1e8  # ticks in a run (time_limit / step): about 14 h of computing at 2000 ticks/s
 TARGETS = (NameKind.PLACE, NameKind.HUMAN, NameKind.ROBOT)
 
+@dataclass(frozen=True)
+class CrowdFacts:
+    """A crowd as checked: its members are placed on the map by the pipeline."""
+
+    name: str
+    members: tuple[str, ...]
+    area: ast.AreaValue
+    heading: float
+    layer: ParamLayer
+    span: Span
+
+
 @dataclass
 class Facts:
     """What the checker resolved, for building the program."""
@@ -49,6 +61,7 @@ class Facts:
     human_layers: dict[str, ParamLayer] = field(default_factory=dict)
     human_starts: dict[str, Pose] = field(default_factory=dict)
     robots: list[RobotSpec] = field(default_factory=list)
+    crowds: list[CrowdFacts] = field(default_factory=list)
     variants: list[tuple[str, ParamLayer]] = field(default_factory=list)
     sweeps: list[tuple[str, list[tuple[str, ParamLayer]]]] = field(default_factory=list)
     # every fixed point written in the file, with what it is, for the map checks
@@ -147,6 +160,11 @@ class Checker:
             if kind is not None and isinstance(statement, ast.PlaceDecl | ast.AreaDecl
                                                | ast.HumanDecl | ast.RobotDecl | ast.VariantDecl):
                 self.symbols.define(statement.name, kind)
+            elif isinstance(statement, ast.CrowdDecl):
+                self.symbols.define(statement.name, NameKind.CROWD)
+                for member in statement.members:  # NAME_1 ... NAME_N, at the crowd's name
+                    self.symbols.define(ast.NameRef(member, statement.name.span),
+                                        NameKind.HUMAN)
             elif isinstance(statement, ast.ActivityDecl):
                 if statement.name is not None:
                     self.symbols.define(statement.name, NameKind.ACTIVITY)
@@ -180,6 +198,8 @@ class Checker:
                 self.facts.defaults = self._layer(params, per_human_allowed=False)
             case ast.HumanDecl():
                 self._human(statement)
+            case ast.CrowdDecl():
+                self._crowd(statement)
             case ast.RobotDecl():
                 self._robot(statement)
             case ast.VariantDecl(name=name, params=params):
@@ -233,6 +253,17 @@ class Checker:
         self.facts.human_starts[human.name.name] = Pose(*(xy or (0.0, 0.0)), heading or 0.0)
         self.facts.human_layers[human.name.name] = self._layer(human.params,
                                                                per_human_allowed=False)
+
+    def _crowd(self, crowd: ast.CrowdDecl) -> None:
+        count = crowd.count
+        if not count.is_integer or not 1 <= count.value <= ast.MAX_CROWD:
+            self.report("E203", f"a crowd has a whole number of people from 1 to "
+                        f"{ast.MAX_CROWD:,}, not {count.text}", count.span)
+        self._area(crowd.area, f"the area of crowd '{crowd.name.name}'")
+        heading = self._heading(crowd.heading) or 0.0
+        layer = self._layer(crowd.params, per_human_allowed=False)
+        self.facts.crowds.append(CrowdFacts(crowd.name.name, crowd.members, crowd.area, heading,
+                                            layer, crowd.span))
 
     def _robot(self, robot: ast.RobotDecl) -> None:
         name = robot.name.name
@@ -351,7 +382,8 @@ class Checker:
         for param in self._unique_params(params):
             path = param.path
             target = values
-            if len(path) > 1 and self.symbols.kind_of(path[0]) is NameKind.HUMAN:
+            if len(path) > 1 and self.symbols.kind_of(path[0]) in (NameKind.HUMAN,
+                                                                     NameKind.CROWD):
                 if not per_human_allowed:
                     self.report("E105", f"'{param.dotted}': per-human settings belong in a "
                                 "variant", param.name_span,
@@ -529,6 +561,9 @@ class Checker:
             self.robot_steps.append((step.human, step))
         human = self.symbols.resolve(step.human, *BODIES, role=f"the subject of {task.kind}") \
             if self.symbols.kind_of(step.human.name) is NameKind.ROBOT else \
+            self.symbols.resolve(step.human, NameKind.HUMAN, NameKind.CROWD,
+                                 role=f"the subject of {task.kind}") \
+            if self.symbols.kind_of(step.human.name) is NameKind.CROWD else \
             self.symbols.resolve(step.human, NameKind.HUMAN, role=f"the subject of {task.kind}")
         self._bare_target(step, kind)
         self._task_options(step, kind)
@@ -677,6 +712,14 @@ class Checker:
                     self._target(target, "distance(...)")
                     self.values.quantity(part.threshold, Dimension.LENGTH, "a distance",
                                          non_negative=True)
+                case ast.AllReach(group=group, target=target) | \
+                        ast.AnyReaches(group=group, target=target):
+                    self.symbols.resolve(group, NameKind.CROWD, role="`all`/`any`")
+                    self._target(target, "the target of `reach`")
+                case ast.CountIn(group=group, area=area, threshold=threshold):
+                    self.symbols.resolve(group, NameKind.CROWD, role="count(...)")
+                    self._area(area, "count(...)")
+                    self.values.integer(threshold, "a count", minimum=0)
                 case ast.InsideCondition(subject=subject, area=area):
                     self.symbols.resolve(subject, *BODIES, role="`in`")
                     self._area(area, "`in`")

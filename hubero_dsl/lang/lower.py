@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 from hubero_dsl.lang import ast
@@ -82,11 +83,13 @@ class Lowering:
     """Lowers one module's activities and expectations against its places and areas."""
 
     def __init__(self, source: SourceFile, places: Mapping[str, Pose],
-                 areas: Mapping[str, Polygon], bounds: Polygon | None) -> None:
+                 areas: Mapping[str, Polygon], bounds: Polygon | None,
+                 groups: Mapping[str, tuple[str, ...]] | None = None) -> None:
         self.source = source
         self.places = places
         self.areas = areas
         self.bounds = bounds
+        self.groups = groups or {}   # a crowd's name -> its members
 
     # ---- activities ------------------------------------------------------------------------
 
@@ -98,6 +101,11 @@ class Lowering:
     def step(self, step: ast.Step) -> m.Step:
         label = _label(step.label)
         match step:
+            case ast.TaskStep() if step.human.name in self.groups:
+                # a task given to a crowd is given to every member; it ends when all have
+                return m.ParallelStep(tuple(self.step(replace(
+                    step, human=ast.NameRef(member, step.human.span), label=None))
+                    for member in self.groups[step.human.name]), step.span, label)
             case ast.TaskStep():
                 return m.TaskStep(step.human.name, self.task(step.task),
                                   self.condition(step.until) if step.until else None,
@@ -178,6 +186,18 @@ class Lowering:
             case ast.DistanceCondition():
                 return c.DistanceTo(condition.subject.name, self.target(condition.target),
                                     condition.operator, seconds(condition.threshold), span, text)
+            case ast.AllReach():
+                target = self.target(condition.target)
+                return c.AllOf(tuple(c.Reaches(member, target, span, text) for member in
+                                     self.groups.get(condition.group.name, ())), span, text)
+            case ast.AnyReaches():
+                target = self.target(condition.target)
+                return c.AnyOf(tuple(c.Reaches(member, target, span, text) for member in
+                                     self.groups.get(condition.group.name, ())), span, text)
+            case ast.CountIn():
+                return c.CountInside(self.groups.get(condition.group.name, ()),
+                                     self.area(condition.area), condition.operator,
+                                     seconds(condition.threshold), span, text)
             case ast.InsideCondition():
                 return c.Inside(condition.subject.name, self.area(condition.area), span, text)
             case ast.TimeCondition():

@@ -400,6 +400,16 @@ class _ToAst(Transformer[Token, Any]):
     def reaches(self, meta: Any, children: list[Any]) -> ast.ReachesCondition:
         return ast.ReachesCondition(self._name(children[0]), children[1], self._span(meta))
 
+    def all_reach(self, meta: Any, children: list[Any]) -> ast.AllReach:
+        return ast.AllReach(self._name(children[0]), children[1], self._span(meta))
+
+    def any_reach(self, meta: Any, children: list[Any]) -> ast.AnyReaches:
+        return ast.AnyReaches(self._name(children[0]), children[1], self._span(meta))
+
+    def count_in(self, meta: Any, children: list[Any]) -> ast.CountIn:
+        group, area, operator, threshold = children
+        return ast.CountIn(self._name(group), area, str(operator), threshold, self._span(meta))
+
     def distance(self, meta: Any, children: list[Any]) -> ast.DistanceCondition:
         subject, target, operator, threshold = children
         return ast.DistanceCondition(self._name(subject), target, str(operator), threshold,
@@ -537,6 +547,13 @@ class _ToAst(Transformer[Token, Any]):
         name, start, *rest = children
         params = next((r for r in rest if isinstance(r, tuple)), ())  # the param block
         return ast.HumanDecl(self._name(name), start, _heading_in(rest), params,
+                             self._span(meta))
+
+    def crowd(self, meta: Any, children: list[Any]) -> ast.CrowdDecl:
+        name, count, area, *rest = children
+        params = next((r for r in rest if isinstance(r, tuple)), ())
+        number = ast.Number(float(count), str(count), self._token_span(count))
+        return ast.CrowdDecl(self._name(name), number, area, _heading_in(rest), params,
                              self._span(meta))
 
     def robot(self, meta: Any, children: list[Any]) -> ast.RobotDecl:

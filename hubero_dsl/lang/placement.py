@@ -16,6 +16,8 @@ from hubero_dsl.errors import MapError
 from hubero_dsl.lang import ast
 
 if TYPE_CHECKING:
+    from shapely.geometry import Polygon
+
     from hubero_dsl.model.program import RobotSpec
     from hubero_dsl.world.grid import OccupancyGrid
 
@@ -93,6 +95,46 @@ def check_robot_paths(grid: OccupancyGrid, robots: Sequence[RobotSpec],
                     f"({a[0]:g}, {a[1]:g}) and ({b[0]:g}, {b[1]:g})", robot.span,
                     "the robot stops at the obstacle: add a waypoint around it"))
                 break
+
+
+def place_crowd(grid: OccupancyGrid, name: str, count: int, area: Polygon, radius: float,
+                taken: list[tuple[float, float, float]], seed: int, span: Span,
+                diagnostics: list[Diagnostic]) -> list[tuple[float, float]]:
+    """Seeded random places in `area` where `count` bodies of `radius` fit, clear of the
+    obstacles and of every body already placed (`taken`: x, y, radius; extended here). Fewer
+    than `count` places is error E406."""
+    import zlib
+
+    import numpy as np
+    import shapely
+
+    fits = grid.free_mask(radius)
+    rows, cols = np.nonzero(fits)
+    centres = grid.cell_to_world(np.stack((rows, cols), axis=-1))
+    inside = shapely.contains_xy(area, centres[:, 0], centres[:, 1])
+    candidates = centres[inside]
+    rng = np.random.default_rng([seed, zlib.crc32(f"crowd {name}".encode())])
+    order = rng.permutation(len(candidates))
+    cell = 2.0 * max([radius, *(r for _, _, r in taken)])
+    buckets: dict[tuple[int, int], list[tuple[float, float, float]]] = {}
+    for x, y, r in taken:
+        buckets.setdefault((int(x // cell), int(y // cell)), []).append((x, y, r))
+    placed: list[tuple[float, float]] = []
+    for index in order:
+        x, y = float(candidates[index, 0]), float(candidates[index, 1])
+        key = (int(x // cell), int(y // cell))
+        near = (b for dx in (-1, 0, 1) for dy in (-1, 0, 1)
+                for b in buckets.get((key[0] + dx, key[1] + dy), ()))
+        if all((x - bx) ** 2 + (y - by) ** 2 >= (radius + br) ** 2 for bx, by, br in near):
+            placed.append((x, y))
+            buckets.setdefault(key, []).append((x, y, radius))
+            taken.append((x, y, radius))
+            if len(placed) == count:
+                return placed
+    diagnostics.append(error("E406", f"only {len(placed)} of the {count} people of crowd "
+                             f"'{name}' fit in its area", span,
+                             "make the area larger, or the crowd smaller"))
+    return placed
 
 
 def check_positions(grid: OccupancyGrid, positions: list[tuple[str, tuple[float, float], Span]],

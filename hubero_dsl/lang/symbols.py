@@ -23,6 +23,7 @@ class NameKind(StrEnum):
     PLACE = "place"
     AREA = "area"
     HUMAN = "human"
+    CROWD = "crowd"
     ROBOT = "robot"
     VARIANT = "variant"
     ACTIVITY = "activity"

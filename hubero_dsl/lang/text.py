@@ -43,6 +43,13 @@ def format_condition(condition: ast.Condition) -> str:
             return f"{condition.label.name} {condition.event.value}"
         case ast.ReachesCondition():
             return f"{condition.subject.name} reaches {format_value(condition.target)}"
+        case ast.AllReach():
+            return f"all {condition.group.name} reach {format_value(condition.target)}"
+        case ast.AnyReaches():
+            return f"any {condition.group.name} reaches {format_value(condition.target)}"
+        case ast.CountIn():
+            return (f"count({condition.group.name} in {format_value(condition.area)}) "
+                    f"{condition.operator} {format_value(condition.threshold)}")
         case ast.DistanceCondition():
             return (f"distance({condition.subject.name}, {format_value(condition.target)}) "
                     f"{condition.operator} {format_value(condition.threshold)}")

@@ -72,6 +72,18 @@ class Inside:
 
 
 @dataclass(frozen=True, slots=True)
+class CountInside:
+    """`count(CROWD in AREA) OP N`: how many of `members` are inside the area."""
+
+    members: tuple[str, ...]
+    area: Polygon
+    operator: str
+    threshold: float
+    span: Span
+    text: str
+
+
+@dataclass(frozen=True, slots=True)
 class TimeCompare:
     operator: str
     threshold: float   # s
@@ -100,8 +112,8 @@ class AnyOf:
     text: str
 
 
-Condition: TypeAlias = (LabelCondition | Reaches | DistanceTo | Inside | TimeCompare | Not
-                        | AllOf | AnyOf)
+Condition: TypeAlias = (LabelCondition | Reaches | DistanceTo | Inside | CountInside
+                        | TimeCompare | Not | AllOf | AnyOf)
 
 
 def walk_conditions(condition: Condition) -> list[Condition]:

@@ -73,6 +73,7 @@ class HumanSpec:
     start: Pose
     params: ParamLayer
     span: Span
+    group: str | None = None  # the crowd the human belongs to
 
 
 @dataclass(frozen=True, slots=True)
@@ -146,6 +147,8 @@ class Program:
             values: dict[str, ParamValue] = {n: s.default for n, s in HUMAN_PARAMS.items()}
             for layer in (self.defaults, human.params, *layers):
                 values.update(layer.values)
+                if human.group is not None:  # `shoppers.speed 1 m/s` in a variant
+                    values.update(layer.per_human.get(human.group, {}))
                 values.update(layer.per_human.get(human.name, {}))
             resolved[human.name] = values
         return resolved

@@ -13,6 +13,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+import numpy as np
 import shapely
 
 from hubero_dsl.model import conditions as c
@@ -59,6 +60,8 @@ class Conditions:
             case c.Inside(subject=subject, area=area):
                 where = self.engine.position_of(subject)
                 return where is not None and bool(shapely.contains_xy(area, *where))
+            case c.CountInside(members=members, area=area, operator=op, threshold=threshold):
+                return COMPARE[op](self._count_inside(members, area), threshold)
             case c.TimeCompare(operator=op, threshold=threshold):
                 # `time >= 2 s` holds at the tick that reaches 2 s despite rounding
                 return COMPARE[op](self.engine.time, threshold - 1e-9
@@ -70,6 +73,13 @@ class Conditions:
             case c.AnyOf(operands=operands):
                 return any(self.holds(o) for o in operands)
         raise TypeError(f"unknown condition {condition!r}")
+
+    def _count_inside(self, members: tuple[str, ...], area: object) -> int:
+        where = [p for p in (self.engine.position_of(m) for m in members) if p is not None]
+        if not where:
+            return 0
+        points = np.asarray(where)
+        return int(np.count_nonzero(shapely.contains_xy(area, points[:, 0], points[:, 1])))
 
     def _distance(self, subject: str, target: Target) -> float | None:
         here = self.engine.position_of(subject)

@@ -1,0 +1,79 @@
+"""Crowds: members placed where they fit, tasks given to every member, conditions over many."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from pathlib import Path
+
+import pytest
+
+from hubero_dsl.pipeline import check_source, compile_source
+from hubero_dsl.sim.loop import run_program
+from hubero_dsl.sim.simulation import Simulation
+from hubero_dsl.sim.status import TaskStatus
+
+HEADER = 'scenario "crowd"\nmap "{map}"\n'
+
+
+def _text(room_map: Path, body: str, seed: int = 1) -> str:
+    return HEADER.format(map=room_map) + f"seed {seed}\n" + body
+
+
+def test_members_are_placed_where_they_fit_and_apart(room_map: Path) -> None:
+    program = compile_source(_text(room_map, """
+    human host at (1, 1)
+    crowd visitors 30 in rect((1, 1), (9, 7)) heading 90 deg { radius 0.25 m }
+    activity { host stand for 1 s }
+    """), "t.hub")
+    members = [h for h in program.humans if h.group == "visitors"]
+    assert [h.name for h in members] == [f"visitors_{i}" for i in range(1, 31)]
+    bodies = [(h.start.xy, 0.25) for h in members] + [((1.0, 1.0), 0.2)]
+    for (a, ra), (b, rb) in itertools.combinations(bodies, 2):
+        assert math.dist(a, b) >= ra + rb - 1e-9
+    grid = program.grid
+    assert all(float(grid.clearance_at(h.start.xy)) >= 0.25 - 1e-9 for h in members)
+    assert all(h.start.heading == pytest.approx(math.pi / 2) for h in members)
+
+
+def test_placement_depends_on_the_seed_only(room_map: Path) -> None:
+    body = "crowd c 10 in rect((1, 1), (9, 7))\nactivity { c stand for 1 s }\n"
+    starts = [[h.start.xy for h in compile_source(_text(room_map, body, seed), "t.hub").humans]
+              for seed in (4, 4, 5)]
+    assert starts[0] == starts[1] != starts[2]
+
+
+def test_a_task_given_to_a_crowd_is_given_to_every_member(room_map: Path) -> None:
+    program = compile_source(_text(room_map, """
+    on_failure continue
+    time_limit 40 s
+    crowd c 5 in rect((1, 1), (4, 7)) { speed 1.5 m/s }
+    variant slow { c.speed 0.5 m/s }
+    activity { walk: c move_to (8, 4) }
+    expect any c reaches (8, 4) within 30 s
+    expect all c reach (8, 4) eventually
+    expect count(c in rect((6, 2), (9.9, 6))) >= 4 eventually
+    """), "t.hub")
+    result = run_program(Simulation(program))
+    verdicts = {e.text: e.held for e in result.expectations}
+    # everyone heads for the point; the first to arrive stands on it, so not all can reach it
+    assert verdicts == {"any c reaches (8, 4) within 30 s": True,
+                        "all c reach (8, 4) eventually": False,
+                        "count(c in rect((6, 2), (9.9, 6))) >= 4 eventually": True}
+    started = {e.human for e in result.events if e.status is TaskStatus.ACTIVE}
+    assert started == {f"c_{i}" for i in range(1, 6)}
+    fast, slow = Simulation(program), Simulation(program, variant="slow")
+    assert {float(fast.params[m]["speed"]) for m in fast.params} == {1.5}
+    assert {float(slow.params[m]["speed"]) for m in slow.params} == {0.5}
+
+
+@pytest.mark.parametrize(("body", "code"), [
+    ("crowd c 500 in rect((1, 1), (3, 3))\nactivity { c stand for 1 s }", "E406"),
+    ("crowd c 0 in rect((1, 1), (3, 3))", "E203"),
+    ("crowd c 2.5 in rect((1, 1), (3, 3))", "E203"),
+    ("crowd c 3 in rect((1, 1), (3, 3))\nhuman c_2 at (5, 5)", "E102"),
+    ("crowd c 3 in rect((1, 1), (3, 3))\nactivity { wait until all c reach nowhere }", "E101"),
+    ("human h at (5, 5)\nactivity { wait until count(h in rect((1, 1), (3, 3))) > 1 }", "E103"),
+])
+def test_crowd_mistakes_are_reported(room_map: Path, body: str, code: str) -> None:
+    assert code in {d.code for d in check_source(_text(room_map, body), "t.hub").errors}
