@@ -66,14 +66,11 @@ def run(args: argparse.Namespace) -> int:
     return _pair(args)
 
 
-def check_writable(path: Path) -> None:
-    """Fail before any work when OUT cannot be a file: a folder, or in a missing folder."""
-    from hubero_dsl.errors import InputError
+def check_writable(path: Path, reads: tuple[Path, ...] = ()) -> None:
+    """Fail before any work when OUT cannot be written: see `hubero_dsl.files.check_output`."""
+    from hubero_dsl.files import check_output
 
-    if path.is_dir():
-        raise InputError(f"{path}: cannot be written (it is a directory)")
-    if not path.parent.is_dir():
-        raise InputError(f"{path}: cannot be written ({path.parent} does not exist)")
+    check_output(Path(path), reads)
 
 
 def _pair(args: argparse.Namespace) -> int:

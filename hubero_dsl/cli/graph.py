@@ -56,6 +56,10 @@ def run(args: argparse.Namespace) -> int:
         return 1
     from hubero_dsl.graph import render
 
+    if args.output is not None:
+        from hubero_dsl.files import check_output
+
+        check_output(Path(args.output), (Path(args.file),))
     if output_format == "png":
         try:
             from hubero_dsl.graph import picture

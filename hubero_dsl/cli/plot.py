@@ -47,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--frames and --fps must be at least 1")
     for out in (args.output, args.animate):
         if out is not None:
-            check_writable(out)
+            check_writable(out, (Path(args.log),))
 
     from hubero_dsl.log.reader import load_run
 

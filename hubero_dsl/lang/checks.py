@@ -35,6 +35,8 @@ DEFAULT_STEP = 0.05  # s, the language's default `step`
 DEFAULT_TIME_LIMIT = 600.0  # s, the language's default `time_limit`
 MIN_STEP, MAX_STEP = 1e-3, 1.0  # s: the range of `step`
 MAX_TICKS = 1e8  # ticks in a run (time_limit / step): about 14 h of computing at 2000 ticks/s
+MAX_VARIANTS = 10_000  # variants of a scenario (named variants times sweep values)
+MAX_HUMANS = 20_000    # humans of a scenario, crowds included (a log has 65,535 channels)
 TARGETS = (NameKind.PLACE, NameKind.HUMAN, NameKind.ROBOT)
 
 @dataclass(frozen=True)
@@ -99,7 +101,30 @@ class Checker:
         self._robot_tasks()
         self._body_places()
         self._tick_count()
+        self._sizes()
         return self.facts
+
+    def _sizes(self) -> None:
+        """A scenario has at most MAX_VARIANTS variants (counted before any is built) and
+        MAX_HUMANS humans, crowds' members included."""
+        sweeps = self.module.of_type(ast.SweepDecl)
+        count = max(1, len(self.facts.variants))
+        for _, options in self.facts.sweeps:
+            count *= max(1, len(options))
+        if sweeps and count > MAX_VARIANTS:
+            self.report("E203", f"the sweeps make {count:,} variants; a scenario has at most "
+                        f"{MAX_VARIANTS:,}", sweeps[0].span,
+                        "sweep fewer parameters or fewer values, or run a sweep's parts in "
+                        "files of their own")
+        people = 0
+        for statement in self.module.statements:
+            if isinstance(statement, ast.HumanDecl | ast.CrowdDecl):
+                people += len(statement.members) if isinstance(statement, ast.CrowdDecl) else 1
+                if people > MAX_HUMANS:
+                    self.report("E203", f"more than {MAX_HUMANS:,} humans; a scenario has at "
+                                "most that many (logs and planning are sized for it)",
+                                statement.span)
+                    break
 
     def _tick_count(self) -> None:
         """A run's ticks are bounded: time_limit / step at most MAX_TICKS."""

@@ -91,15 +91,18 @@ def read_source(path: str | Path) -> str:
     file = Path(path)
     if file.is_dir():
         raise InputError(f"{file}: is a directory, not a scenario file")
+    if file.exists() and not file.is_file():  # a device reads for ever, a FIFO blocks
+        raise InputError(f"{file}: is not a regular file (a device, a FIFO or a socket)")
     try:
-        data = file.read_bytes()
+        with file.open("rb") as stream:
+            data = stream.read(MAX_SOURCE_BYTES + 1)
     except FileNotFoundError:
         raise InputError(f"{file}: no such file") from None
     except OSError as exc:
         raise InputError(f"{file}: cannot be read ({exc.strerror or exc})") from None
     if len(data) > MAX_SOURCE_BYTES:
-        raise InputError(f"{file}: is {len(data) / 1e6:.1f} MB; scenario files are limited to "
-                         f"{MAX_SOURCE_BYTES / 1e6:.0f} MB")
+        raise InputError(f"{file}: is larger than {MAX_SOURCE_BYTES / 1e6:.0f} MB, the limit "
+                         "of scenario files")
     if b"\x00" in data:
         raise InputError(f"{file}: is a binary file, not a scenario")
     try:

@@ -42,6 +42,7 @@ import yaml
 
 from hubero_dsl import __version__
 from hubero_dsl.errors import LogError
+from hubero_dsl.files import check_output
 from hubero_dsl.log import schemas as s
 from hubero_dsl.log.encoder import LogEncoder, LogSetup, Update, discard_file
 from hubero_dsl.log.frames import Capturer
@@ -103,6 +104,9 @@ class RunLog:
         """Create the temporary file, start the writer, and record the first frame."""
         if self._sink is not None:
             raise LogError(f"log {self.path} is already open")
+        program = self._sim.program
+        check_output(self.path, (Path(program.source.path), program.map_path),
+                     lambda where, reason: f"cannot write log {where}: {reason}")
         fd, temp = _create_temp(self.path)
         try:
             setup = self._setup(temp)

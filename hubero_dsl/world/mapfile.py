@@ -14,7 +14,10 @@ row 0 is the lowest y. Every failure is a MapError naming the file and the field
 
 from __future__ import annotations
 
+import contextlib
 import math
+import re
+import warnings
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
@@ -27,6 +30,7 @@ from PIL import Image
 
 from hubero_dsl.diagnostics import Span
 from hubero_dsl.errors import MapError
+from hubero_dsl.files import read_bounded, regular_file
 from hubero_dsl.world.grid import BoolArray, OccupancyGrid
 
 UInt8Array = npt.NDArray[np.uint8]
@@ -34,6 +38,11 @@ UInt8Array = npt.NDArray[np.uint8]
 REQUIRED_FIELDS = ("image", "resolution", "origin", "negate", "occupied_thresh", "free_thresh")
 EXAMPLE = ("image: map.pgm\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
            "occupied_thresh: 0.65\nfree_thresh: 0.196")
+
+MAX_YAML_BYTES = 1 << 20          # a map YAML file is a few lines
+MAX_IMAGE_BYTES = 512 << 20       # bytes of a map image file
+MAX_MAP_CELLS = 16_000_000        # cells of a map: 4000 x 4000, 200 m x 200 m at 5 cm
+SHOWN_VALUE = 60                  # characters of a field's value a message quotes
 
 # What map_saver writes, so saved maps read back identically in ROS and here.
 SAVED_OCCUPIED, SAVED_FREE, SAVED_UNKNOWN = 0, 254, 205
@@ -74,6 +83,12 @@ class _Document:
         return MapError(f"field '{name}' of map {self.path} {message}", self.span(name), hint)
 
 
+def shown(value: object) -> str:
+    """A value as messages quote it: never more than SHOWN_VALUE characters."""
+    text = repr(value)
+    return text if len(text) <= SHOWN_VALUE else text[:SHOWN_VALUE - 3] + "..."
+
+
 def load_map(path: str | Path) -> OccupancyGrid:
     """Read a ROS map_server map (YAML file naming a PGM/PNG/... image) into an OccupancyGrid."""
     document = _read_document(Path(path))
@@ -89,34 +104,54 @@ def load_map(path: str | Path) -> OccupancyGrid:
 
 
 def _read_document(path: Path) -> _Document:
+    """The map YAML as fields. Messages quote the file (a span) only once it has been read as
+    a map file: a mapping with an `image` field. A map path can name any file, and an error
+    must not show a line of /etc/passwd."""
+    if path.is_dir():
+        raise MapError(f"map path is a directory, not a YAML file: {path}")
+    data = read_bounded(path, MAX_YAML_BYTES, "map file", MapError)
     try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise MapError(f"map file not found: {path}") from None
-    except IsADirectoryError:
-        raise MapError(f"map path is a directory, not a YAML file: {path}") from None
+        text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise MapError(f"map file {path} is not UTF-8 text (byte {exc.start})") from None
-    except OSError as exc:
-        raise MapError(f"cannot read map file {path}: {exc.strerror or exc}") from None
     try:
+        _refuse_aliases(path, text)
         root = yaml.compose(text, Loader=yaml.SafeLoader)
         values = yaml.safe_load(text)
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
-        if mark is None:
-            raise MapError(f"map file {path} is not valid YAML: {exc}") from None
-        raise MapError(f"map file {path} is not valid YAML: {exc.problem} (line {mark.line + 1}, "
-                       f"column {mark.column + 1})", _mark_span(path, mark, mark)) from None
-    except yaml.YAMLError as exc:
-        raise MapError(f"map file {path} is not valid YAML: {exc}") from None
-    if not isinstance(values, dict) or not isinstance(root, yaml.MappingNode):
-        raise MapError(f"map file {path} must be a YAML mapping of fields",
-                       Span.whole_file(str(path)),
-                       hint=f"a map file looks like:\n{EXAMPLE}")
+        where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark else ""
+        span = _mark_span(path, mark, mark) if mark and _looks_like_a_map(text) else None
+        raise MapError(f"map file {path} is not valid YAML: {exc.problem}{where}",
+                       span) from None
+    except yaml.YAMLError:
+        raise MapError(f"map file {path} is not valid YAML") from None
+    if not isinstance(values, dict) or not isinstance(root, yaml.MappingNode) \
+            or "image" not in values:
+        raise MapError(f"{path} is not a map file: a map file is a YAML mapping of fields "
+                       "with an `image`", hint=f"a map file looks like:\n{EXAMPLE}")
     spans = {key.value: _mark_span(path, value.start_mark, value.end_mark)
              for key, value in root.value if isinstance(key, yaml.ScalarNode)}
     return _Document(path, {str(k): v for k, v in values.items()}, spans)
+
+
+_MAP_FIELD = re.compile(r"^\s*(image|resolution|origin|negate|occupied_thresh|free_thresh|mode)"
+                        r"\s*:", re.MULTILINE)
+
+
+def _looks_like_a_map(text: str) -> bool:
+    """A broken map file is worth quoting at its error; any other file is not."""
+    return _MAP_FIELD.search(text[:4096]) is not None
+
+
+def _refuse_aliases(path: Path, text: str) -> None:
+    """Anchors and aliases have no place in a map file, and nested ones expand exponentially
+    (the 'billion laughs'): refuse them before anything is built from the text."""
+    for token in yaml.scan(text, Loader=yaml.SafeLoader):
+        if isinstance(token, yaml.AliasToken | yaml.AnchorToken):
+            line = token.start_mark.line + 1
+            raise MapError(f"map file {path} uses YAML anchors or aliases (line {line}); "
+                           "map files may not")
 
 
 def _mark_span(path: Path, start: yaml.Mark, end: yaml.Mark) -> Span:
@@ -153,8 +188,11 @@ def _is_finite_number(value: object) -> bool:
 
 def _number(document: _Document, name: str) -> float:
     value = document.values[name]
+    if isinstance(value, str):  # YAML 1.1 reads 5e-2 (no dot) as text; ROS reads a number
+        with contextlib.suppress(ValueError):
+            value = float(value)
     if not _is_finite_number(value):
-        raise document.error(name, f"must be a number, got {value!r}")
+        raise document.error(name, f"must be a number, got {shown(value)}")
     return float(value)
 
 
@@ -170,7 +208,7 @@ def _origin(document: _Document) -> tuple[float, float, float]:
     if (not isinstance(value, list) or len(value) != 3
             or not all(_is_finite_number(v) for v in value)):
         raise document.error("origin", f"must be [x, y, yaw] in metres and radians, "
-                             f"got {value!r}")
+                             f"got {shown(value)}")
     x, y, yaw = (float(v) for v in value)
     if yaw != 0.0:
         raise document.error("origin", f"has yaw {yaw:g} rad; rotated maps are not supported",
@@ -182,7 +220,7 @@ def _origin(document: _Document) -> tuple[float, float, float]:
 def _negate(document: _Document) -> bool:
     value = document.values["negate"]
     if value not in (0, 1) or isinstance(value, float):
-        raise document.error("negate", f"must be 0 or 1, got {value!r}")
+        raise document.error("negate", f"must be 0 or 1, got {shown(value)}")
     return bool(value)
 
 
@@ -190,14 +228,14 @@ def _mode(document: _Document) -> MapMode:
     value = document.values.get("mode", MapMode.TRINARY.value)
     choices = [mode.value for mode in MapMode]
     if value not in choices:
-        raise document.error("mode", f"must be one of {', '.join(choices)}, got {value!r}")
+        raise document.error("mode", f"must be one of {', '.join(choices)}, got {shown(value)}")
     return MapMode(value)
 
 
 def _image_path(document: _Document) -> Path:
     value = document.values["image"]
     if not isinstance(value, str) or not value.strip():
-        raise document.error("image", f"must be the path of an image file, got {value!r}")
+        raise document.error("image", f"must be the path of an image file, got {shown(value)}")
     image = Path(value)
     return image if image.is_absolute() else document.path.parent / image
 
@@ -211,10 +249,23 @@ def _read_image(path: Path, document: _Document) -> tuple[UInt8Array, bool]:
         raise document.error("image", f"names a file that does not exist: {path}")
     if path.is_dir():
         raise document.error("image", f"names a directory, not an image: {path}")
+    regular_file(path, "map image", lambda message: document.error("image", message))
+    if path.stat().st_size > MAX_IMAGE_BYTES:
+        raise document.error("image", f"is larger than {MAX_IMAGE_BYTES >> 20} MiB: {path}")
     try:
-        with Image.open(path) as image:
-            image.load()
-            return _channels(image, path, document)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # sized just below
+            with Image.open(path) as image:
+                cols, rows = image.size
+                if rows * cols > MAX_MAP_CELLS:
+                    raise document.error(
+                        "image", f"is {cols} x {rows} cells; a map has at most "
+                        f"{MAX_MAP_CELLS:,} (for example 4000 x 4000)", hint="use a coarser "
+                        "resolution or crop the map to the part the scenario uses")
+                image.load()
+                return _channels(image, path, document)
+    except MapError:
+        raise
     except (OSError, ValueError, SyntaxError, EOFError, Image.DecompressionBombError) as exc:
         raise document.error("image", f"cannot be read: {path}: {exc}") from None
 

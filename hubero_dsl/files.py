@@ -1,0 +1,84 @@
+"""Files from strangers: bounded reads of regular files only, and outputs that overwrite nothing
+they should not.
+
+A scenario names its map, and a map its image: either may point at a device (`/dev/zero` reads
+for ever), a FIFO (blocks), a directory, or a huge file. `read_bounded` reads only regular files
+and at most a given number of bytes; `check_output` refuses to write over anything but a
+regular file, and over the files a command reads.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from hubero_dsl.errors import InputError
+
+Failure = Callable[[str], Exception]
+
+
+def regular_file(path: Path, what: str, failure: Failure = InputError) -> None:
+    """Raise `failure` unless `path` is an existing regular file (links followed)."""
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        raise failure(f"{what} not found: {path}") from None
+    except OSError as exc:
+        raise failure(f"cannot read {what} {path}: {exc.strerror or exc}") from None
+    if stat.S_ISDIR(mode):
+        raise failure(f"{what} {path} is a directory, not a file")
+    if not stat.S_ISREG(mode):
+        raise failure(f"{what} {path} is not a regular file (a device, a FIFO or a socket)")
+
+
+def read_bounded(path: Path, limit: int, what: str, failure: Failure = InputError) -> bytes:
+    """The bytes of a regular file of at most `limit` bytes."""
+    regular_file(path, what, failure)
+    try:
+        with path.open("rb") as stream:
+            data = stream.read(limit + 1)
+    except OSError as exc:
+        raise failure(f"cannot read {what} {path}: {exc.strerror or exc}") from None
+    if len(data) > limit:
+        raise failure(f"{what} {path} is larger than {_size(limit)}, the most hubero reads")
+    return data
+
+
+def check_output(path: Path, reads: Sequence[Path] = (),
+                 message: Callable[[Path, str], str] | None = None) -> None:
+    """Refuse (InputError) an output path in a folder that does not exist, or that is a
+    directory, a device, a FIFO or a socket, or one of the files the command reads.
+    `message(path, reason)` words the error (default: `PATH: cannot be written (REASON)`)."""
+    problem = _output_problem(path, reads)
+    if problem is not None:
+        word = message or (lambda where, reason: f"{where}: cannot be written ({reason})")
+        raise InputError(word(path, problem))
+
+
+def _output_problem(path: Path, reads: Sequence[Path]) -> str | None:
+    parent = path.parent
+    if not parent.is_dir():
+        return f"{parent} is not a directory" if parent.exists() else f"{parent} does not exist"
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        return None
+    except OSError as exc:
+        return str(exc.strerror or exc)
+    if stat.S_ISDIR(mode):
+        return "it is a directory"
+    if not stat.S_ISREG(mode):
+        return "it is not a regular file: a device, a FIFO or a socket"
+    for source in reads:
+        try:
+            if path.samefile(source):
+                return "it is an input of this command"
+        except OSError:
+            continue
+    return None
+
+
+def _size(count: int) -> str:
+    return f"{count / 2**20:g} MiB" if count >= 2**20 else f"{count / 2**10:g} KiB"
