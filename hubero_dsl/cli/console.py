@@ -7,6 +7,7 @@ console hands the error on instead.
 
 from __future__ import annotations
 
+import sys
 from typing import Any
 
 from rich.console import Console
@@ -18,4 +19,10 @@ class _PipeAwareConsole(Console):
 
 
 def make_console(**options: Any) -> Console:
+    """A console; written to a pipe or a file it neither wraps nor cuts lines (CI logs are
+    read with grep), on a terminal it fits the terminal."""
+    stream = sys.stderr if options.get("stderr") else sys.stdout
+    if not stream.isatty():
+        options.setdefault("width", 100_000)
+        options.setdefault("soft_wrap", True)
     return _PipeAwareConsole(**options)

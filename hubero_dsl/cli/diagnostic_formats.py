@@ -26,6 +26,7 @@ TAB_WIDTH = 4
 # Longer source lines are shown as a window around the span: a minified or generated file must
 # not flood the terminal with one megabyte-long line.
 MAX_SHOWN_CHARS = 160
+MAX_SHOWN_DIAGNOSTICS = 50  # per file, in text; JSON and GitHub annotations list them all
 _WINDOW_BEFORE = 60
 # Other files a diagnostic points into (related spans) are read for their snippet only when small.
 _MAX_SNIPPET_SOURCE_BYTES = 2_000_000
@@ -242,9 +243,13 @@ def text_report(reports: Sequence[FileReport], *, strict: bool = False) -> list[
         if report.input_error is not None:
             lines.extend(input_error_lines(report.input_error))
             lines.append(())
-        for diagnostic in report.diagnostics:
+        for diagnostic in report.diagnostics[:MAX_SHOWN_DIAGNOSTICS]:
             lines.extend(diagnostic_lines(diagnostic, sources))
             lines.append(())
+        hidden = len(report.diagnostics) - MAX_SHOWN_DIAGNOSTICS
+        if hidden > 0:
+            lines += [((f"... and {hidden} more in {report.path} (--format json lists them "
+                        "all)", "note"),), ()]
     lines.append(((summary_line(reports, strict=strict), "title"),))
     return lines
 

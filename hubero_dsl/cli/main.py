@@ -22,6 +22,7 @@ import importlib
 import os
 import sys
 import traceback
+import warnings
 from collections.abc import Sequence
 from typing import TextIO
 
@@ -69,6 +70,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit status (the console script passes it to exit)."""
     _tolerate_unencodable_output()
+    # Library warnings (numpy's overflow notes, Pillow's size notes) are not the user's to
+    # read: hubero checks what they warn about itself (finite values, map sizes).
+    warnings.simplefilter("ignore")
     try:
         status = _dispatch(argv)
         sys.stdout.flush()
@@ -121,12 +125,20 @@ def _report_error(exc: HuberoError) -> None:
 
 
 def _report_compile_error(exc: CompileError) -> None:
-    from hubero_dsl.cli.diagnostic_formats import Printer, SourceLines, diagnostic_lines
+    from hubero_dsl.cli.diagnostic_formats import (
+        MAX_SHOWN_DIAGNOSTICS,
+        Printer,
+        SourceLines,
+        diagnostic_lines,
+    )
 
     printer = Printer.to(sys.stderr)
     sources = SourceLines()
-    for diagnostic in exc.diagnostics:
+    for diagnostic in exc.diagnostics[:MAX_SHOWN_DIAGNOSTICS]:
         printer.lines([*diagnostic_lines(diagnostic, sources), ()])
+    if len(exc.diagnostics) > MAX_SHOWN_DIAGNOSTICS:
+        _say(f"... and {len(exc.diagnostics) - MAX_SHOWN_DIAGNOSTICS} more (hubero check "
+             "--format json lists them all)")
 
 
 def _say(message: str, stream: TextIO | None = None) -> None:

@@ -91,6 +91,10 @@ def run(args: argparse.Namespace) -> int:
             from hubero_dsl.cli.summary import print_summary
 
             print_summary(program, result, output)
+        elif not result.succeeded:  # quiet means no progress and no tables, not silence
+            from hubero_dsl.cli.summary import print_failure
+
+            print_failure(program, result)
         failed = failed or not result.succeeded
     return 1 if failed else 0
 

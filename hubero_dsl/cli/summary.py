@@ -69,6 +69,17 @@ def print_summary(program: Program, result: RunResult, output: Path | None,
         console.print(f"log written to {output}")
 
 
+def print_failure(program: Program, result: RunResult) -> None:
+    """One line on stderr for a run that failed, and one per expectation that fails."""
+    console = make_console(stderr=True)
+    reason = f": {escape(result.reason)}" if result.reason else ""
+    console.print(f"{_label(program, result.variant)}: {result.state.value} at "
+                  f"t = {result.time:.2f} s{reason}", highlight=False)
+    for expectation in result.expectations:
+        if not expectation.held:
+            console.print(f"    expectation fails: {escape(expectation.text)}", highlight=False)
+
+
 def _actors_table(actors: list[HumanSummary], column: str, title: str) -> Table:
     table = Table(column, "tasks done", "status", "path length", "time on tasks",
                   title=title, title_justify="left")

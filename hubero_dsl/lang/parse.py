@@ -106,12 +106,14 @@ def read_source(path: str | Path) -> str:
     if b"\x00" in data:
         raise InputError(f"{file}: is a binary file, not a scenario")
     try:
-        return data.decode("utf-8-sig")
+        text = data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         line = data[: exc.start].count(b"\n") + 1
         column = exc.start - (data.rfind(b"\n", 0, exc.start) + 1) + 1
         raise InputError(f"{file}:{line}:{column}: invalid UTF-8 byte 0x{data[exc.start]:02x}; "
                          "scenario files must be UTF-8 text") from None
+    # classic Mac line endings (a lone CR) end lines too; CRLF is left as it is
+    return re.sub(r"\r(?!\n)", "\n", text)
 
 
 def parse_file(path: str | Path) -> ast.Module:

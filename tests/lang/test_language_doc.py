@@ -79,3 +79,14 @@ def test_the_robots_page_examples_check_clean() -> None:
     for block in blocks:
         result = check_source(block, str(ROBOTS))
         assert not result.diagnostics, [d.message for d in result.diagnostics]
+
+
+def test_every_code_the_docs_name_exists() -> None:
+    """No page shows a code hubero does not emit (and the catalogue lists no stale one)."""
+    package = REPO_ROOT / "hubero_dsl"
+    emitted = {code for path in package.rglob("*.py")
+               for code in re.findall(r'"([EW]\d{3})"', path.read_text(encoding="utf-8"))}
+    pages = [*(REPO_ROOT / "docs").glob("*.md"), REPO_ROOT / "README.md"]
+    named = {(page.name, code) for page in pages
+             for code in re.findall(r"\b([EW]\d{3})\b", page.read_text(encoding="utf-8"))}
+    assert sorted((page, code) for page, code in named if code not in emitted) == []
