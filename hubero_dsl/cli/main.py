@@ -20,7 +20,9 @@ import argparse
 import contextlib
 import importlib
 import os
+import signal
 import sys
+import threading
 import traceback
 import warnings
 from collections.abc import Sequence
@@ -37,6 +39,7 @@ EXIT_FAILED = 1  # the input has errors, or the run or test failed
 EXIT_USAGE = 2  # bad arguments or unreadable input
 EXIT_INTERNAL = 3  # a bug in hubero
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report it
+EXIT_TERMINATED = 143   # 128 + SIGTERM
 EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, as `cmd | head` reports for other tools
 
 _EPILOG = """\
@@ -73,6 +76,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     # Library warnings (numpy's overflow notes, Pillow's size notes) are not the user's to
     # read: hubero checks what they warn about itself (finite values, map sizes).
     warnings.simplefilter("ignore")
+    _stop_cleanly_on_sigterm()
     try:
         status = _dispatch(argv)
         sys.stdout.flush()
@@ -80,6 +84,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:
         _discard_stdout()
         return EXIT_BROKEN_PIPE
+    except Terminated:
+        _say("terminated")
+        return EXIT_TERMINATED
     except KeyboardInterrupt:
         _say("interrupted")
         return EXIT_INTERRUPTED
@@ -139,6 +146,20 @@ def _report_compile_error(exc: CompileError) -> None:
     if len(exc.diagnostics) > MAX_SHOWN_DIAGNOSTICS:
         _say(f"... and {len(exc.diagnostics) - MAX_SHOWN_DIAGNOSTICS} more (hubero check "
              "--format json lists them all)")
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (what `timeout` and process managers send): stopped like Ctrl-C, so a run's
+    temporary log is removed and a sweep stops its workers, but reported as terminated."""
+
+
+def _on_sigterm(signum: int, frame: object) -> None:
+    raise Terminated
+
+
+def _stop_cleanly_on_sigterm() -> None:
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _on_sigterm)
 
 
 def _say(message: str, stream: TextIO | None = None) -> None:

@@ -312,8 +312,11 @@ class _ProcessSink:
 
 
 def _serve(setup: LogSetup, fd: int, conn: Connection, parent_end: Connection) -> None:
-    """The writer process: encode updates until `finish` (rename) or a closed pipe (delete)."""
+    """The writer process: encode updates until `finish` (rename) or a closed pipe (delete).
+    Ctrl-C and SIGTERM are the run's to handle (they reach the whole process group): the run
+    then aborts the writer, or its pipe closes."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     parent_end.close()  # else the pipe would never report the run's end, even if it is killed
     stream = os.fdopen(fd, "wb", buffering=1 << 20)
     encoder: LogEncoder | None = None

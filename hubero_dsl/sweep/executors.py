@@ -91,7 +91,7 @@ class ProcessExecutor(ProcessPoolExecutor):
         else:
             context = multiprocessing.get_context("spawn")
         super().__init__(max_workers=jobs, mp_context=context,
-                         initializer=install_worker_signals)
+                         initializer=install_worker_signals, initargs=(os.getpid(),))
         self.slots = jobs
 
     def terminate(self) -> None:

@@ -14,10 +14,12 @@ ends a run through the log writer's clean-up so no temporary file is left behind
 
 from __future__ import annotations
 
+import _thread
 import contextlib
 import os
 import signal
 import threading
+import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -31,6 +33,7 @@ if TYPE_CHECKING:
     from hubero_dsl.sim.loop import RunResult
 
 EXIT_TERMINATED = 128 + signal.SIGTERM
+PARENT_POLL = 0.5  # s between a worker's checks that the sweep's process is still there
 _CACHE_SIZE = 4  # compiled programs kept per process (a sweep needs one)
 
 
@@ -170,10 +173,33 @@ class WorkerTerminated(BaseException):
 _state = {"running": False}
 
 
-def install_worker_signals() -> None:
-    """For worker processes: ignore Ctrl-C, and let SIGTERM end a run cleanly."""
+def install_worker_signals(parent: int | None = None) -> None:
+    """For worker processes: ignore Ctrl-C, let SIGTERM end a run cleanly, and end with the
+    sweep's process `parent` however it ends (even SIGKILL, which it cannot pass on)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _on_terminate)
+    if parent is not None:
+        threading.Thread(target=_watch, args=(parent,), daemon=True,
+                         name="hubero-parent-watch").start()
+
+
+def _watch(parent: int) -> None:
+    """Poll the parent; when it is gone, end the run as SIGTERM would (its log discarded)."""
+    while _alive(parent):
+        time.sleep(PARENT_POLL)
+    _thread.interrupt_main(signal.SIGTERM)
+    time.sleep(5.0)  # the run's clean-up has had its chance
+    os._exit(EXIT_TERMINATED)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def _on_terminate(signum: int, frame: Any) -> None:

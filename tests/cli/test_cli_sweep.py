@@ -181,3 +181,45 @@ def test_ctrl_c_stops_the_sweep_and_writes_the_finished_runs(tmp_path: Path) -> 
     assert 1 <= len(written["runs"]) < 8
     logs = sorted(p.name for p in out.glob("runs/*/*"))
     assert logs == sorted(Path(r["log"]).name for r in written["runs"])  # no .part files left
+
+
+def test_workers_end_with_a_killed_sweep(tmp_path: Path) -> None:
+    """SIGKILL cannot be passed on: the workers notice their sweep is gone and stop."""
+    psutil = pytest.importorskip("psutil")
+    out = tmp_path / "out"
+    environment = {k: v for k, v in os.environ.items() if k != "HUBERO_DEBUG"}
+    process = subprocess.Popen(
+        [sys.executable, "-m", "hubero_dsl", "sweep", scenario(tmp_path, LONG), "--seeds",
+         "1..8", "--jobs", "2", "--out-dir", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environment)
+    deadline = time.monotonic() + 60
+    family: list[object] = []
+    while time.monotonic() < deadline:
+        family = psutil.Process(process.pid).children(recursive=True)
+        if len(family) >= 3:  # the fork server and two workers
+            break
+        time.sleep(0.1)
+    time.sleep(1.0)  # the workers are in their runs
+    family = psutil.Process(process.pid).children(recursive=True)
+    process.kill()
+    process.communicate(timeout=30)
+    _, alive = psutil.wait_procs(family, timeout=20)
+    assert alive == []
+    assert not list(out.glob("runs/*/*.part"))
+
+
+def test_sigterm_to_a_run_removes_its_temporary_log(tmp_path: Path) -> None:
+    output = tmp_path / "run.mcap"
+    environment = {k: v for k, v in os.environ.items() if k != "HUBERO_DEBUG"}
+    process = subprocess.Popen(
+        [sys.executable, "-m", "hubero_dsl", "run", scenario(tmp_path, LONG), "--quiet",
+         "-o", str(output)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        env=environment, cwd=tmp_path, start_new_session=True)
+    deadline = time.monotonic() + 60
+    while not list(tmp_path.glob("*.part")) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    os.killpg(process.pid, signal.SIGTERM)  # what `timeout` sends to the process group
+    _, stderr = process.communicate(timeout=30)
+    assert process.returncode == 143 and "terminated" in stderr
+    assert "Traceback" not in stderr
+    assert not output.exists() and not list(tmp_path.glob("*.part"))
