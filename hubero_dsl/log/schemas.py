@@ -183,17 +183,22 @@ def _vector2(description: str) -> dict[str, Any]:
             "required": ["x", "y"], "additionalProperties": False}
 
 
-HUMAN_STATE_SCHEMA: dict[str, Any] = {
-    "title": HUMAN_STATE,
-    "description": "One human's state at one tick of a hubero run",
-    "type": "object",
-    "properties": {
+# what every body's state holds: when, where, how fast, which way
+_BODY_STATE: dict[str, Any] = {
         "timestamp": _TIME,
         "position": _vector2("Position in the map frame, metres"),
         "velocity": _vector2("Velocity in the map frame, metres per second"),
         "heading": {"type": "number",
                     "description": "Heading in the map frame, radians, 0 along +x, "
                                    "counter-clockwise"},
+}
+
+HUMAN_STATE_SCHEMA: dict[str, Any] = {
+    "title": HUMAN_STATE,
+    "description": "One human's state at one tick of a hubero run",
+    "type": "object",
+    "properties": {
+        **_BODY_STATE,
         "posture": {"enum": list(POSTURE_NAMES), "description": "Body posture"},
         "status": {"enum": list(STATUS_NAMES),
                    "description": "Status of the current task, or of the last one when the "
@@ -222,12 +227,7 @@ ROBOT_STATE_SCHEMA: dict[str, Any] = {
     "description": "One robot's state at one tick of a hubero run",
     "type": "object",
     "properties": {
-        "timestamp": _TIME,
-        "position": _vector2("Position in the map frame, metres"),
-        "velocity": _vector2("Velocity in the map frame, metres per second"),
-        "heading": {"type": "number",
-                    "description": "Heading in the map frame, radians, 0 along +x, "
-                                   "counter-clockwise"},
+        **_BODY_STATE,
         "controller": {"type": "string", "description": "The controller driving it"},
         "status": {"enum": list(STATUS_NAMES),
                    "description": "Status of the current task, or of the last one when the "

@@ -160,13 +160,18 @@ def test_an_unreachable_dask_scheduler_is_reported_quickly(cli_subprocess: Run,
     assert not (tmp_path / "o").exists()
 
 
+def _long_sweep(tmp_path: Path, out: Path, *, jobs: int) -> subprocess.Popen[str]:
+    """`hubero sweep` of eight long runs, started in the background."""
+    environment = {k: v for k, v in os.environ.items() if k != "HUBERO_DEBUG"}
+    return subprocess.Popen(
+        [sys.executable, "-m", "hubero_dsl", "sweep", scenario(tmp_path, LONG), "--seeds",
+         "1..8", "--jobs", str(jobs), "--out-dir", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environment)
+
+
 def test_ctrl_c_stops_the_sweep_and_writes_the_finished_runs(tmp_path: Path) -> None:
     out = tmp_path / "out"
-    environment = {k: v for k, v in os.environ.items() if k != "HUBERO_DEBUG"}
-    process = subprocess.Popen(
-        [sys.executable, "-m", "hubero_dsl", "sweep", scenario(tmp_path, LONG), "--seeds",
-         "1..8", "--jobs", "1", "--out-dir", str(out)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environment)
+    process = _long_sweep(tmp_path, out, jobs=1)
     deadline = time.monotonic() + 60
     # one worker: when the second log is there, the first run has been reported
     while len(list(out.glob("runs/*/seed-*.mcap"))) < 2 and time.monotonic() < deadline:
@@ -187,11 +192,7 @@ def test_workers_end_with_a_killed_sweep(tmp_path: Path) -> None:
     """SIGKILL cannot be passed on: the workers notice their sweep is gone and stop."""
     psutil = pytest.importorskip("psutil")
     out = tmp_path / "out"
-    environment = {k: v for k, v in os.environ.items() if k != "HUBERO_DEBUG"}
-    process = subprocess.Popen(
-        [sys.executable, "-m", "hubero_dsl", "sweep", scenario(tmp_path, LONG), "--seeds",
-         "1..8", "--jobs", "2", "--out-dir", str(out)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environment)
+    process = _long_sweep(tmp_path, out, jobs=2)
     deadline = time.monotonic() + 60
     family: list[object] = []
     while time.monotonic() < deadline:
