@@ -47,7 +47,7 @@ from gymnasium.vector.utils import batch_space
 from hubero_dsl.controllers.base import ControllerParams, Observation, RobotBody
 from hubero_dsl.errors import InputError
 from hubero_dsl.model.program import Program, RobotSpec
-from hubero_dsl.sim.loop import Verdict
+from hubero_dsl.sim.judge import Judge
 from hubero_dsl.sim.simulation import Simulation
 
 ENV_ID = "hubero/Scenario-v0"
@@ -132,7 +132,7 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         self.observation_space = observation_space(self.program, max_people, map_patch)
         self._sim: Simulation | None = None
         self._controller: ActionController | None = None
-        self._verdicts: list[Verdict] = []
+        self._judge: Judge | None = None
         self._log: Any = None
         self._gap_min = math.inf
 
@@ -147,7 +147,7 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         sim = Simulation(self.program, variant=self.variant, seed=run_seed,
                          controllers={self.robot_name: self._controller})
         self._sim = sim
-        self._verdicts = [Verdict(e) for e in self.program.expectations]
+        self._judge = Judge(sim)
         self._gap_min = math.inf
         self._distance = self._goal_distance()
         if self.log_path is not None:
@@ -174,7 +174,9 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         self._gap_min = min(self._gap_min, gap)
         reached = distance <= self.robot_spec.goal_tolerance
         collided = gap <= 0.0
-        self._judge()
+        assert self._judge is not None
+        self._judge.observe()
+        self._judge.record()
         truncated = sim.tick >= sim.engine.ticks(self.program.time_limit)
         terminated = reached or collided
         reward = self.reward_function(gained, gap, reached, collided, sim.dt)
@@ -210,26 +212,19 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
 
     # ---- the end of an episode ---------------------------------------------------------------
 
-    def _judge(self) -> None:
-        sim = self._sim
-        assert sim is not None and sim.scheduler is not None
-        for verdict in self._verdicts:
-            if verdict.held is None:
-                verdict.observe(sim.scheduler.conditions.holds(verdict.expectation.condition),
-                                sim.time)
 
     def _episode_info(self, outcome: str) -> dict[str, Any]:
         sim = self._sim
         assert sim is not None
-        for verdict in self._verdicts:
-            verdict.finish(sim.time)
+        assert self._judge is not None
+        verdicts = self._judge.finish()
         robot = sim.engine.robots
         index = robot.index_of(self.robot_name)
         return {"outcome": outcome, "time": sim.time,
                 "metrics": {"path_length": float(robot.path_length[index]),
                             "min_distance": self._gap_min, "time_to_goal":
                                 sim.time if outcome == "reached" else None},
-                "expectations": {v.text: bool(v.held) for v in self._verdicts}}
+                "expectations": {v.text: bool(v.held) for v in verdicts}}
 
     def _close_log(self, outcome: str | None) -> None:
         if self._log is None:

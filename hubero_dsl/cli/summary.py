@@ -63,6 +63,8 @@ def print_summary(program: Program, result: RunResult, output: Path | None,
     console.print(_actors_table(result.humans, "human", "humans"))
     if result.robots:
         console.print(_actors_table(result.robots, "robot", "robots"))
+    if result.robot_metrics:
+        console.print(_robot_metrics_table(result.robot_metrics))
     if result.expectations:
         console.print(_expectations_table(result))
     if output is not None:
@@ -78,6 +80,22 @@ def print_failure(program: Program, result: RunResult) -> None:
     for expectation in result.expectations:
         if not expectation.held:
             console.print(f"    expectation fails: {escape(expectation.text)}", highlight=False)
+
+
+def _robot_metrics_table(metrics: dict[str, dict[str, float]]) -> Table:
+    """The social-navigation metrics robot researchers report (docs/analysis.md)."""
+    table = Table("robot", "min distance", "intimate", "personal", "collisions",
+                  "path length", "efficiency", "time to goal",
+                  title="robots among people", title_justify="left")
+    for name, values in metrics.items():
+        goal = values["time_to_goal"]
+        table.add_row(name, f"{values['min_distance']:.2f} m",
+                      f"{100 * values['intimate_intrusions']:.0f} %",
+                      f"{100 * values['personal_intrusions']:.0f} %",
+                      f"{values['collisions']:.0f}", f"{values['path_length']:.2f} m",
+                      f"{100 * values['path_efficiency']:.0f} %",
+                      f"{goal:.2f} s" if goal != float("inf") else "-")
+    return table
 
 
 def _actors_table(actors: list[HumanSummary], column: str, title: str) -> Table:

@@ -491,11 +491,24 @@ class ExpectMode(StrEnum):
     ALWAYS = "always"
     EVENTUALLY = "eventually"
     WITHIN = "within"
+    AT_END = "at_end"   # a metric of the whole run: judged when it ends
+
+
+@dataclass(frozen=True, slots=True)
+class MetricCompare:
+    """`METRIC(NAME [, OTHER]) OP Q` in an expectation."""
+
+    metric: NameRef
+    subject: NameRef
+    other: NameRef | None
+    operator: str
+    threshold: Value
+    span: Span
 
 
 @dataclass(frozen=True, slots=True)
 class ExpectDecl:
-    condition: Condition
+    condition: Condition | MetricCompare
     mode: ExpectMode
     deadline: Value | None
     span: Span

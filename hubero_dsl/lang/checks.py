@@ -235,11 +235,31 @@ class Checker:
             case ast.ActivityDecl(steps=steps):
                 for step in ast.walk_steps(steps):
                     self._step(step)
+            case ast.ExpectDecl(condition=ast.MetricCompare() as metric):
+                self._metric(metric)
             case ast.ExpectDecl():
-                self._condition(statement.condition)
+                self._condition(statement.condition)  # type: ignore[arg-type]
                 if statement.deadline is not None:
                     self.values.quantity(statement.deadline, Dimension.TIME, "'within'",
                                          positive=True)
+
+    def _metric(self, compare: ast.MetricCompare) -> None:
+        """`METRIC(NAME [, OTHER]) OP Q`: a known metric, bodies, a value of its dimension."""
+        from hubero_dsl.socialnav import METRICS
+
+        spec = METRICS.get(compare.metric.name)
+        if spec is None:
+            self.report("E111", f"unknown metric '{compare.metric.name}'", compare.metric.span,
+                        did_you_mean(compare.metric.name, METRICS)
+                        or "metrics: " + ", ".join(METRICS))
+        for ref in (compare.subject, compare.other):
+            if ref is not None:
+                self.symbols.resolve(ref, *BODIES, role=f"{compare.metric.name}(...)")
+        if spec is None:
+            return
+        dimension = {"length": Dimension.LENGTH, "time": Dimension.TIME,
+                     "ratio": Dimension.RATIO}.get(spec.dimension, Dimension.NUMBER)
+        self.values.quantity(compare.threshold, dimension, f"{spec.name}", non_negative=True)
 
     def _setting(self, setting: ast.SettingDecl) -> None:
         keyword, value = setting.keyword, setting.value

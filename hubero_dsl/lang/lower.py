@@ -214,9 +214,21 @@ class Lowering:
     # ---- expectations ----------------------------------------------------------------------
 
     def expectations(self, decls: Sequence[ast.ExpectDecl]) -> tuple[m.Expectation, ...]:
-        return tuple(m.Expectation(self.condition(decl.condition), m.ExpectMode(decl.mode.value),
+        return tuple(m.Expectation(self._expected(decl.condition), m.ExpectMode(decl.mode.value),
                                    seconds(decl.deadline) if decl.deadline is not None else None,
                                    self._expect_text(decl), decl.span) for decl in decls)
+
+    def _expected(self, condition: ast.Condition | ast.MetricCompare
+                  ) -> c.Condition | c.MetricCompare:
+        if not isinstance(condition, ast.MetricCompare):
+            return self.condition(condition)
+        other = condition.other.name if condition.other is not None else None
+        text = (f"{condition.metric.name}({condition.subject.name}"
+                f"{', ' + other if other else ''}) {condition.operator} "
+                f"{format_value(condition.threshold)}")
+        return c.MetricCompare(condition.metric.name, condition.subject.name, other,
+                               condition.operator, seconds(condition.threshold),
+                               condition.span, text)
 
     def _expect_text(self, decl: ast.ExpectDecl) -> str:
         span = decl.span

@@ -591,5 +591,15 @@ class _ToAst(Transformer[Token, Any]):
         return ast.ExpectDecl(children[0], ast.ExpectMode(str(children[1])), None,
                               self._span(meta))
 
+    def expect_metric(self, meta: Any, children: list[Any]) -> ast.ExpectDecl:
+        return ast.ExpectDecl(children[0], ast.ExpectMode.AT_END, None, self._span(meta))
+
+    def metric_compare(self, meta: Any, children: list[Any]) -> ast.MetricCompare:
+        metric, subject, *rest = children
+        other = self._name(rest[0]) if len(rest) == 3 else None
+        operator, threshold = rest[-2], rest[-1]
+        return ast.MetricCompare(self._name(metric), self._name(subject), other,
+                                 str(operator), threshold, self._span(meta))
+
     def expect_within(self, meta: Any, children: list[Any]) -> ast.ExpectDecl:
         return ast.ExpectDecl(children[0], ast.ExpectMode.WITHIN, children[1], self._span(meta))

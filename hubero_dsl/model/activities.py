@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import TYPE_CHECKING, TypeAlias
 
-from hubero_dsl.model.conditions import Condition, Label
+from hubero_dsl.model.conditions import Condition, Label, MetricCompare
 from hubero_dsl.model.tasks import Task
 
 if TYPE_CHECKING:
@@ -122,13 +122,14 @@ class ExpectMode(StrEnum):
     ALWAYS = "always"
     EVENTUALLY = "eventually"
     WITHIN = "within"
+    AT_END = "at_end"   # a metric of the whole run
 
 
 @dataclass(frozen=True, slots=True)
 class Expectation:
     """`expect CONDITION always | eventually | within Q`."""
 
-    condition: Condition
+    condition: Condition | MetricCompare
     mode: ExpectMode
     deadline: float | None     # s, for `within`
     text: str                  # as the summary shows it: the line without `expect`

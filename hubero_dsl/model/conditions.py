@@ -112,6 +112,19 @@ class AnyOf:
     text: str
 
 
+@dataclass(frozen=True, slots=True)
+class MetricCompare:
+    """`METRIC(SUBJECT [, OTHER]) OP THRESHOLD`: judged on the whole run, when it ends."""
+
+    metric: str
+    subject: str
+    other: str | None
+    operator: str
+    threshold: float   # SI (a ratio as a fraction: 10 % is 0.1)
+    span: Span
+    text: str
+
+
 Condition: TypeAlias = (LabelCondition | Reaches | DistanceTo | Inside | CountInside
                         | TimeCompare | Not | AllOf | AnyOf)
 

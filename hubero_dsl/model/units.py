@@ -11,6 +11,7 @@ class Dimension(StrEnum):
     TIME = "time"
     SPEED = "speed"
     ANGLE = "angle"
+    RATIO = "ratio"      # a share: `10 %` is 0.1
     NUMBER = "number"
 
 
@@ -32,6 +33,7 @@ UNITS: dict[str, tuple[Dimension, float]] = {
     "km/h": (Dimension.SPEED, 1000.0 / 3600.0),
     "deg": (Dimension.ANGLE, math.pi / 180.0),
     "rad": (Dimension.ANGLE, 1.0),
+    "%": (Dimension.RATIO, 0.01),
 }
 
 # How each dimension reads in a message, with a unit to suggest.
@@ -40,6 +42,7 @@ EXAMPLE_UNIT: dict[Dimension, str] = {
     Dimension.TIME: "s",
     Dimension.SPEED: "m/s",
     Dimension.ANGLE: "deg",
+    Dimension.RATIO: "%",
     Dimension.NUMBER: "",
 }
 

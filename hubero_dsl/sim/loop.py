@@ -1,7 +1,8 @@
 """Running a scenario to its end: the loop, the expectations, and the result.
 
 `run_program` steps a `Simulation` until its scheduler says the run is over, judging every
-`expect` on the way, and returns a `RunResult`. Observers (the MCAP writer, a progress bar) are
+`expect` on the way (`hubero_dsl.sim.judge`), and returns a `RunResult` (with the robots'
+social-navigation metrics). Observers (the MCAP writer, a progress bar) are
 called after every tick with the simulation, so everything they record is at hand.
 """
 
@@ -13,44 +14,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from hubero_dsl.model.activities import Expectation, ExpectMode
+from hubero_dsl.sim.judge import Judge, Verdict
 from hubero_dsl.sim.scheduler import RunState
 from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.sim.status import TaskEvent, TaskStatus
 
 Observer = Callable[[Simulation], None]
-
-
-@dataclass
-class Verdict:
-    """One `expect`, judged as the run goes: holds / fails and when it was decided."""
-
-    expectation: Expectation
-    held: bool | None = None      # None: not decided yet
-    decided_at: float | None = None
-
-    @property
-    def text(self) -> str:
-        return self.expectation.text
-
-    def observe(self, holds: bool, time: float) -> None:
-        if self.held is not None:
-            return
-        mode, deadline = self.expectation.mode, self.expectation.deadline
-        if mode is ExpectMode.ALWAYS and not holds:
-            self.held, self.decided_at = False, time
-        elif mode is not ExpectMode.ALWAYS and holds:
-            if mode is ExpectMode.WITHIN and deadline is not None and time > deadline + 1e-9:
-                self.held, self.decided_at = False, deadline
-            else:
-                self.held, self.decided_at = True, time
-        elif mode is ExpectMode.WITHIN and deadline is not None and time > deadline + 1e-9:
-            self.held, self.decided_at = False, deadline
-
-    def finish(self, time: float) -> None:
-        if self.held is None:
-            self.held = self.expectation.mode is ExpectMode.ALWAYS
-            self.decided_at = time
 
 
 @dataclass
@@ -77,6 +46,7 @@ class RunResult:
     expectations: list[Verdict] = field(default_factory=list)
     humans: list[HumanSummary] = field(default_factory=list)
     robots: list[HumanSummary] = field(default_factory=list)
+    robot_metrics: dict[str, dict[str, float]] = field(default_factory=dict)
 
     @property
     def succeeded(self) -> bool:
@@ -91,29 +61,28 @@ def run_program(sim: Simulation, observers: Sequence[Observer] = ()) -> RunResul
     """Run to the end: every activity done, the time limit, or a stopping failure."""
     scheduler = sim.scheduler
     assert scheduler is not None, "run_program needs a simulation with activities"
-    expectations = [Verdict(e) for e in sim.program.expectations]
+    # robots' social-navigation metrics go in the summary; a crowd is too large to record
+    record = sim.engine.robots.count > 0 and sim.engine.humans.count <= MAX_RECORDED_HUMANS
+    judge = Judge(sim, record_tracks=record)
     while True:
         scheduler.update()  # also decides when the run is over (done, failed, timed out)
-        _judge(sim, expectations)
+        judge.observe()
         if scheduler.state is not RunState.RUNNING:
             break
         sim.engine.step()
         scheduler.after_step()
+        judge.record()
         for observer in observers:
             observer(sim)
-    for expectation in expectations:
-        expectation.finish(sim.time)
+    verdicts = judge.finish()
+    robot_metrics = {name: judge.tracks.metrics(sim, name) for name in sim.engine.robots.names} \
+        if judge.tracks is not None else {}
     return RunResult(scheduler.state, scheduler.reason, sim.time, sim.tick, sim.variant,
-                     sim.seed, list(sim.events), expectations, summarise(sim),
-                     summarise_robots(sim))
+                     sim.seed, list(sim.events), verdicts, summarise(sim),
+                     summarise_robots(sim), robot_metrics)
 
 
-def _judge(sim: Simulation, expectations: list[Verdict]) -> None:
-    assert sim.scheduler is not None
-    for verdict in expectations:
-        if verdict.held is None:
-            verdict.observe(sim.scheduler.conditions.holds(verdict.expectation.condition),
-                            sim.time)
+MAX_RECORDED_HUMANS = 2000  # beyond, robots' metrics come from the log (hubero_dsl.analysis)
 
 
 def summarise(sim: Simulation) -> list[HumanSummary]:

@@ -1,0 +1,142 @@
+"""Judging a run's `expect`s: conditions tick by tick, metrics of the whole run at its end.
+
+`Judge` is what the run loop and the Gymnasium environment both use. It observes the
+simulation after every tick (conditions as they hold, and every body's position when some
+expectation is a metric), and `finish` decides what is left: `always` holds unless it failed,
+metrics (`expect min_distance(cart) >= 0.2 m`) are computed over the recorded tracks
+(`hubero_dsl.socialnav`) and compared.
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from hubero_dsl.model.activities import Expectation, ExpectMode
+from hubero_dsl.model.conditions import MetricCompare
+from hubero_dsl.socialnav import Track, social_metrics
+
+if TYPE_CHECKING:
+    from hubero_dsl.sim.simulation import Simulation
+
+COMPARE: dict[str, Callable[[float, float], bool]] = {
+    "<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
+
+
+@dataclass
+class Verdict:
+    """One `expect`, judged as the run goes: holds / fails and when it was decided."""
+
+    expectation: Expectation
+    held: bool | None = None      # None: not decided yet
+    decided_at: float | None = None
+    value: float | None = None    # a metric's value, for the summary
+
+    @property
+    def text(self) -> str:
+        return self.expectation.text
+
+    def observe(self, holds: bool, time: float) -> None:
+        if self.held is not None:
+            return
+        mode, deadline = self.expectation.mode, self.expectation.deadline
+        if mode is ExpectMode.ALWAYS and not holds:
+            self.held, self.decided_at = False, time
+        elif mode is not ExpectMode.ALWAYS and holds:
+            if mode is ExpectMode.WITHIN and deadline is not None and time > deadline + 1e-9:
+                self.held, self.decided_at = False, deadline
+            else:
+                self.held, self.decided_at = True, time
+        elif mode is ExpectMode.WITHIN and deadline is not None and time > deadline + 1e-9:
+            self.held, self.decided_at = False, deadline
+
+    def finish(self, time: float) -> None:
+        if self.held is None:
+            self.held = self.expectation.mode is ExpectMode.ALWAYS
+            self.decided_at = time
+
+
+@dataclass
+class Tracks:
+    """Every body's position at every tick, recorded for metrics."""
+
+    time: list[float] = field(default_factory=list)
+    humans: list[np.ndarray] = field(default_factory=list)
+    robots: list[np.ndarray] = field(default_factory=list)
+
+    def record(self, sim: Simulation) -> None:
+        self.time.append(sim.time)
+        self.humans.append(sim.engine.humans.position.copy())
+        self.robots.append(sim.engine.robots.position.copy())
+
+    def track(self, sim: Simulation, name: str) -> Track | None:
+        engine, time = sim.engine, np.asarray(self.time)
+        if name in engine.humans.names:
+            index = engine.index_of(name)
+            return Track(time, np.asarray([p[index] for p in self.humans]),
+                         float(engine.humans.radius[index]))
+        if name in engine.robots.names:
+            index = engine.robots.index_of(name)
+            return Track(time, np.asarray([p[index] for p in self.robots]),
+                         float(engine.robots.radius[index]))
+        return None
+
+    def metrics(self, sim: Simulation, subject: str, other: str | None = None
+                ) -> dict[str, float]:
+        """The social-navigation metrics of `subject` among every human (or `other` only)."""
+        track = self.track(sim, subject)
+        if track is None or not self.time:
+            return {}
+        names = [other] if other is not None else [
+            h for h in sim.engine.humans.names if h != subject]
+        people = [t for t in (self.track(sim, n) for n in names) if t is not None]
+        goal, tolerance = None, 0.2
+        if subject in sim.engine.robots.names:
+            spec = sim.engine.robots.specs[sim.engine.robots.index_of(subject)]
+            goal, tolerance = spec.goal, spec.goal_tolerance
+        return social_metrics(track, people, goal=goal, goal_tolerance=tolerance)
+
+
+class Judge:
+    """The verdicts of a run's expectations, and what they need recorded."""
+
+    def __init__(self, sim: Simulation, record_tracks: bool = False) -> None:
+        self.sim = sim
+        self.verdicts = [Verdict(e) for e in sim.program.expectations]
+        wants = record_tracks or any(isinstance(e.condition, MetricCompare)
+                                     for e in sim.program.expectations)
+        self.tracks: Tracks | None = Tracks() if wants else None
+        if self.tracks is not None:
+            self.tracks.record(sim)
+
+    def observe(self) -> None:
+        """After a tick: conditions as they hold now; positions for the metrics."""
+        sim = self.sim
+        assert sim.scheduler is not None
+        for verdict in self.verdicts:
+            condition = verdict.expectation.condition
+            if verdict.held is None and not isinstance(condition, MetricCompare):
+                verdict.observe(sim.scheduler.conditions.holds(condition), sim.time)
+
+    def record(self) -> None:
+        if self.tracks is not None and (not self.tracks.time
+                                        or self.tracks.time[-1] != self.sim.time):
+            self.tracks.record(self.sim)
+
+    def finish(self) -> list[Verdict]:
+        sim = self.sim
+        for verdict in self.verdicts:
+            condition = verdict.expectation.condition
+            if isinstance(condition, MetricCompare) and self.tracks is not None:
+                value = self.tracks.metrics(sim, condition.subject, condition.other).get(
+                    condition.metric, math.nan)
+                verdict.value = value
+                verdict.held = COMPARE[condition.operator](value, condition.threshold)
+                verdict.decided_at = sim.time
+            verdict.finish(sim.time)
+        return self.verdicts

@@ -1,0 +1,105 @@
+"""Social-navigation metrics against hand computations, and in expectations."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hubero_dsl.pipeline import check_source, compile_source
+from hubero_dsl.sim.loop import run_program
+from hubero_dsl.sim.simulation import Simulation
+from hubero_dsl.socialnav import METRICS, Track, social_metrics
+
+
+def _track(points: list[tuple[float, float]], dt: float = 1.0, radius: float = 0.25) -> Track:
+    return Track(np.arange(len(points)) * dt, np.asarray(points, dtype=float), radius)
+
+
+def test_a_straight_walk_past_a_standing_person() -> None:
+    # the subject walks x = 0..4 at y = 0, one metre a second; a person stands at (2, 1)
+    subject = _track([(x, 0.0) for x in range(5)])
+    person = _track([(2.0, 1.0)] * 5)
+    m = social_metrics(subject, [person], goal=(4.0, 0.0))
+    assert m["path_length"] == pytest.approx(4.0)
+    assert m["path_efficiency"] == pytest.approx(1.0)
+    assert m["path_irregularity"] == 0.0
+    assert m["time_to_goal"] == pytest.approx(4.0)
+    # centre distances sqrt(5), sqrt(2), 1, sqrt(2), sqrt(5); radii 0.25 + 0.25
+    assert m["min_centre_distance"] == pytest.approx(1.0)
+    assert m["min_distance"] == pytest.approx(0.5)
+    # samples weigh 1 s each but the last: gaps 1.736, 0.914, 0.5, 0.914 -> personal 3 s of 4
+    assert m["personal_intrusions"] == pytest.approx(0.75)
+    assert m["social_intrusions"] == pytest.approx(0.25)
+    assert m["intimate_intrusions"] == 0.0
+    assert m["avg_distance"] == pytest.approx((math.sqrt(5) + 2 * math.sqrt(2) + 1) / 4 - 0.5)
+    assert m["collisions"] == 0.0 and m["time_not_moving"] == 0.0 and m["jerk"] == 0.0
+    gaps = np.array([math.sqrt(5), math.sqrt(2), 1.0, math.sqrt(2)]) - 0.5
+    assert m["social_work"] == pytest.approx(float((2.1 * np.exp(-gaps / 0.3)).sum()))
+
+
+def test_a_zigzag_turns_and_is_inefficient() -> None:
+    subject = _track([(0, 0), (1, 1), (2, 0), (3, 1), (4, 0)])
+    m = social_metrics(subject, [])
+    diagonal = 4 * math.sqrt(2)
+    assert m["path_length"] == pytest.approx(diagonal)
+    assert m["path_efficiency"] == pytest.approx(4.0 / diagonal)
+    assert m["path_irregularity"] == pytest.approx(3 * (math.pi / 2) / diagonal)
+    assert m["min_distance"] == math.inf and m["time_to_goal"] == math.inf
+
+
+def test_bumping_into_someone_twice_is_two_collisions() -> None:
+    subject = _track([(0, 0), (0.3, 0), (2, 0), (0.3, 0), (0, 0), (0, 0)])
+    person = _track([(0.0, 0.0)] * 6, radius=0.2)
+    m = social_metrics(subject, [person])
+    assert m["collisions"] == 2.0
+    assert m["min_distance"] == pytest.approx(-0.45)
+    assert m["intimate_intrusions"] == pytest.approx(4 / 5)
+    assert m["time_not_moving"] == pytest.approx(1.0)  # the last second, standing
+
+
+def test_jerk_of_a_cubic_motion() -> None:
+    times = np.arange(8) * 0.5
+    subject = Track(times, np.stack([times ** 3, np.zeros(8)], axis=1), 0.2)
+    assert social_metrics(subject, [])["jerk"] == pytest.approx(6.0)
+
+
+def test_every_metric_is_computed() -> None:
+    m = social_metrics(_track([(0, 0), (1, 0)]), [_track([(5, 5), (5, 5)])])
+    assert set(m) == set(METRICS)
+
+
+def _scenario(room_map: Path, expectations: str) -> str:
+    return (f'scenario "m"\nmap "{room_map}"\nhuman bob at (5, 5)\n'
+            "robot cart at (1, 2) { controller navigator; goal (8, 2); speed 1 m/s }\n"
+            "activity { bob stand for 1 s }\nactivity { cart move_to (8, 2) }\n" + expectations)
+
+
+def test_metrics_in_expectations(room_map: Path) -> None:
+    program = compile_source(_scenario(room_map, """
+    expect min_distance(cart) >= 1 m
+    expect min_distance(cart, bob) >= 1 m
+    expect path_efficiency(cart) >= 90 %
+    expect time_to_goal(cart) <= 10 s
+    expect personal_intrusions(cart) > 50 %
+    """), "t.hub")
+    result = run_program(Simulation(program))
+    verdicts = {v.text: v.held for v in result.expectations}
+    assert verdicts == {"min_distance(cart) >= 1 m": True, "min_distance(cart, bob) >= 1 m": True,
+                        "path_efficiency(cart) >= 90 %": True,
+                        "time_to_goal(cart) <= 10 s": True,
+                        "personal_intrusions(cart) > 50 %": False}
+    assert result.robot_metrics["cart"]["path_length"] == pytest.approx(7.0, abs=0.3)
+
+
+@pytest.mark.parametrize(("expectation", "code"), [
+    ("expect min_distanse(cart) >= 1 m", "E111"),
+    ("expect min_distance(cart) >= 1 s", "E201"),
+    ("expect personal_intrusions(cart) <= 10 m", "E201"),
+    ("expect min_distance(nobody) >= 1 m", "E101"),
+])
+def test_metric_mistakes_are_reported(room_map: Path, expectation: str, code: str) -> None:
+    result = check_source(_scenario(room_map, expectation + "\n"), "t.hub")
+    assert code in {d.code for d in result.errors}
