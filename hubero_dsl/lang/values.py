@@ -152,6 +152,13 @@ class ValueReader:
                 self.report("E101", f"unknown {kind} '{value.name}'", value.span, hint)
                 return None
             return value.name
+        if spec.kind is ParamKind.CHOICE:
+            if isinstance(value, ast.NameRef) and value.name in spec.choices:
+                return value.name
+            written = value.name if isinstance(value, ast.NameRef) else ""
+            self.report("E201", f"{what} is one of {', '.join(spec.choices)}", value.span,
+                        did_you_mean(written, spec.choices) if written else None)
+            return None
         if isinstance(value, ast.Distribution):
             return self.distribution(value, spec)
         return self.quantity(value, spec.dimension, what, positive=spec.positive,

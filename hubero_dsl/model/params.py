@@ -19,6 +19,7 @@ class ParamKind(StrEnum):
     QUANTITY = "quantity"   # a number with a unit (or a distribution of them)
     SHAPE = "shape"         # a personal-space shape
     PLANNER = "planner"     # the name of a registered planner
+    CHOICE = "choice"       # one of a few names
 
 
 @dataclass(frozen=True, slots=True)
@@ -30,12 +31,16 @@ class ParamSpec:
     default: float | str | Shape = 0.0
     positive: bool = True          # must be > 0 (quantities)
     maximum: float = math.inf      # inclusive upper bound, SI
+    choices: tuple[str, ...] = ()  # the names a CHOICE takes
 
 
 def _q(name: str, dim: Dimension, default: float, doc: str, *, maximum: float = math.inf,
        positive: bool = True) -> ParamSpec:
     return ParamSpec(name, ParamKind.QUANTITY, doc, dim, default, positive, maximum)
 
+
+# How a human reacts to robots, as HuNavSim's agents do (docs/language.md, "Robot reactions").
+REACTIONS = ("regular", "impassive", "surprised", "curious", "scared", "threatening")
 
 HUMAN_PARAMS: dict[str, ParamSpec] = {spec.name: spec for spec in (
     _q("speed", Dimension.SPEED, 1.29, "desired walking speed (Moussaid et al. 2009)"),
@@ -57,6 +62,8 @@ HUMAN_PARAMS: dict[str, ParamSpec] = {spec.name: spec for spec in (
     _q("follow_replan", Dimension.TIME, 1.0, "how often follow re-plans its path"),
     ParamSpec("global_planner", ParamKind.PLANNER, "global planner plugin", default="navfn"),
     ParamSpec("local_planner", ParamKind.PLANNER, "local planner plugin", default="social_force"),
+    ParamSpec("robot_reaction", ParamKind.CHOICE, "how the human reacts to robots (HuNavSim's "
+              "reactions)", default="regular", choices=REACTIONS),
 )}
 
 ROBOT_PARAMS: dict[str, ParamSpec] = {spec.name: spec for spec in (

@@ -52,6 +52,7 @@ class HumanArrays:
     teleop_velocity: FloatArray   # (N, 2) velocity commanded through the API
     teleop: BoolArray
     path_length: FloatArray       # metres walked so far
+    reaction: npt.NDArray[np.int8] | None = None   # index into REACTIONS; None: all regular
 
     @property
     def count(self) -> int:

@@ -19,6 +19,7 @@ from hubero_dsl.planners.base import Crowd, Drive, NoPath
 from hubero_dsl.sim import physics
 from hubero_dsl.sim.arrays import FloatArray, HumanArrays, IntArray, PathPool
 from hubero_dsl.sim.behaviours import Behaviour
+from hubero_dsl.sim.reactions import Reactions
 from hubero_dsl.sim.robots import Robots
 from hubero_dsl.sim.status import Posture, TaskEvent, TaskHandle, TaskStatus
 from hubero_dsl.world.shapes import ShapeArrays, lateral_extent
@@ -63,6 +64,8 @@ class Engine:
         self._not_robot.setflags(write=False)
         self._crowd_shapes: tuple[ShapeArrays, ShapeArrays, ShapeArrays] | None = None
         self._separation = physics.BodySeparation()
+        self._reactions = (Reactions(humans.reaction, dt) if humans.reaction is not None
+                           else None)
         self._rng_for = rng_for
         self._rngs: dict[tuple[str, int], np.random.Generator] = {}
         count = humans.count
@@ -341,10 +344,31 @@ class Engine:
                 if len(steer):
                     velocity[steer] = self._local[name].velocities(crowd, self._drive(steer),
                                                                    self.dt)
+            if self._reactions is not None and self.robots.count:
+                velocity = self._react(velocity, steering)
         if humans.teleop.any():
             teleop = humans.teleop.nonzero()[0]
             velocity[teleop] = humans.teleop_velocity[teleop]
         return velocity
+
+    def _react(self, velocity: FloatArray, steering: list[tuple[str, IntArray]]) -> FloatArray:
+        """Humans' reactions to robots: the impassive are steered as if there were no robot,
+        the others' velocities adjusted (`hubero_dsl.sim.reactions`)."""
+        reactions = self._reactions
+        assert reactions is not None
+        if reactions.impassive.any():
+            h = self.humans
+            alone = Crowd(position=h.position, velocity=h.velocity, heading=h.heading,
+                          radius=h.radius, personal_space=h.personal_space,
+                          is_robot=self._not_robot)
+            for name, steer in steering:
+                rows = steer[reactions.impassive[steer]]
+                if len(rows):
+                    velocity[rows] = self._local[name].velocities(alone, self._drive(rows),
+                                                                  self.dt)
+        r = self.robots
+        return reactions.adjust(velocity, self.humans, r.position, r.velocity, r.radius,
+                                self.tick)
 
     def _drive(self, rows: IntArray) -> Drive:
         h = self.humans

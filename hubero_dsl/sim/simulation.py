@@ -21,9 +21,10 @@ from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
 from hubero_dsl.errors import SimulationError
-from hubero_dsl.model.params import HUMAN_PARAMS, ParamKind
+from hubero_dsl.model.params import HUMAN_PARAMS, REACTIONS, ParamKind
 from hubero_dsl.model.program import Distribution, ParamValue, Program
 from hubero_dsl.planners.base import GlobalPlanner, LocalPlanner, PlannerParams
 from hubero_dsl.planners.registry import global_planner, local_planner
@@ -267,4 +268,14 @@ def _human_arrays(program: Program, params: dict[str, dict[str, ParamValue]]) ->
         moving=np.zeros(count, dtype=bool), desired_speed=np.zeros(count),
         goal=np.full((count, 2), np.nan), stop_distance=np.zeros(count),
         heading_goal=np.full(count, np.nan), teleop_velocity=np.zeros((count, 2)),
-        teleop=np.zeros(count, dtype=bool), path_length=np.zeros(count))
+        teleop=np.zeros(count, dtype=bool), path_length=np.zeros(count),
+        reaction=_reactions(names, params))
+
+
+def _reactions(names: list[str], params: dict[str, dict[str, ParamValue]]
+               ) -> npt.NDArray[np.int8] | None:
+    """Each human's reaction to robots as an index into REACTIONS; None when all are regular
+    (the engine then spends nothing on reactions)."""
+    codes = np.array([REACTIONS.index(str(params[n]["robot_reaction"])) for n in names],
+                     dtype=np.int8)
+    return codes if codes.any() else None
