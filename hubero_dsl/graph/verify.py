@@ -116,6 +116,7 @@ class _Context:
         self.scopes = label_scopes(graph)
         self.structure = _structural_order(graph)
         self.waits = list(self._wait_orders())
+        self.crowd_joins: set[str] = set()  # crowds' joins already walked past
         self.order = self.structure.copy()
         self.order.add_edges_from((w.source, (w.accept, "e")) for w in self.waits)
         self.after_in_structure = cache(lambda event: nx.descendants(self.structure, event))
@@ -260,6 +261,11 @@ def _follow_forever(context: _Context, action: str) -> tuple[Diagnostic | None, 
         elif kind is NodeKind.RACE_JOIN and _race_can_end(context, graph.nodes[node]["fork"],
                                                           action):
             return None, []  # another branch ends the race; preempted counts as done
+        elif kind is NodeKind.JOIN and _crowd_step(graph, node) is not None:
+            # a crowd's task runs forever as one task: what follows it is what it blocks
+            if node in context.crowd_joins:
+                return None, held  # said once for the crowd, not once per member
+            context.crowd_joins.add(node)
         elif kind in _BLOCKS or (kind is NodeKind.REPEAT_END and graph.nodes[node]["count"] != 1):
             stuck.append(node)
         elif kind not in (NodeKind.REPEAT_END, NodeKind.FINAL):
@@ -271,6 +277,12 @@ def _follow_forever(context: _Context, action: str) -> tuple[Diagnostic | None, 
 
 
 _BLOCKS = frozenset({NodeKind.JOIN, NodeKind.RACE_JOIN})
+
+
+def _crowd_step(graph: nx.DiGraph, join: str) -> str | None:
+    """The crowd whose task a join ends (a task given to a crowd is a parallel), if any."""
+    step = graph.nodes[graph.nodes[join]["fork"]]["step"]
+    return step.crowd if isinstance(step, m.ParallelStep) else None
 _BLOCK_WORDS = {NodeKind.JOIN: "parallel", NodeKind.RACE_JOIN: "race",
                 NodeKind.REPEAT_END: "repeat"}
 

@@ -105,7 +105,8 @@ class Lowering:
                 # a task given to a crowd is given to every member; it ends when all have
                 return m.ParallelStep(tuple(self.step(replace(
                     step, human=ast.NameRef(member, step.human.span), label=None))
-                    for member in self.groups[step.human.name]), step.span, label)
+                    for member in self.groups[step.human.name]), step.span, label,
+                    crowd=step.human.name)
             case ast.TaskStep():
                 return m.TaskStep(step.human.name, self.task(step.task),
                                   self.condition(step.until) if step.until else None,

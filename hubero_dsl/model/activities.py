@@ -54,6 +54,7 @@ class ParallelStep:
     branches: tuple[Step, ...]
     span: Span
     label: Label | None = None
+    crowd: str | None = None   # a task given to a crowd: one branch per member
 
 
 @dataclass(frozen=True, slots=True)

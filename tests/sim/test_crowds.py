@@ -77,3 +77,19 @@ def test_a_task_given_to_a_crowd_is_given_to_every_member(room_map: Path) -> Non
 ])
 def test_crowd_mistakes_are_reported(room_map: Path, body: str, code: str) -> None:
     assert code in {d.code for d in check_source(_text(room_map, body), "t.hub").errors}
+
+
+def test_a_crowd_may_wander_forever_at_the_end_of_an_activity(room_map: Path) -> None:
+    program = compile_source(_text(room_map, """
+    crowd v 5 in rect((1, 1), (9, 7))
+    activity { v move_around in rect((1, 1), (9, 7)) forever }
+    activity { wait 2 s }
+    """), "t.hub")
+    result = run_program(Simulation(program))
+    assert result.state.value == "completed" and result.time == pytest.approx(2.0)
+
+
+def test_a_crowd_forever_before_other_steps_is_one_error(room_map: Path) -> None:
+    text = _text(room_map, "crowd v 5 in rect((1, 1), (9, 7))\n"
+                           "activity { v move_around forever; v stand for 1 s }\n")
+    assert [d.code for d in check_source(text, "t.hub").errors] == ["E308"]
