@@ -155,7 +155,8 @@ def _check_module(module: ast.Module, diagnostics: list[Diagnostic]) -> Program 
     areas = named_areas(module, facts.places)
     lowering = Lowering(module.source, facts.places, areas,
                         cast("Polygon | None", facts.settings.get("bounds")),
-                        {crowd.name: crowd.members for crowd in facts.crowds})
+                        {**{crowd.name: crowd.members for crowd in facts.crowds},
+                         **facts.groups}, _group_starts(facts))
     activities = lowering.activities(module.of_type(ast.ActivityDecl))
     graph = build_activity_graph(activities)
     diagnostics.extend(verify_activities(activities, graph, label_names=False))
@@ -175,7 +176,7 @@ def _check_module(module: ast.Module, diagnostics: list[Diagnostic]) -> Program 
                         facts.settings.get("on_failure") or "stop"),
         bounds=lowering.bounds, places=dict(facts.places), areas=areas,
         defaults=facts.defaults, humans=_humans(module, facts) + crowds,
-        robots=tuple(facts.robots),
+        robots=tuple(facts.robots), groups=dict(facts.groups),
         variants=_variants(facts), activities=activities,
         expectations=lowering.expectations(module.of_type(ast.ExpectDecl)), graph=graph)
 
@@ -185,6 +186,17 @@ def _humans(module: ast.Module, facts: Facts) -> tuple[HumanSpec, ...]:
         HumanSpec(decl.name.name, facts.human_starts[decl.name.name],
                   facts.human_layers.get(decl.name.name, ParamLayer()), decl.span)
         for decl in module.of_type(ast.HumanDecl))
+
+
+def _group_starts(facts: Facts) -> dict[str, tuple[float, float]]:
+    """Each group's centroid of its members' declared starts."""
+    starts = {}
+    for name, members in facts.groups.items():
+        known = [facts.human_starts[m].xy for m in members if m in facts.human_starts]
+        if known:
+            starts[name] = (sum(x for x, _ in known) / len(known),
+                            sum(y for _, y in known) / len(known))
+    return starts
 
 
 def _crowd_members(facts: Facts, grid: OccupancyGrid, lowering: Lowering,

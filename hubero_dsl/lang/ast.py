@@ -455,6 +455,15 @@ MAX_CROWD = 10_000  # people in one crowd
 
 
 @dataclass(frozen=True, slots=True)
+class GroupDecl:
+    """`group NAME of (H, H, ...)`: people who walk and talk together."""
+
+    name: NameRef
+    members: tuple[NameRef, ...]
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
 class RobotDecl:
     name: NameRef
     start: PointValue
@@ -515,7 +524,7 @@ class ExpectDecl:
 
 
 Statement: TypeAlias = (ScenarioDecl | MapDecl | SettingDecl | PlaceDecl | AreaDecl | DefaultsDecl
-                        | HumanDecl | CrowdDecl | RobotDecl | VariantDecl | SweepDecl
+                        | HumanDecl | CrowdDecl | GroupDecl | RobotDecl | VariantDecl | SweepDecl
                         | ActivityDecl | ExpectDecl)
 
 

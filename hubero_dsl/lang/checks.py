@@ -37,7 +37,7 @@ MIN_STEP, MAX_STEP = 1e-3, 1.0  # s: the range of `step`
 MAX_TICKS = 1e8  # ticks in a run (time_limit / step): about 14 h of computing at 2000 ticks/s
 MAX_VARIANTS = 10_000  # variants of a scenario (named variants times sweep values)
 MAX_HUMANS = 20_000    # humans of a scenario, crowds included (a log has 65,535 channels)
-TARGETS = (NameKind.PLACE, NameKind.HUMAN, NameKind.ROBOT)
+TARGETS = (NameKind.PLACE, NameKind.HUMAN, NameKind.ROBOT, NameKind.GROUP)
 
 @dataclass(frozen=True)
 class CrowdFacts:
@@ -64,6 +64,7 @@ class Facts:
     human_starts: dict[str, Pose] = field(default_factory=dict)
     robots: list[RobotSpec] = field(default_factory=list)
     crowds: list[CrowdFacts] = field(default_factory=list)
+    groups: dict[str, tuple[str, ...]] = field(default_factory=dict)
     variants: list[tuple[str, ParamLayer]] = field(default_factory=list)
     sweeps: list[tuple[str, list[tuple[str, ParamLayer]]]] = field(default_factory=list)
     # every fixed point written in the file, with what it is, for the map checks
@@ -185,6 +186,8 @@ class Checker:
             if kind is not None and isinstance(statement, ast.PlaceDecl | ast.AreaDecl
                                                | ast.HumanDecl | ast.RobotDecl | ast.VariantDecl):
                 self.symbols.define(statement.name, kind)
+            elif isinstance(statement, ast.GroupDecl):
+                self.symbols.define(statement.name, NameKind.GROUP)
             elif isinstance(statement, ast.CrowdDecl):
                 self.symbols.define(statement.name, NameKind.CROWD)
                 for member in statement.members:  # NAME_1 ... NAME_N, at the crowd's name
@@ -225,6 +228,8 @@ class Checker:
                 self._human(statement)
             case ast.CrowdDecl():
                 self._crowd(statement)
+            case ast.GroupDecl():
+                self._group(statement)
             case ast.RobotDecl():
                 self._robot(statement)
             case ast.VariantDecl(name=name, params=params):
@@ -298,6 +303,22 @@ class Checker:
         self.facts.human_starts[human.name.name] = Pose(*(xy or (0.0, 0.0)), heading or 0.0)
         self.facts.human_layers[human.name.name] = self._layer(human.params,
                                                                per_human_allowed=False)
+
+    def _group(self, group: ast.GroupDecl) -> None:
+        members: list[str] = []
+        for ref in group.members:
+            if self.symbols.resolve(ref, NameKind.HUMAN, role=f"a member of group "
+                                    f"'{group.name.name}'") is None:
+                continue
+            other = next((g for g, held in self.facts.groups.items() if ref.name in held), None)
+            if ref.name in members or other is not None:
+                self.report("E113", f"'{ref.name}' is in group '{other or group.name.name}' "
+                            "already; a human belongs to one group", ref.span)
+                continue
+            members.append(ref.name)
+        if len(group.members) < 2:
+            self.report("E203", "a group has at least two members", group.span)
+        self.facts.groups[group.name.name] = tuple(members)
 
     def _crowd(self, crowd: ast.CrowdDecl) -> None:
         count = crowd.count
@@ -606,9 +627,9 @@ class Checker:
             self.robot_steps.append((step.human, step))
         human = self.symbols.resolve(step.human, *BODIES, role=f"the subject of {task.kind}") \
             if self.symbols.kind_of(step.human.name) is NameKind.ROBOT else \
-            self.symbols.resolve(step.human, NameKind.HUMAN, NameKind.CROWD,
+            self.symbols.resolve(step.human, NameKind.HUMAN, NameKind.CROWD, NameKind.GROUP,
                                  role=f"the subject of {task.kind}") \
-            if self.symbols.kind_of(step.human.name) is NameKind.CROWD else \
+            if self.symbols.kind_of(step.human.name) in (NameKind.CROWD, NameKind.GROUP) else \
             self.symbols.resolve(step.human, NameKind.HUMAN, role=f"the subject of {task.kind}")
         self._bare_target(step, kind)
         self._task_options(step, kind)
@@ -759,10 +780,12 @@ class Checker:
                                          non_negative=True)
                 case ast.AllReach(group=group, target=target) | \
                         ast.AnyReaches(group=group, target=target):
-                    self.symbols.resolve(group, NameKind.CROWD, role="`all`/`any`")
+                    self.symbols.resolve(group, NameKind.CROWD, NameKind.GROUP,
+                                         role="`all`/`any`")
                     self._target(target, "the target of `reach`")
                 case ast.CountIn(group=group, area=area, threshold=threshold):
-                    self.symbols.resolve(group, NameKind.CROWD, role="count(...)")
+                    self.symbols.resolve(group, NameKind.CROWD, NameKind.GROUP,
+                                         role="count(...)")
                     self._area(area, "count(...)")
                     self.values.integer(threshold, "a count", minimum=0)
                 case ast.InsideCondition(subject=subject, area=area):

@@ -84,12 +84,16 @@ class Lowering:
 
     def __init__(self, source: SourceFile, places: Mapping[str, Pose],
                  areas: Mapping[str, Polygon], bounds: Polygon | None,
-                 groups: Mapping[str, tuple[str, ...]] | None = None) -> None:
+                 groups: Mapping[str, tuple[str, ...]] | None = None,
+                 formations: Mapping[str, tuple[float, float]] | None = None) -> None:
         self.source = source
         self.places = places
         self.areas = areas
         self.bounds = bounds
-        self.groups = groups or {}   # a crowd's name -> its members
+        self.groups = groups or {}   # a crowd's or group's name -> its members
+        # a group's name -> where it starts (the centroid of its members' starts): a group
+        # sent to a point arrives side by side, abreast across its way there
+        self.formations = formations or {}
 
     # ---- activities ------------------------------------------------------------------------
 
@@ -102,10 +106,12 @@ class Lowering:
         label = _label(step.label)
         match step:
             case ast.TaskStep() if step.human.name in self.groups:
-                # a task given to a crowd is given to every member; it ends when all have
-                return m.ParallelStep(tuple(self.step(replace(
-                    step, human=ast.NameRef(member, step.human.span), label=None))
-                    for member in self.groups[step.human.name]), step.span, label,
+                # a task given to a crowd or group is given to every member; it ends when all
+                # have
+                members = self.groups[step.human.name]
+                return m.ParallelStep(tuple(
+                    self._member_step(step, member, index, members)
+                    for index, member in enumerate(members)), step.span, label,
                     crowd=step.human.name)
             case ast.TaskStep():
                 return m.TaskStep(step.human.name, self.task(step.task),
@@ -130,6 +136,21 @@ class Lowering:
             case ast.SequenceStep():
                 return m.SequenceStep(tuple(self.step(s) for s in step.steps), step.span, label)
         raise TypeError(f"not a step: {step!r}")
+
+    def _member_step(self, step: ast.TaskStep, member: str, index: int,
+                     members: tuple[str, ...]) -> m.Step:
+        lowered = self.step(replace(step, human=ast.NameRef(member, step.human.span),
+                                    label=None))
+        group = step.human.name
+        if not isinstance(lowered, m.TaskStep) or group not in self.formations:
+            return lowered
+        task = lowered.task
+        if task.kind in ("move_to", "run_to") and isinstance(task.target, tuple):
+            offset = _abreast(self.formations[group], task.target, index, len(members))
+            task = replace(task, target=(task.target[0] + offset[0], task.target[1] + offset[1]))
+        elif task.kind == "talk" and "to" not in task.arguments:
+            task = replace(task, arguments={**task.arguments, "to": group})  # face its centre
+        return replace(lowered, task=task)
 
     def task(self, task: ast.Task) -> Task:
         kind = TASKS.get(task.kind)
@@ -236,6 +257,21 @@ class Lowering:
         line = self.source.line(span.line)
         end = span.end_column - 1 if span.end_line == span.line else len(line)
         return line[span.column - 1:end].strip().removeprefix("expect").strip()
+
+
+GROUP_SPACING = 0.7  # m between neighbours of a group walking abreast
+
+
+def _abreast(start: tuple[float, float], goal: tuple[float, float], index: int,
+             count: int) -> tuple[float, float]:
+    """Member `index`'s offset from the group's goal: side by side across the way there."""
+    dx, dy = goal[0] - start[0], goal[1] - start[1]
+    length = math.hypot(dx, dy)
+    if length < 1e-9:
+        return (0.0, 0.0)
+    across = (-dy / length, dx / length)
+    shift = (index - (count - 1) / 2) * GROUP_SPACING
+    return (across[0] * shift, across[1] * shift)
 
 
 def _label(ref: ast.NameRef | None) -> c.Label | None:

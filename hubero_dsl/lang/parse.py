@@ -561,6 +561,11 @@ class _ToAst(Transformer[Token, Any]):
         return ast.CrowdDecl(self._name(name), number, area, _heading_in(rest), params,
                              self._span(meta))
 
+    def group(self, meta: Any, children: list[Any]) -> ast.GroupDecl:
+        name, *members = children
+        return ast.GroupDecl(self._name(name), tuple(self._name(m) for m in members),
+                             self._span(meta))
+
     def robot(self, meta: Any, children: list[Any]) -> ast.RobotDecl:
         name, start, *rest = children
         heading = _heading_in(rest)

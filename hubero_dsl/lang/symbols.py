@@ -24,6 +24,7 @@ class NameKind(StrEnum):
     AREA = "area"
     HUMAN = "human"
     CROWD = "crowd"
+    GROUP = "group"
     ROBOT = "robot"
     VARIANT = "variant"
     ACTIVITY = "activity"

@@ -131,6 +131,7 @@ class Program:
     activities: tuple[Activity, ...]
     expectations: tuple[Expectation, ...]
     graph: nx.DiGraph
+    groups: Mapping[str, tuple[str, ...]] = field(default_factory=dict)  # walk together
 
     @property
     def human_names(self) -> list[str]:

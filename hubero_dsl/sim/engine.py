@@ -9,7 +9,7 @@ with array comparisons, and only the humans with an event wake their behaviour.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -35,6 +35,8 @@ NEVER = np.iinfo(np.int64).max
 LOOKAHEAD = 0.6         # m: a waypoint this close counts as passed
 ALIGNED = math.radians(3.0)
 PROGRESS = 0.5          # m a walking human must make within `stuck_time`
+GROUP_SPACING = 0.7     # m between neighbours of a walking group
+GROUP_PULL = 1.0        # 1/s: m/s towards the group's centre per metre too far from it
 _STANDING = int(Posture.STANDING)  # an int compares with the posture array faster than an enum
 
 
@@ -45,7 +47,8 @@ class Engine:
                  global_planners: list[GlobalPlanner], local_planners: dict[str, LocalPlanner],
                  local_planner_of: list[str], follow_replan: FloatArray,
                  rng_for: Callable[[str, int], np.random.Generator],
-                 stuck_time: float = 20.0) -> None:
+                 stuck_time: float = 20.0,
+                 groups: Mapping[str, IntArray] | None = None) -> None:
         self.grid = grid
         self.humans = humans
         self.robots = robots
@@ -64,6 +67,7 @@ class Engine:
         self._not_robot.setflags(write=False)
         self._crowd_shapes: tuple[ShapeArrays, ShapeArrays, ShapeArrays] | None = None
         self._separation = physics.BodySeparation()
+        self.groups = dict(groups or {})  # a group's name -> its members' rows
         self._reactions = (Reactions(humans.reaction, dt) if humans.reaction is not None
                            else None)
         self._rng_for = rng_for
@@ -101,6 +105,9 @@ class Engine:
             return None
         if target in self.humans.names:
             x, y = self.humans.position[self.index_of(target)]
+            return (float(x), float(y))
+        if target in self.groups:  # a group's centre: where its members face when talking
+            x, y = self.humans.position[self.groups[target]].mean(axis=0)
             return (float(x), float(y))
         return self.robots.position_of(target)
 
@@ -344,11 +351,37 @@ class Engine:
                 if len(steer):
                     velocity[steer] = self._local[name].velocities(crowd, self._drive(steer),
                                                                    self.dt)
+            if self.groups:
+                velocity = self._keep_together(velocity)
             if self._reactions is not None and self.robots.count:
                 velocity = self._react(velocity, steering)
         if humans.teleop.any():
             teleop = humans.teleop.nonzero()[0]
             velocity[teleop] = humans.teleop_velocity[teleop]
+        return velocity
+
+    def _keep_together(self, velocity: FloatArray) -> FloatArray:
+        """Walking group members who fall apart are drawn to their walking companions' centre
+        (the attraction of Moussaid et al. 2010, as a velocity): farther than (n - 1) / 2
+        spacings from it, a member steers towards it at GROUP_PULL per metre too far."""
+        h = self.humans
+        for rows in self.groups.values():
+            walking = rows[h.moving[rows]]
+            if len(walking) < 2:
+                continue
+            centre = h.position[walking].mean(axis=0)
+            offset = centre - h.position[walking]
+            distance = physics.lengths(offset)
+            slack = (len(walking) - 1) / 2 * GROUP_SPACING
+            far = distance > slack
+            if far.any():
+                pull = offset[far] / distance[far, None] * (
+                    GROUP_PULL * (distance[far] - slack))[:, None]
+                moved = velocity[walking[far]] + pull
+                limit = h.max_speed[walking[far]]
+                speed = physics.lengths(moved)
+                velocity[walking[far]] = moved * np.minimum(1.0, limit / np.maximum(
+                    speed, 1e-9))[:, None]
         return velocity
 
     def _react(self, velocity: FloatArray, steering: list[tuple[str, IntArray]]) -> FloatArray:

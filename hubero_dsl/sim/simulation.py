@@ -196,6 +196,8 @@ class Simulation:
         return Engine(grid=program.grid, humans=humans, robots=robots, dt=program.step,
                       global_planners=global_of, local_planners=local, local_planner_of=local_of,
                       follow_replan=follow_replan,
+                      groups={name: np.array([names.index(m) for m in members], dtype=np.intp)
+                              for name, members in program.groups.items()},
                       rng_for=lambda purpose, i: np.random.default_rng(
                           stable_seed(seed, purpose, names[i])))
 

@@ -1,0 +1,75 @@
+"""Groups: people who walk together, arrive side by side, and talk facing their centre."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hubero_dsl.pipeline import check_source, compile_source
+from hubero_dsl.sim.loop import run_program
+from hubero_dsl.sim.simulation import Simulation
+from hubero_dsl.sim.status import TaskStatus
+
+FAMILY = """\
+human mum at (1.5, 4.0)
+human dad at (1.5, 4.8)
+human kid at (1.0, 4.4) { radius 0.15 m; speed 0.7 m/s }
+"""
+
+
+def _text(room_map: Path, body: str) -> str:
+    return f'scenario "g"\nmap "{room_map}"\n' + body
+
+
+def _spread(room_map: Path, grouped: bool) -> tuple[float, list[tuple[float, float]]]:
+    """The widest a member strays from the family's centre while they walk; where they end."""
+    group = "group family of (mum, dad, kid)\n" if grouped else ""
+    task = ("activity { family move_to (8, 4) }" if grouped else
+            "activity { parallel { mum move_to (8, 4); dad move_to (8, 4.7); "
+            "kid move_to (8, 3.3) } }")
+    sim = Simulation(compile_source(_text(room_map, FAMILY + group + task + "\n"), "t.hub"))
+    widest = [0.0]
+
+    def observe(s: Simulation) -> None:
+        h = s.engine.humans
+        if h.moving.all():
+            widest[0] = max(widest[0], float(np.hypot(*(h.position - h.position.mean(axis=0)
+                                                       ).T).max()))
+
+    result = run_program(sim, [observe])
+    assert all(e.status is not TaskStatus.ABORTED for e in result.events)
+    return widest[0], [sim.human(n).position for n in ("mum", "dad", "kid")]
+
+
+def test_a_group_keeps_together_and_arrives_side_by_side(room_map: Path) -> None:
+    together, ends = _spread(room_map, grouped=True)
+    apart, _ = _spread(room_map, grouped=False)
+    assert together < apart - 0.3      # the fast ones wait for the kid
+    assert together < 1.5
+    for a, b in ((0, 1), (0, 2), (1, 2)):
+        assert math.dist(ends[a], ends[b]) > 0.5   # abreast, not on one point
+    assert all(math.dist(end, (8.0, 4.0)) < 1.0 for end in ends)
+
+
+def test_a_group_talks_facing_its_centre(room_map: Path) -> None:
+    program = compile_source(_text(room_map, FAMILY + "group family of (mum, dad, kid)\n"
+                                   "activity { family talk for 2 s }\n"), "t.hub")
+    sim = Simulation(program)
+    run_program(sim)
+    centre = np.mean([sim.human(n).position for n in ("mum", "dad", "kid")], axis=0)
+    for name in ("mum", "dad", "kid"):
+        x, y = sim.human(name).position
+        bearing = math.atan2(centre[1] - y, centre[0] - x)
+        assert abs(math.remainder(bearing - sim.human(name).heading, math.tau)) < 0.1
+
+
+@pytest.mark.parametrize(("body", "code"), [
+    (FAMILY + "group a of (mum, dad)\ngroup b of (dad, kid)\n", "E113"),
+    (FAMILY + "group a of (mum, nobody)\n", "E101"),
+    (FAMILY + "group a of (mum)\n", "E203"),
+])
+def test_group_mistakes_are_reported(room_map: Path, body: str, code: str) -> None:
+    assert code in {d.code for d in check_source(_text(room_map, body), "t.hub").errors}
