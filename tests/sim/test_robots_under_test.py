@@ -7,6 +7,7 @@ import math
 import os
 import subprocess
 import sys
+import sysconfig
 from pathlib import Path
 
 import numpy as np
@@ -324,3 +325,44 @@ def test_a_scripted_path_through_a_wall_is_warned_about(room_map: Path, tmp_path
     result = check_source(text, str(tmp_path / "t.hub"))
     (warning,) = [w for w in result.warnings if w.code == "W503"]
     assert "between (2, 2) and (8, 2)" in warning.message
+
+
+@pytest.mark.slow
+def test_a_plugin_controller_installed_with_pip_in_a_venv(tmp_path: Path) -> None:
+    """The whole way a user goes: a package declaring `[hubero.controllers]`, installed with
+    pip into a virtual environment, named in a scenario and run by that environment's hubero."""
+    package = tmp_path / "pkg"
+    (package / "waypointer").mkdir(parents=True)
+    (package / "pyproject.toml").write_text(
+        '[build-system]\nrequires = ["setuptools"]\nbuild-backend = "setuptools.build_meta"\n'
+        '[project]\nname = "waypointer"\nversion = "0.1"\n'
+        '[project.entry-points."hubero.controllers"]\nwaypointer = "waypointer:Waypointer"\n')
+    (package / "waypointer" / "__init__.py").write_text(
+        "from hubero_dsl.controllers.base import ControllerParams\n"
+        "class Waypointer:\n    Params = ControllerParams\n"
+        "    def __init__(self, body, params):\n        self.body = body\n"
+        "    def command(self, observation):\n"
+        "        if observation.goal is None:\n            return (0.0, 0.0)\n"
+        "        dx = observation.goal[0] - observation.position[0]\n"
+        "        dy = observation.goal[1] - observation.position[1]\n"
+        "        d = max((dx * dx + dy * dy) ** 0.5, 1e-9)\n"
+        "        return (0.5 * dx / d, 0.5 * dy / d)\n")
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, timeout=120)
+    python = venv / "bin" / "python"
+    # the new environment sees this one's packages (hubero among them) beneath its own
+    purelib = subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig."
+                              "get_paths()['purelib'])"], capture_output=True, text=True,
+                             check=True).stdout.strip()
+    (Path(purelib) / "outer.pth").write_text(
+        f"import site; site.addsitedir({sysconfig.get_paths()['purelib']!r})\n")
+    installed = subprocess.run([str(python), "-m", "pip", "install", "--quiet", "--no-deps",
+                                str(package)],
+                               capture_output=True, text=True, timeout=300, check=False)
+    if installed.returncode != 0:
+        pytest.skip(f"the package could not be built here: {installed.stderr[-300:]}")
+    file = _scenario_file(tmp_path, "robot r at (2, 4) { controller waypointer }\n")
+    done = subprocess.run([str(python), "-m", "hubero_dsl", "test", str(file)], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120, check=False)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "1 passed, 0 failed" in done.stdout
