@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 from hubero_dsl.diagnostics import Diagnostic, Related, Span, error, warning
 from hubero_dsl.errors import MapError
 from hubero_dsl.lang import ast
+from hubero_dsl.world.grid import REACH_MARGIN
 
 if TYPE_CHECKING:
     from shapely.geometry import Polygon
@@ -101,17 +102,23 @@ def place_crowd(grid: OccupancyGrid, name: str, count: int, area: Polygon, radiu
                 taken: list[tuple[float, float, float]], seed: int, span: Span,
                 diagnostics: list[Diagnostic]) -> list[tuple[float, float]]:
     """Seeded random places in `area` where `count` bodies of `radius` fit, clear of the
-    obstacles and of every body already placed (`taken`: x, y, radius; extended here). Fewer
-    than `count` places is error E406."""
+    obstacles and of every body already placed (`taken`: x, y, radius; extended here), all in
+    the largest part of the area a body can walk through. Fewer than `count` places is error
+    E406."""
     import zlib
 
     import numpy as np
     import shapely
 
-    fits = grid.free_mask(radius)
-    rows, cols = np.nonzero(fits)
+    labels = grid.components(radius + REACH_MARGIN)  # where it may wander, not just fit
+    rows, cols = np.nonzero(labels)
     centres = grid.cell_to_world(np.stack((rows, cols), axis=-1))
     inside = shapely.contains_xy(area, centres[:, 0], centres[:, 1])
+    # the area's largest connected part: nobody starts in a pocket cut off from the rest
+    inside_labels = labels[rows[inside], cols[inside]]
+    if len(inside_labels):
+        main = np.bincount(inside_labels).argmax()
+        inside &= labels[rows, cols] == main
     candidates = centres[inside]
     rng = np.random.default_rng([seed, zlib.crc32(f"crowd {name}".encode())])
     order = rng.permutation(len(candidates))

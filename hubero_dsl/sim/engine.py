@@ -22,6 +22,7 @@ from hubero_dsl.sim.behaviours import Behaviour
 from hubero_dsl.sim.reactions import Reactions
 from hubero_dsl.sim.robots import Robots
 from hubero_dsl.sim.status import Posture, TaskEvent, TaskHandle, TaskStatus
+from hubero_dsl.world.grid import REACH_MARGIN
 from hubero_dsl.world.shapes import ShapeArrays, lateral_extent
 
 if TYPE_CHECKING:
@@ -196,7 +197,7 @@ class Engine:
     def _reachable_cells(self, index: int, area: Polygon | None) -> IntArray:
         """Free cells reachable from the human (inside `area`), cached per region and area:
         every wanderer of a run draws from the same few arrays."""
-        radius = float(self.humans.radius[index]) + 0.05
+        radius = float(self.humans.radius[index]) + REACH_MARGIN
         start = (float(self.humans.position[index, 0]), float(self.humans.position[index, 1]))
         reachable = self.grid.reachable_mask(start, radius)
         key = (id(reachable), area.wkb if area is not None else b"")

@@ -121,6 +121,9 @@ def _obstacle_field(occupied: BoolArray, resolution: float
     return _read_only(distances), _read_only(nearest)
 
 
+REACH_MARGIN = 0.05  # m beyond a body's radius that reachable cells keep from obstacles
+
+
 @dataclass(frozen=True, eq=False)
 class OccupancyGrid:
     """A 2-D occupancy map on a regular grid, with cached distance and connectivity fields."""
@@ -441,6 +444,11 @@ class OccupancyGrid:
         """(rows, cols) cells with clearance > `body_radius`: where that body's centre fits."""
         radius = _check_radius(body_radius)
         return self._cached(("free", radius), lambda: self.clearance > radius)
+
+    def components(self, radius: float) -> npt.NDArray[np.int32]:
+        """Connected components (8-connected) of free_mask(radius): 0 marks blocked cells,
+        cells with the same label can reach each other."""
+        return self._components(radius)
 
     def _components(self, radius: float) -> npt.NDArray[np.int32]:
         """Connected components (8-connected) of free_mask(radius); 0 marks blocked cells."""
