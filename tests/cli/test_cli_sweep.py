@@ -192,19 +192,19 @@ def test_workers_end_with_a_killed_sweep(tmp_path: Path) -> None:
     """SIGKILL cannot be passed on: the workers notice their sweep is gone and stop."""
     psutil = pytest.importorskip("psutil")
     out = tmp_path / "out"
-    process = _long_sweep(tmp_path, out, jobs=2)
+    environment = {k: v for k, v in os.environ.items() if k != "HUBERO_DEBUG"}
+    process = subprocess.Popen(  # no pipes: the workers would hold them open
+        [sys.executable, "-m", "hubero_dsl", "sweep", scenario(tmp_path, LONG), "--seeds",
+         "1..8", "--jobs", "2", "--out-dir", str(out)],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=environment)
     deadline = time.monotonic() + 60
-    family: list[object] = []
-    while time.monotonic() < deadline:
-        family = psutil.Process(process.pid).children(recursive=True)
-        if len(family) >= 3:  # the fork server and two workers
-            break
-        time.sleep(0.1)
-    time.sleep(1.0)  # the workers are in their runs
+    while time.monotonic() < deadline and not list(out.glob("runs/*/*.part")):
+        time.sleep(0.1)  # the workers are in their runs
     family = psutil.Process(process.pid).children(recursive=True)
+    assert len(family) >= 2
     process.kill()
-    process.communicate(timeout=30)
-    _, alive = psutil.wait_procs(family, timeout=20)
+    process.wait(timeout=30)
+    _, alive = psutil.wait_procs(family, timeout=30)
     assert alive == []
     assert not list(out.glob("runs/*/*.part"))
 
