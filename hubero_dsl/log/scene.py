@@ -176,6 +176,7 @@ class SceneBuilder:
     def __init__(self, humans: list[str], radius: list[float], shapes: list[Shape],
                  robots: list[str], robot_radius: list[float]) -> None:
         self._names = humans
+        self._row = {name: row for row, name in enumerate(humans)}
         self._radius = radius
         self._shapes = shapes
         count = len(humans)
@@ -210,7 +211,7 @@ class SceneBuilder:
     def _update_bodies(self, frame: FrameState, status: npt.NDArray[np.int8]) -> bool:
         removed = np.zeros(len(self._names), dtype=np.int64)
         if frame.removed:
-            removed[[i for i, name in enumerate(self._names) if name in frame.removed]] = 1
+            removed[[self._row[name] for name in frame.removed if name in self._row]] = 1
         if frame.present is not None:  # coming and going changes the scene too
             removed[~frame.present] = 2
         key = np.column_stack([frame.posture.astype(np.int64), status.astype(np.int64),
