@@ -59,6 +59,18 @@ def add_live_options(parser: argparse.ArgumentParser) -> None:
                            "serving until it disconnects")
 
 
+def refuse_live(parser: argparse.ArgumentParser, advice: str) -> None:
+    """`--live` on a command that does not watch one run: a usage error saying what to do
+    instead, rather than argparse's "unrecognized arguments"."""
+
+    class Refused(argparse.Action):
+        def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                     values: Any, option: str | None = None) -> None:
+            parser.error(f"--live watches one run as it runs: {advice}")
+
+    parser.add_argument("--live", nargs=0, action=Refused, help=argparse.SUPPRESS)
+
+
 def _port(text: str) -> int:
     if not text.isdigit() or int(text) > 65535:
         raise argparse.ArgumentTypeError(f"invalid port '{text}': give a number from 0 to "
@@ -66,13 +78,14 @@ def _port(text: str) -> int:
     return int(text)
 
 
-def _pace(text: str) -> float | None:
+def _pace(text: str) -> str:
     from hubero_dsl.log.live import parse_pace
 
     try:
-        return parse_pace(text)
+        parse_pace(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
+    return text  # kept as written: None is "not given", while max parses to None
 
 
 def add_run_options(parser: argparse.ArgumentParser) -> None:
@@ -213,9 +226,10 @@ def _run_live(program: Program, variant: str | None, output: Path | None,
               args: argparse.Namespace, controllers: dict[str, type]) -> RunResult:
     """Run one variant while serving it; with --live-wait, from the first client to its
     leaving (Ctrl-C after the end stops serving, and the run's status stands)."""
-    from hubero_dsl.log.live import DEFAULT_HOST, DEFAULT_PORT, LiveServer
+    from hubero_dsl.log.live import DEFAULT_HOST, DEFAULT_PACE, DEFAULT_PORT, LiveServer, parse_pace
 
-    pace = 1.0 if args.pace is None else args.pace
+    _show_server_warnings()
+    pace = parse_pace(args.pace or DEFAULT_PACE)
     with LiveServer(host=args.host or DEFAULT_HOST,
                     port=DEFAULT_PORT if args.port is None else args.port, pace=pace,
                     wait=args.live_wait) as live:
@@ -234,6 +248,21 @@ def _run_live(program: Program, variant: str | None, output: Path | None,
             with contextlib.suppress(KeyboardInterrupt):  # also SIGTERM: stop serving, and
                 live.serve_until_clients_leave()        # report the run as it ended
     return result
+
+
+def _show_server_warnings() -> None:
+    """The SDK's server logs through `logging` (a client dropped, a slow client's messages
+    dropped): its warnings are shown as hubero's own lines, on stderr as it is then."""
+    import logging
+
+    class Say(logging.Handler):
+        def emit(self, record: logging.LogRecord) -> None:
+            with contextlib.suppress(OSError, ValueError):
+                print(f"hubero: live: {record.getMessage()}", file=sys.stderr, flush=True)
+
+    logger = logging.getLogger("foxglove")
+    logger.handlers = [Say(logging.WARNING)]  # replaced, not added: one line per warning
+    logger.propagate = False
 
 
 def run_one(program: Program, variant: str | None, seed: int | None, output: Path | None,

@@ -24,6 +24,7 @@ changes): a client that subscribes to them after they went out gets the last one
 from __future__ import annotations
 
 import math
+import re
 import threading
 import time
 from collections.abc import Sequence
@@ -41,6 +42,7 @@ if TYPE_CHECKING:
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8765
+DEFAULT_PACE = "1x"
 LATCHED = (s.MAP_TOPIC, s.SCENE_TOPIC)  # state: sent again to a client that subscribes late
 SETTLE = 0.5  # s after a client's first subscription for the rest of its subscriptions to land
 POLL = 0.05  # s between looks at the clients while waiting (short: Ctrl-C is seen between)
@@ -54,11 +56,8 @@ def parse_pace(text: str) -> float | None:
     """`1x`, `10x`, `0.5x` -> the factor; `max` -> None (no waiting). ValueError otherwise."""
     if text == "max":
         return None
-    number = text[:-1] if text.endswith("x") else ""
-    try:
-        factor = float(number)
-    except ValueError:
-        factor = math.nan
+    written = re.fullmatch(r"(\d+(?:\.\d*)?|\.\d+)x", text)
+    factor = float(written[1]) if written else 0.0
     if not (math.isfinite(factor) and factor > 0):
         raise ValueError(f"invalid pace '{text}': give a factor of real time such as 1x, 10x "
                          "or 0.5x, or max")

@@ -172,9 +172,8 @@ def test_a_late_client_gets_the_map_and_the_scene(started: Callable[..., subproc
                                                   tmp_path: Path) -> None:
     process = started(LIVING_ROOM, "--live", "--port", "0", "--pace", "2x", "--no-log",
                       "--quiet")
-    assert process.stderr is not None
-    process.stderr.close()  # --quiet prints no address: find the port from the process
-    # (the run is paced, so it is still going when the client subscribes)
+    # --quiet prints no address: find the port from the process (the run is paced, so it is
+    # still going when the client subscribes)
     address = _listening_address(process.pid)
     with connect(address, subprotocols=PROTOCOLS, open_timeout=TIMEOUT) as ws:
         channels = _channels(ws)
@@ -191,6 +190,40 @@ def test_a_late_client_gets_the_map_and_the_scene(started: Callable[..., subproc
                     assert grid["frame_id"] == "map"
     process.send_signal(signal.SIGINT)
     assert process.wait(TIMEOUT) == 130
+    assert process.stderr is not None
+    assert process.stderr.read() == "hubero: interrupted\n"
+
+
+@pytest.mark.parametrize("sent", [signal.SIGINT, signal.SIGTERM])
+def test_after_the_end_ctrl_c_stops_serving_and_the_run_status_stands(
+        started: Callable[..., subprocess.Popen[str]], sent: signal.Signals) -> None:
+    process = started(LIVING_ROOM, "--live", "--live-wait", "--port", "0", "--pace", "max",
+                      "--no-log")
+    address = _address(process)
+    assert process.stderr is not None
+    # (an unbounded queue: the client reads nothing more, and must still see the server go)
+    with connect(address, subprotocols=PROTOCOLS, open_timeout=TIMEOUT, max_queue=None) as ws:
+        channels = _channels(ws)
+        ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+            {"id": 1, "channelId": next(iter(channels))}]}))
+        subscribed = time.monotonic()
+        while "the run has ended" not in process.stderr.readline():
+            assert process.poll() is None
+        # at max pace nothing waits: far sooner than the 19.25 s real time would take
+        assert time.monotonic() - subscribed < RUN_SECONDS * 0.75
+        time.sleep(0.2)
+        assert process.poll() is None  # held while the client is there
+        process.send_signal(sent)
+        assert process.wait(TIMEOUT) == 0
+    assert process.stdout is not None and "completed" in process.stdout.read()
+
+
+@pytest.mark.parametrize("command", [["sweep", "--out-dir", "out"], ["test"]])
+def test_commands_of_many_runs_refuse_live(cli: Run, command: list[str]) -> None:
+    outcome = cli(command[0], LIVING_ROOM, *command[1:], "--live")
+    assert outcome.status == 2
+    assert "--live watches one run as it runs" in outcome.err
+    assert "hubero run FILE --live" in outcome.err
 
 
 def _listening_address(pid: int) -> str:
