@@ -31,12 +31,13 @@ from collections.abc import Sequence
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, cast
 
+import numpy as np
+
 from hubero_dsl.errors import InputError
 from hubero_dsl.log import schemas as s
 from hubero_dsl.log.container import message_payloads
 
 if TYPE_CHECKING:
-    import numpy as np
     import numpy.typing as npt
     from foxglove.websocket import ServerListener
 
@@ -87,6 +88,9 @@ class LiveServer:
         self._by_sdk_id: dict[int, int] = {}  # the SDK's channel id -> ours
         self._latched: dict[int, bytes] = {}  # our channel id -> its last message
         self._latched_channels: set[int] = set()
+        self._watched_sdk_ids: frozenset[int] = frozenset()
+        self._watched_ids: frozenset[int] = frozenset()
+        self._watched_array = np.zeros(0, dtype=np.uint16)
         try:
             self._server = foxglove.start_server(
                 name=name, host=host, port=port, context=self._context,
@@ -158,12 +162,16 @@ class LiveServer:
 
     def add_message(self, channel: int, log_time: int, data: bytes, sequence: int = 0) -> None:
         self._advance(log_time)
-        self._publish(channel, log_time, bytes(data))
+        if channel in self._watched() or channel in self._latched_channels:
+            self._publish(channel, log_time, bytes(data))
 
     def add_block(self, data: bytes | memoryview, channels: npt.NDArray[np.uint16],
                   offsets: npt.NDArray[np.uint64], log_time: int) -> None:
         self._advance(log_time)
-        for channel, payload in message_payloads(data, offsets):
+        if not self._watched():  # a frame is two messages per human: skip what nobody reads
+            return
+        chosen = offsets[np.isin(channels, self._watched_array)]
+        for channel, payload in message_payloads(data, chosen):
             self._publish(channel, log_time, bytes(payload))
 
     def finish(self) -> None:
@@ -173,6 +181,16 @@ class LiveServer:
         pass
 
     # ---- publishing -------------------------------------------------------------------------
+
+    def _watched(self) -> frozenset[int]:
+        """Our ids of the channels some client is subscribed to, updated as that changes."""
+        sdk_ids = self._clients.channels
+        if sdk_ids is not self._watched_sdk_ids:
+            self._watched_sdk_ids = sdk_ids
+            self._watched_ids = frozenset(self._by_sdk_id[i] for i in sdk_ids
+                                          if i in self._by_sdk_id)
+            self._watched_array = np.fromiter(self._watched_ids, dtype=np.uint16)
+        return self._watched_ids
 
     def _publish(self, channel: int, log_time: int, data: bytes) -> None:
         if channel in self._latched_channels:
@@ -213,11 +231,15 @@ class _Clients:
         self._lock = threading.Lock()
         self._subscribed: dict[int, set[int]] = {}  # client id -> SDK channel ids
         self._new: list[int] = []
+        # the SDK channel ids anyone is subscribed to: a new set on each change, so that the
+        # publishing thread reads it without the lock
+        self.channels: frozenset[int] = frozenset()
 
     def on_subscribe(self, client: Any, channel: Any) -> None:
         with self._lock:
             self._subscribed.setdefault(client.id, set()).add(channel.id)
             self._new.append(channel.id)
+            self.channels = frozenset().union(*self._subscribed.values())
 
     def on_unsubscribe(self, client: Any, channel: Any) -> None:  # also when a client leaves
         with self._lock:
@@ -225,6 +247,7 @@ class _Clients:
             channels.discard(channel.id)
             if not channels:
                 self._subscribed.pop(client.id, None)
+            self.channels = frozenset().union(*self._subscribed.values())
 
     def any(self) -> bool:
         with self._lock:
