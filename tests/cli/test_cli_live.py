@@ -258,6 +258,17 @@ def test_ctrl_c_and_sigterm_stop_a_live_run_cleanly(
     assert list(tmp_path.iterdir()) == []  # no log, no temporary file
 
 
+def test_ctrl_c_while_waiting_for_a_client_leaves_nothing(
+        started: Callable[..., subprocess.Popen[str]], tmp_path: Path) -> None:
+    process = started(LIVING_ROOM, "--live", "--live-wait", "--port", "0", "-o", "run.mcap")
+    _address(process)
+    assert process.stderr is not None
+    assert "starts when a client subscribes" in process.stderr.readline()
+    process.send_signal(signal.SIGINT)
+    assert process.wait(TIMEOUT) == 130
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_port_in_use_is_a_clear_error(cli: Run) -> None:
     with socket.socket() as taken:
         taken.bind(("127.0.0.1", 0))
