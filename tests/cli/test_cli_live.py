@@ -279,6 +279,12 @@ def test_a_port_in_use_is_a_clear_error(cli: Run) -> None:
     assert f"cannot serve the run live on 127.0.0.1:{port}: the port is in use" in outcome.err
 
 
+def test_an_address_that_cannot_be_listened_on_is_a_clear_error(cli: Run) -> None:
+    outcome = cli("run", LIVING_ROOM, "--live", "--host", "nowhere.invalid", "--no-log")
+    assert outcome.status == 2
+    assert "cannot serve the run live on nowhere.invalid:8765: " in outcome.err
+
+
 @pytest.mark.parametrize("pace", ["fast", "0x", "-1x", "nanx", "infx", "10", "x", ""])
 def test_a_bad_pace_is_a_usage_error(cli: Run, pace: str) -> None:
     outcome = cli("run", LIVING_ROOM, "--live", f"--pace={pace}")
