@@ -230,15 +230,18 @@ def _run_live(program: Program, variant: str | None, output: Path | None,
 
     _show_server_warnings()
     pace = parse_pace(args.pace or DEFAULT_PACE)
-    with LiveServer(host=args.host or DEFAULT_HOST,
-                    port=DEFAULT_PORT if args.port is None else args.port, pace=pace,
-                    wait=args.live_wait) as live:
+
+    def ready(live: LiveServer) -> None:  # every channel advertised: clients may come
         if not args.quiet:
             print(f"hubero: serving the run live on {live.address} (Foxglove: Open "
                   "connection, Foxglove WebSocket)", file=sys.stderr, flush=True)
         if args.live_wait and not args.quiet:
             print("hubero: the run starts when a client subscribes", file=sys.stderr,
                   flush=True)
+
+    with LiveServer(host=args.host or DEFAULT_HOST,
+                    port=DEFAULT_PORT if args.port is None else args.port, pace=pace,
+                    wait=args.live_wait, on_ready=ready) as live:
         result = run_one(program, variant, args.seed, output, args.log_rate, quiet=args.quiet,
                          controllers=controllers, live=live)
         if args.live_wait:

@@ -14,8 +14,11 @@ after the first one (1.0 is real time; None, `max`, waits for nothing). The wait
 in the encoder's calls, outside the simulation: the run computes the same ticks and the log
 gets the same bytes whatever the pace, only later.
 
-With `wait`, the first message waits until a client has subscribed (the channels are all
-advertised by then, so the client can choose): the run starts when someone watches.
+`on_ready(server)` is called once every channel is advertised, before the first message: a
+client that connects from then on is told of all of them at once (one that connects while they
+are being added may subscribe to a channel the SDK has advertised but not yet registered). With
+`wait`, the first message then waits until a client has subscribed: the run starts when
+someone watches.
 
 The map and the scene are state rather than events (`/map` is sent once, `/scene` when it
 changes): a client that subscribes to them after they went out gets the last one again.
@@ -27,7 +30,7 @@ import math
 import re
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, cast
 
@@ -69,7 +72,8 @@ class LiveServer:
     """A Foxglove WebSocket server that publishes a run's log as it is written."""
 
     def __init__(self, *, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT,
-                 pace: float | None = 1.0, wait: bool = False, name: str = "hubero") -> None:
+                 pace: float | None = 1.0, wait: bool = False, name: str = "hubero",
+                 on_ready: Callable[[LiveServer], None] | None = None) -> None:
         try:
             import foxglove
             from foxglove.websocket import Capability
@@ -81,6 +85,7 @@ class LiveServer:
         self._clients = _Clients()
         self._pace = pace
         self._wait = wait
+        self._on_ready = on_ready
         self._origin: float | None = None
         self._last_time = -1
         self._schemas: list[Any] = []
@@ -201,6 +206,9 @@ class LiveServer:
         """Wait for the wall clock to reach `log_time` at the pace; tell clients the time."""
         if log_time <= self._last_time:
             return
+        on_ready, self._on_ready = self._on_ready, None
+        if on_ready is not None:
+            on_ready(self)
         if self._wait:
             self._wait = False
             self._wait_for_client()

@@ -30,8 +30,6 @@ from websockets.typing import Subprotocol
 
 from tests.cli.conftest import REPO_ROOT, Outcome
 
-pytestmark = pytest.mark.slow
-
 LIVING_ROOM = str(REPO_ROOT / "scenarios" / "living_room.hub")
 RUN_SECONDS = 19.25  # how long living_room.hub runs in simulated time
 PROTOCOL = Subprotocol("foxglove.sdk.v1")
@@ -137,6 +135,7 @@ def _logged(path: Path) -> dict[str, list[tuple[int, bytes]]]:
     return messages
 
 
+@pytest.mark.slow  # a whole run in a subprocess
 def test_a_live_run_streams_what_the_log_holds(started: Callable[..., subprocess.Popen[str]],
                                                 tmp_path: Path, cli: Run) -> None:
     process = started(LIVING_ROOM, "--live", "--live-wait", "--port", "0", "--pace", "10x",
@@ -168,6 +167,7 @@ def test_a_live_run_streams_what_the_log_holds(started: Callable[..., subprocess
     assert (tmp_path / "live.mcap").read_bytes() == (tmp_path / "plain.mcap").read_bytes()
 
 
+@pytest.mark.slow  # a whole run in a subprocess
 def test_a_late_client_gets_the_map_and_the_scene(started: Callable[..., subprocess.Popen[str]],
                                                   tmp_path: Path) -> None:
     process = started(LIVING_ROOM, "--live", "--port", "0", "--pace", "2x", "--no-log",
@@ -194,6 +194,7 @@ def test_a_late_client_gets_the_map_and_the_scene(started: Callable[..., subproc
     assert process.stderr.read() == "hubero: interrupted\n"
 
 
+@pytest.mark.slow  # a whole run in a subprocess
 @pytest.mark.parametrize("sent", [signal.SIGINT, signal.SIGTERM])
 def test_after_the_end_ctrl_c_stops_serving_and_the_run_status_stands(
         started: Callable[..., subprocess.Popen[str]], sent: signal.Signals) -> None:
@@ -243,6 +244,7 @@ def _listening_address(pid: int) -> str:
     raise AssertionError("the run never listened")
 
 
+@pytest.mark.slow  # a whole run in a subprocess
 @pytest.mark.parametrize(("sent", "status", "said"), [
     (signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
 def test_ctrl_c_and_sigterm_stop_a_live_run_cleanly(
@@ -258,6 +260,7 @@ def test_ctrl_c_and_sigterm_stop_a_live_run_cleanly(
     assert list(tmp_path.iterdir()) == []  # no log, no temporary file
 
 
+@pytest.mark.slow  # a whole run in a subprocess
 def test_ctrl_c_while_waiting_for_a_client_leaves_nothing(
         started: Callable[..., subprocess.Popen[str]], tmp_path: Path) -> None:
     process = started(LIVING_ROOM, "--live", "--live-wait", "--port", "0", "-o", "run.mcap")
