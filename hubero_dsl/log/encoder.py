@@ -101,9 +101,9 @@ class LogEncoder:
                          for topic, name in s.TOPIC_SCHEMAS.items()}
         humans = self._setup.humans
         poses = self._out.add_channels([s.human_pose_topic(n) for n in humans],
-                                        schema_id[s.POSE_IN_FRAME])
+                                       schema_id[s.POSE_IN_FRAME])
         states = self._out.add_channels([s.human_state_topic(n) for n in humans],
-                                         schema_id[s.HUMAN_STATE])
+                                        schema_id[s.HUMAN_STATE])
         self._frame = FrameEncoder(humans, self._setup.robots, poses, states,
                                    self._setup.dt_ns)
         self._robot_states: list[int] = []
@@ -149,7 +149,7 @@ class LogEncoder:
         scene = self._scene.snapshot(frame, self._frame.status)
         if scene is not None:
             self._out.add_message(self._channel[s.SCENE_TOPIC], ns,
-                                   scene.replace(TIME_MARK, ts).encode())
+                                  scene.replace(TIME_MARK, ts).encode())
         tf, blocks = self._frame.encode(frame, self._frames)
         self._out.add_message(self._channel[s.TF_TOPIC], ns, tf)
         for block in blocks:

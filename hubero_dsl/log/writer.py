@@ -60,7 +60,6 @@ SAMPLE_EPSILON = 1e-9  # tick * dt * rate lands a hair below an integer for some
 WRITER_JOIN_TIMEOUT = 30.0  # s to wait for the writer process to wind down after a failure
 
 
-
 class RunLog:
     """An MCAP log of one run; a context manager whose `observe` is a run observer."""
 
