@@ -118,6 +118,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.log_rate <= 0:
         raise InputError("--log-rate must be greater than zero")
+    _check_live_options(args)
     program = compile_file(args.file)
     variants = variants_to_run(program, args)
     if args.output is not None and len(variants) > 1:
@@ -131,7 +132,6 @@ def run(args: argparse.Namespace) -> int:
     unknown = sorted(set(controllers) - {robot.name for robot in program.robots})
     if unknown:
         raise InputError(f"--controller: no robot named '{unknown[0]}' in {args.file}")
-    _check_live_options(args, variants)
     failed = False
     for variant in variants:
         output = _log_path(args, variant)
@@ -207,7 +207,7 @@ def handed_controllers(args: argparse.Namespace) -> dict[str, type]:
     return handed
 
 
-def _check_live_options(args: argparse.Namespace, variants: list[str | None]) -> None:
+def _check_live_options(args: argparse.Namespace) -> None:
     from hubero_dsl.errors import InputError
 
     if not args.live:
@@ -217,7 +217,7 @@ def _check_live_options(args: argparse.Namespace, variants: list[str | None]) ->
                  if value is not None]
         if given:
             raise InputError(f"{given[0]} is an option of --live: add --live to watch the run")
-    elif len(variants) > 1:
+    elif args.all_variants:
         raise InputError("--live serves one run: choose one with --variant NAME instead of "
                          "--all-variants")
 

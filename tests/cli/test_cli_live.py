@@ -310,6 +310,12 @@ def test_live_options_need_live(cli: Run, option: list[str]) -> None:
     assert f"{option[0]} is an option of --live" in outcome.err
 
 
+def test_live_options_are_checked_before_the_file_is_read(cli: Run) -> None:
+    outcome = cli("run", "missing.hub", "--pace", "2x")
+    assert outcome.status == 2
+    assert "--pace is an option of --live" in outcome.err
+
+
 def test_live_serves_one_run(cli: Run) -> None:
     outcome = cli("run", LIVING_ROOM, "--live", "--all-variants")
     assert outcome.status == 2
