@@ -6,8 +6,10 @@ The workload is the one of `benchmarks/crossing.py`: N humans on a circle (0.8 m
 open map each walk to the antipode (straight-line global planner, social force local planner,
 50 ms steps, personal space a 0.3 m circle). The scenario is compiled once; each repetition runs
 a fresh `Simulation` without a log, with a log encoded by a writer process (the default where
-the platform can fork) and with a log encoded in this process; the three are interleaved so that
-a busy machine disturbs them alike. Opening, every frame, closing and renaming are timed. Reported:
+the platform can fork), with a log encoded in this process, and (when foxglove-sdk is
+installed) with a log also served live at `max` pace to no client (`hubero run --live`, before
+anyone connects); these are interleaved so that a busy machine disturbs them alike. Opening,
+every frame, closing and renaming are timed. Reported:
 medians of wall time and of this process's CPU time, their ratios to the run without a log,
 the writer process's CPU time, the log's size and frame count.
 """
@@ -84,6 +86,20 @@ def run_logged(program: Program, output: Path, rate: float, writer_process: bool
     return 0
 
 
+def run_live(program: Program, output: Path, rate: float) -> int:
+    from hubero_dsl.log.live import LiveServer
+
+    with LiveServer(port=0, pace=None) as live:
+        simulate(program, log=output, log_rate=rate, live=live)
+    return 0
+
+
+def _live_available() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("foxglove") is not None
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -96,6 +112,8 @@ def main() -> None:
     modes.append(("in this process", False))
     times: dict[str, list[tuple[float, float, float, int]]] = {"no log": []}
     times.update({name: [] for name, _ in modes})
+    if _live_available():
+        times["live, no client"] = []
     frames, size = 0, 0
     with tempfile.TemporaryDirectory() as name:
         folder = Path(name)
@@ -106,6 +124,9 @@ def main() -> None:
             for mode, writer_process in modes:
                 times[mode].append(timed(
                     lambda w=writer_process: run_logged(program, output, args.rate, w)))
+            if "live, no client" in times:
+                times["live, no client"].append(timed(
+                    lambda: run_live(program, output, args.rate)))
             size = output.stat().st_size
         frames = len(next(iter(load_run(output).humans.values())).time)
     print(f"crossing: {args.humans} humans, {args.time_limit:g} s simulated at 50 ms steps, "

@@ -1,6 +1,7 @@
 """`hubero run FILE`: simulate a scenario with a progress bar, then a summary per human.
 
     hubero run scenarios/living_room.hub --variant ellipse --seed 3 -o run.mcap
+    hubero run scenarios/living_room.hub --live --pace 2x   # watch it in Foxglove meanwhile
 
 Exit 0 when every activity ended and every expectation holds, 1 when the scenario failed
 (a stopping abort, the time limit, an expectation), 2 for bad input.
@@ -9,6 +10,8 @@ Exit 0 when every activity ended and every expectation holds, 1 when the scenari
 from __future__ import annotations
 
 import argparse
+import contextlib
+import sys
 from contextlib import ExitStack
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -16,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from collections.abc import Callable
 
+    from hubero_dsl.log.live import LiveServer
     from hubero_dsl.model.program import Program
     from hubero_dsl.sim.loop import RunResult
     from hubero_dsl.sim.simulation import Simulation
@@ -36,7 +40,52 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     where.add_argument("--no-log", action="store_true", help="write no log")
     parser.add_argument("--log-rate", metavar="HZ", type=float, default=10.0,
                         help="how often the log records the humans' state (default 10 Hz)")
+    add_live_options(parser)
     return parser
+
+
+def add_live_options(parser: argparse.ArgumentParser) -> None:
+    live = parser.add_argument_group("watching the run live (Foxglove WebSocket)")
+    live.add_argument("--live", action="store_true",
+                      help="serve the run to Foxglove while it runs (needs hubero[live])")
+    live.add_argument("--host", metavar="H", help="address to listen on (default 127.0.0.1)")
+    live.add_argument("--port", metavar="N", type=_port,
+                      help="port to listen on (default 8765; 0 for any free port)")
+    live.add_argument("--pace", metavar="1x|10x|max", type=_pace,
+                      help="how fast the run goes: a factor of real time (1x, 10x, 0.5x) or "
+                           "max, no waiting (default 1x)")
+    live.add_argument("--live-wait", action="store_true",
+                      help="start the run when a client subscribes, and after the end keep "
+                           "serving until it disconnects")
+
+
+def refuse_live(parser: argparse.ArgumentParser, advice: str) -> None:
+    """`--live` on a command that does not watch one run: a usage error saying what to do
+    instead, rather than argparse's "unrecognized arguments"."""
+
+    class Refused(argparse.Action):
+        def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                     values: Any, option: str | None = None) -> None:
+            parser.error(f"--live watches one run as it runs: {advice}")
+
+    parser.add_argument("--live", nargs=0, action=Refused, help=argparse.SUPPRESS)
+
+
+def _port(text: str) -> int:
+    if not text.isdigit() or int(text) > 65535:
+        raise argparse.ArgumentTypeError(f"invalid port '{text}': give a number from 0 to "
+                                         "65535")
+    return int(text)
+
+
+def _pace(text: str) -> str:
+    from hubero_dsl.log.live import parse_pace
+
+    try:
+        parse_pace(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text  # kept as written: None is "not given", while max parses to None
 
 
 def add_run_options(parser: argparse.ArgumentParser) -> None:
@@ -72,6 +121,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.log_rate <= 0:
         raise InputError("--log-rate must be greater than zero")
+    _check_live_options(args)
     program = compile_file(args.file)
     variants = variants_to_run(program, args)
     if args.output is not None and len(variants) > 1:
@@ -88,8 +138,11 @@ def run(args: argparse.Namespace) -> int:
     failed = False
     for variant in variants:
         output = _log_path(args, variant)
-        result = run_one(program, variant, args.seed, output, args.log_rate, quiet=args.quiet,
-                         controllers=controllers)
+        if args.live:
+            result = _run_live(program, variant, output, args, controllers)
+        else:
+            result = run_one(program, variant, args.seed, output, args.log_rate,
+                             quiet=args.quiet, controllers=controllers)
         if not args.quiet:
             from hubero_dsl.cli.summary import print_summary
 
@@ -157,9 +210,70 @@ def handed_controllers(args: argparse.Namespace) -> dict[str, type]:
     return handed
 
 
+def _check_live_options(args: argparse.Namespace) -> None:
+    from hubero_dsl.errors import InputError
+
+    if not args.live:
+        given = [option for option, value in (("--host", args.host), ("--port", args.port),
+                                              ("--pace", args.pace),
+                                              ("--live-wait", args.live_wait or None))
+                 if value is not None]
+        if given:
+            raise InputError(f"{given[0]} is an option of --live: add --live to watch the run")
+    elif args.all_variants:
+        raise InputError("--live serves one run: choose one with --variant NAME instead of "
+                         "--all-variants")
+
+
+def _run_live(program: Program, variant: str | None, output: Path | None,
+              args: argparse.Namespace, controllers: dict[str, type]) -> RunResult:
+    """Run one variant while serving it; with --live-wait, from the first client to its
+    leaving (Ctrl-C after the end stops serving, and the run's status stands)."""
+    from hubero_dsl.log.live import DEFAULT_HOST, DEFAULT_PACE, DEFAULT_PORT, LiveServer, parse_pace
+
+    _show_server_warnings()
+    pace = parse_pace(args.pace or DEFAULT_PACE)
+
+    def ready(live: LiveServer) -> None:  # every channel advertised: clients may come
+        if not args.quiet:
+            print(f"hubero: serving the run live on {live.address} (Foxglove: Open "
+                  "connection, Foxglove WebSocket)", file=sys.stderr, flush=True)
+        if args.live_wait and not args.quiet:
+            print("hubero: the run starts when a client subscribes", file=sys.stderr,
+                  flush=True)
+
+    with LiveServer(host=args.host or DEFAULT_HOST,
+                    port=DEFAULT_PORT if args.port is None else args.port, pace=pace,
+                    wait=args.live_wait, on_ready=ready) as live:
+        result = run_one(program, variant, args.seed, output, args.log_rate, quiet=args.quiet,
+                         controllers=controllers, live=live)
+        if args.live_wait:
+            if not args.quiet:
+                print("hubero: the run has ended; serving until the client disconnects "
+                      "(Ctrl-C to stop)", file=sys.stderr, flush=True)
+            with contextlib.suppress(KeyboardInterrupt):  # also SIGTERM: stop serving, and
+                live.serve_until_clients_leave()        # report the run as it ended
+    return result
+
+
+def _show_server_warnings() -> None:
+    """The SDK's server logs through `logging` (a client dropped, a slow client's messages
+    dropped): its warnings are shown as hubero's own lines, on stderr as it is then."""
+    import logging
+
+    class Say(logging.Handler):
+        def emit(self, record: logging.LogRecord) -> None:
+            with contextlib.suppress(OSError, ValueError):
+                print(f"hubero: live: {record.getMessage()}", file=sys.stderr, flush=True)
+
+    logger = logging.getLogger("foxglove")
+    logger.handlers = [Say(logging.WARNING)]  # replaced, not added: one line per warning
+    logger.propagate = False
+
+
 def run_one(program: Program, variant: str | None, seed: int | None, output: Path | None,
-            log_rate: float, *, quiet: bool,
-            controllers: dict[str, type] | None = None) -> RunResult:
+            log_rate: float, *, quiet: bool, controllers: dict[str, type] | None = None,
+            live: LiveServer | None = None) -> RunResult:
     """Simulate one variant with a progress bar unless quiet, and a log if asked."""
     from hubero_dsl.simulate import simulate
 
@@ -170,4 +284,4 @@ def run_one(program: Program, variant: str | None, seed: int | None, output: Pat
 
             observers.append(stack.enter_context(progress_observer(program, variant)))
         return simulate(program, variant=variant, seed=seed, log=output, log_rate=log_rate,
-                        observers=observers, controllers=controllers)
+                        observers=observers, controllers=controllers, live=live)

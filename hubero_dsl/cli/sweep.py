@@ -23,6 +23,8 @@ from collections import Counter
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from hubero_dsl.cli.run import refuse_live
+
 if TYPE_CHECKING:
     from rich.console import Console
 
@@ -58,6 +60,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                         help="seconds to wait for the Dask scheduler (default 5)")
     parser.add_argument("--log-rate", metavar="HZ", type=float, default=10.0,
                         help="how often the logs record the humans' state (default 10 Hz)")
+    refuse_live(parser, "a sweep runs many at once; watch one of its runs with hubero run "
+                "FILE --live --variant NAME --seed N")
     parser.add_argument("--no-metrics", action="store_true",
                         help="do not compute metrics (faster; the index has none)")
     parser.add_argument("--quiet", "-q", action="store_true",

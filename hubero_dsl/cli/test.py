@@ -9,7 +9,13 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from hubero_dsl.cli.run import add_run_options, handed_controllers, run_one, variants_to_run
+from hubero_dsl.cli.run import (
+    add_run_options,
+    handed_controllers,
+    refuse_live,
+    run_one,
+    variants_to_run,
+)
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -18,6 +24,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("files", nargs="+", metavar="FILE", help="scenario files (.hub)")
     add_run_options(parser)
+    refuse_live(parser, "hubero test runs without waiting or serving; watch a run with "
+                "hubero run FILE --live")
     parser.set_defaults(all_variants=True)
     return parser
 

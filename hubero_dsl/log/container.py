@@ -313,6 +313,18 @@ class McapContainer:
             self._channel_counts[:len(counts)] += counts
 
 
+def message_payloads(data: bytes | memoryview, offsets: npt.NDArray[np.uint64]
+                     ) -> list[tuple[int, memoryview]]:
+    """(channel id, message data) of each message record in `data` at `offsets` (as
+    `add_block` takes them): how a sink other than the file reads records encoded in advance."""
+    view = memoryview(data)
+    found = []
+    for offset in offsets.tolist():
+        _, length, channel = struct.unpack_from("<BQH", view, offset)
+        found.append((channel, view[offset + _MESSAGE_HEADER.size:offset + RECORD_PREFIX + length]))
+    return found
+
+
 def _message_indexes(channels: npt.NDArray[np.uint16], times: npt.NDArray[np.uint64],
                      offsets: npt.NDArray[np.uint64]
                      ) -> tuple[npt.NDArray[np.uint16], bytes, npt.NDArray[np.uint64]]:

@@ -7,6 +7,9 @@ and the scenario, which may fail with a LogError before anything is written). Th
 the file: it writes the header, schemas, channels, provenance and attachments at once, every
 update as it comes, and on `finish` the result, the summary, then renames the temporary file
 to the final name. Same setup and updates, same bytes, wherever it runs.
+
+The records go to a `MessageSink` (`sinks.py`): the file's `McapContainer`, and when the run is
+watched live the `LiveServer` as well (or alone, when no file is written).
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from hubero_dsl.log import schemas as s
 from hubero_dsl.log.container import McapContainer
 from hubero_dsl.log.frames import FrameEncoder, FrameState
 from hubero_dsl.log.scene import TIME_MARK, SceneBuilder
+from hubero_dsl.log.sinks import Fanout, MessageSink
 from hubero_dsl.sim.status import TaskStatus
 
 if TYPE_CHECKING:
@@ -33,8 +37,8 @@ if TYPE_CHECKING:
 class LogSetup:
     """What a log needs that does not change during the run."""
 
-    final: Path
-    temp: Path
+    final: Path | None  # None: no file (the run is only watched live)
+    temp: Path | None
     library: str
     compression: str
     chunk_size: int
@@ -63,41 +67,50 @@ class Update:
 
 
 class LogEncoder:
-    """Writes one log file from a setup and a sequence of updates."""
+    """Writes one log from a setup and a sequence of updates: into the file `stream`, to
+    `live`, or both."""
 
-    def __init__(self, setup: LogSetup, stream: BinaryIO, *, background: bool = True) -> None:
+    def __init__(self, setup: LogSetup, stream: BinaryIO | None, *, background: bool = True,
+                 live: MessageSink | None = None) -> None:
         self._setup = setup
         self._stream = stream
-        self._mcap = McapContainer(stream, library=setup.library,
-                                   compression=setup.compression,
-                                   chunk_size=setup.chunk_size, background=background)
+        sinks: list[MessageSink] = []
+        if stream is not None:
+            sinks.append(McapContainer(stream, library=setup.library,
+                                       compression=setup.compression,
+                                       chunk_size=setup.chunk_size, background=background))
+        if live is not None:
+            sinks.append(live)
+        if not sinks:
+            raise ValueError("a log needs a file or a live server to write to")
+        self._out: MessageSink = sinks[0] if len(sinks) == 1 else Fanout(sinks)
         self._scene = SceneBuilder(setup.humans, setup.radius, setup.shapes, setup.robots,
                                    setup.robot_radius)
         self._frames = 0
         self._define_channels()
-        self._mcap.add_metadata(s.METADATA_NAME, setup.metadata)
+        self._out.add_metadata(s.METADATA_NAME, setup.metadata)
         for name, media_type, data in setup.attachments:
-            self._mcap.add_attachment(name, media_type, data)
-        self._mcap.add_message(self._channel[s.MAP_TOPIC], 0, setup.grid)
+            self._out.add_attachment(name, media_type, data)
+        self._out.add_message(self._channel[s.MAP_TOPIC], 0, setup.grid)
         self._log(s.LOG_INFO, setup.start_message, None, 0)
 
     def _define_channels(self) -> None:
         names = sorted({*s.TOPIC_SCHEMAS.values(), s.POSE_IN_FRAME, s.HUMAN_STATE})
-        schema_id = {name: self._mcap.add_schema(name, s.schema_bytes(name)) for name in names}
-        self._channel = {topic: self._mcap.add_channel(topic, schema_id[name])
+        schema_id = {name: self._out.add_schema(name, s.schema_bytes(name)) for name in names}
+        self._channel = {topic: self._out.add_channels([topic], schema_id[name])[0]
                          for topic, name in s.TOPIC_SCHEMAS.items()}
         humans = self._setup.humans
-        poses = self._mcap.add_channels([s.human_pose_topic(n) for n in humans],
-                                        schema_id[s.POSE_IN_FRAME])
-        states = self._mcap.add_channels([s.human_state_topic(n) for n in humans],
-                                         schema_id[s.HUMAN_STATE])
+        poses = self._out.add_channels([s.human_pose_topic(n) for n in humans],
+                                       schema_id[s.POSE_IN_FRAME])
+        states = self._out.add_channels([s.human_state_topic(n) for n in humans],
+                                        schema_id[s.HUMAN_STATE])
         self._frame = FrameEncoder(humans, self._setup.robots, poses, states,
                                    self._setup.dt_ns)
         self._robot_states: list[int] = []
         self._robot_status = [s.IDLE] * len(self._setup.robots)
         if self._setup.robots:  # logs without robots keep the schemas they always had
-            robot_schema = self._mcap.add_schema(s.ROBOT_STATE, s.schema_bytes(s.ROBOT_STATE))
-            self._robot_states = self._mcap.add_channels(
+            robot_schema = self._out.add_schema(s.ROBOT_STATE, s.schema_bytes(s.ROBOT_STATE))
+            self._robot_states = self._out.add_channels(
                 [s.robot_state_topic(n) for n in self._setup.robots], robot_schema)
 
     # ---- updates ----------------------------------------------------------------------------
@@ -111,7 +124,7 @@ class LogEncoder:
     def _write_event(self, event: TaskEvent, description: str) -> None:
         ns = event.tick * self._setup.dt_ns
         span = event.span
-        self._mcap.add_message(self._channel[s.TASKS_TOPIC], ns, s.dumps({
+        self._out.add_message(self._channel[s.TASKS_TOPIC], ns, s.dumps({
             "timestamp": s.timestamp(ns), "tick": event.tick, "task_id": event.task_id,
             "human": event.human, "kind": event.kind, "status": event.status.value,
             "reason": event.reason, "file": span.file if span else "",
@@ -135,12 +148,12 @@ class LogEncoder:
         ts = s.timestamp_json(ns)
         scene = self._scene.snapshot(frame, self._frame.status)
         if scene is not None:
-            self._mcap.add_message(self._channel[s.SCENE_TOPIC], ns,
-                                   scene.replace(TIME_MARK, ts).encode())
+            self._out.add_message(self._channel[s.SCENE_TOPIC], ns,
+                                  scene.replace(TIME_MARK, ts).encode())
         tf, blocks = self._frame.encode(frame, self._frames)
-        self._mcap.add_message(self._channel[s.TF_TOPIC], ns, tf)
+        self._out.add_message(self._channel[s.TF_TOPIC], ns, tf)
         for block in blocks:
-            self._mcap.add_block(block.data, block.channels, block.offsets, ns)
+            self._out.add_block(block.data, block.channels, block.offsets, ns)
         self._write_robots(frame, ns)
         self._frames += 1
 
@@ -152,7 +165,7 @@ class LogEncoder:
                 self._robot_status[i] = status
             x, y = frame.robot_position[i]
             vx, vy = frame.robot_velocity[i]
-            self._mcap.add_message(channel, ns, s.dumps({
+            self._out.add_message(channel, ns, s.dumps({
                 "timestamp": s.timestamp(ns), "position": {"x": s.number(x), "y": s.number(y)},
                 "velocity": {"x": s.number(vx), "y": s.number(vy)},
                 "heading": s.number(frame.robot_heading[i]),
@@ -160,7 +173,7 @@ class LogEncoder:
                 "task": task}).encode())
 
     def _log(self, level: int, message: str, span: Span | None, ns: int) -> None:
-        self._mcap.add_message(self._channel[s.LOG_TOPIC], ns, s.dumps({
+        self._out.add_message(self._channel[s.LOG_TOPIC], ns, s.dumps({
             "timestamp": s.timestamp(ns), "level": level, "message": message,
             "name": "hubero", "file": span.file if span else self._setup.source_path,
             "line": span.line if span else 0}).encode())
@@ -171,7 +184,10 @@ class LogEncoder:
         """Write the result (if any) and the summary, then give the file its final name."""
         if result is not None:
             self._write_result(result, end_tick * self._setup.dt_ns)
-        self._mcap.finish()
+        self._out.finish()
+        if self._stream is None:
+            return
+        assert self._setup.temp is not None and self._setup.final is not None
         self._stream.flush()
         os.fsync(self._stream.fileno())
         self._stream.close()
@@ -190,7 +206,7 @@ class LogEncoder:
                       expectation["span"], ns)
         expectations = [{key: value for key, value in expectation.items() if key != "span"}
                         for expectation in result["expectations"]]
-        self._mcap.add_metadata(s.RESULT_METADATA_NAME, {
+        self._out.add_metadata(s.RESULT_METADATA_NAME, {
             "state": result["state"], "reason": result["reason"], "time": result["time"],
             "ticks": result["ticks"], "succeeded": "true" if result["succeeded"] else "false",
             "expectations": s.dumps(expectations), "humans": s.dumps(result["humans"]),
@@ -198,13 +214,14 @@ class LogEncoder:
 
     def discard(self) -> None:
         """Stop and delete the temporary file (the run failed or was interrupted)."""
-        self._mcap.abandon()
+        self._out.abandon()
         discard_file(self._stream, self._setup.temp)
 
 
-def discard_file(stream: BinaryIO | None, temp: Path) -> None:
+def discard_file(stream: BinaryIO | None, temp: Path | None) -> None:
     if stream is not None:
         with contextlib.suppress(OSError, ValueError):
             stream.close()
-    with contextlib.suppress(OSError):
-        temp.unlink()
+    if temp is not None:
+        with contextlib.suppress(OSError):
+            temp.unlink()

@@ -21,12 +21,14 @@ Where the work happens: `observe` only copies what changed out of the engine (`U
 JSON and MCAP encoding (`encoder.py`) runs in a writer process forked at `open()` when the
 platform can fork and no other thread runs, so that it overlaps with the simulation on another
 core; otherwise, or with `writer_process=False`, in this process. Both write the same bytes.
+
+With `live` (a `live.LiveServer`) the encoder hands every record to the server as well; it then
+runs in this process, where the server is, and `path` may be None (watched, not written).
 """
 
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import itertools
 import math
 import multiprocessing
@@ -38,15 +40,14 @@ from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, Protocol
 
-import yaml
-
 from hubero_dsl import __version__
 from hubero_dsl.errors import LogError
 from hubero_dsl.files import check_output
 from hubero_dsl.log import schemas as s
 from hubero_dsl.log.encoder import LogEncoder, LogSetup, Update, discard_file
 from hubero_dsl.log.frames import Capturer
-from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle
+from hubero_dsl.log.provenance import provenance
+from hubero_dsl.log.sinks import MessageSink
 
 if TYPE_CHECKING:
     from multiprocessing.connection import Connection
@@ -57,21 +58,20 @@ if TYPE_CHECKING:
 
 SAMPLE_EPSILON = 1e-9  # tick * dt * rate lands a hair below an integer for some dt and rates
 WRITER_JOIN_TIMEOUT = 30.0  # s to wait for the writer process to wind down after a failure
-MEDIA_TYPES = {".yaml": "application/yaml", ".yml": "application/yaml",
-               ".pgm": "image/x-portable-graymap", ".png": "image/png", ".bmp": "image/bmp",
-               ".jpg": "image/jpeg", ".jpeg": "image/jpeg", ".tif": "image/tiff",
-               ".tiff": "image/tiff", ".gif": "image/gif", ".ppm": "image/x-portable-pixmap"}
 
 
 class RunLog:
     """An MCAP log of one run; a context manager whose `observe` is a run observer."""
 
-    def __init__(self, path: str | Path, sim: Simulation, *, rate_hz: float = 10.0,
+    def __init__(self, path: str | Path | None, sim: Simulation, *, rate_hz: float = 10.0,
                  compression: str = "zstd", chunk_size: int = 4 << 20,
-                 writer_process: bool | None = None) -> None:
+                 writer_process: bool | None = None, live: MessageSink | None = None) -> None:
         if not (isinstance(rate_hz, int | float) and math.isfinite(rate_hz) and rate_hz > 0):
             raise LogError(f"the log rate must be a number of hertz above 0, got {rate_hz!r}")
-        self.path = Path(path)
+        if path is None and live is None:
+            raise LogError("a log needs a file or a live server to write to")
+        self.path = None if path is None else Path(path)
+        self._live = live
         self.rate_hz = float(rate_hz)
         self._sim = sim
         self._compression = compression
@@ -105,16 +105,23 @@ class RunLog:
         if self._sink is not None:
             raise LogError(f"log {self.path} is already open")
         program = self._sim.program
-        check_output(self.path, (Path(program.source.path), program.map_path),
-                     lambda where, reason: f"cannot write log {where}: {reason}")
-        fd, temp = _create_temp(self.path)
+        fd, temp = None, None
+        if self.path is not None:
+            check_output(self.path, (Path(program.source.path), program.map_path),
+                         lambda where, reason: f"cannot write log {where}: {reason}")
+            fd, temp = _create_temp(self.path)
         try:
             setup = self._setup(temp)
+            # a live server publishes from this process, so the encoding stays here
             fork = can_fork() if self._writer_process is None else self._writer_process
-            self._sink = _ProcessSink(setup, fd) if fork else _LocalSink(setup, fd)
+            if fork and fd is not None and self._live is None:
+                self._sink = _ProcessSink(setup, fd)
+            else:
+                self._sink = _LocalSink(setup, fd, self._live)
         except BaseException:
-            with contextlib.suppress(OSError):
-                os.close(fd)
+            if fd is not None:
+                with contextlib.suppress(OSError):
+                    os.close(fd)
             discard_file(None, temp)
             raise
         try:
@@ -136,7 +143,7 @@ class RunLog:
         if events or frame is not None:
             self._sink.send(Update(events, frame))
 
-    def close(self, result: RunResult | None = None) -> Path:
+    def close(self, result: RunResult | None = None) -> Path | None:
         """Record the last events and frame and the result; move the file to its final name."""
         if self._closed:
             return self.path
@@ -185,11 +192,11 @@ class RunLog:
             described.append((event, description))
         return described
 
-    def _setup(self, temp: Path) -> LogSetup:
+    def _setup(self, temp: Path | None) -> LogSetup:
         sim, program, engine = self._sim, self._sim.program, self._sim.engine
         humans, robots = engine.humans, engine.robots
         variant = f"variant '{sim.variant}'" if sim.variant else "no variant"
-        metadata, attachments = _provenance(sim, self.rate_hz)
+        metadata, attachments = provenance(sim, self.rate_hz)
         return LogSetup(
             final=self.path, temp=temp, library=f"hubero {__version__}",
             compression=self._compression, chunk_size=self._chunk_size,
@@ -230,14 +237,15 @@ class _Sink(Protocol):
 
 
 class _LocalSink:
-    """Encodes in this process (a thread compresses and writes chunks)."""
+    """Encodes in this process (a thread compresses and writes chunks), into the file `fd`,
+    to `live`, or both."""
 
-    def __init__(self, setup: LogSetup, fd: int) -> None:
+    def __init__(self, setup: LogSetup, fd: int | None, live: MessageSink | None = None) -> None:
         self._path = setup.final
-        stream = os.fdopen(fd, "wb", buffering=1 << 20)
+        stream = None if fd is None else os.fdopen(fd, "wb", buffering=1 << 20)
         try:
             with _WriteGuard(self._path):
-                self._encoder = LogEncoder(setup, stream)
+                self._encoder = LogEncoder(setup, stream, live=live)
         except BaseException:
             discard_file(stream, setup.temp)
             raise
@@ -350,48 +358,12 @@ def _serve(setup: LogSetup, fd: int, conn: Connection, parent_end: Connection) -
         discard_file(stream, setup.temp)
 
 
-def _failure(final: Path, error: BaseException) -> str:
+def _failure(final: Path | None, error: BaseException) -> str:
     if isinstance(error, LogError):
         return error.message
     if isinstance(error, OSError):
         return f"cannot write log {final}: {_reason(error)}"
     return f"the log writer failed: {type(error).__name__}: {error}"
-
-
-# ---- provenance --------------------------------------------------------------------------------
-
-
-def _provenance(sim: Simulation, rate_hz: float
-                ) -> tuple[dict[str, str], list[tuple[str, str, bytes]]]:
-    """The metadata record and the attachments (scenario, map YAML, map image)."""
-    program = sim.program
-    source_name = Path(program.source.path).name or "scenario.hub"
-    source = program.source.text.encode("utf-8")
-    map_yaml, image_path, image = _read_map_files(program.map_path)
-    names = {"source": f"source/{source_name}", "map": f"map/{program.map_path.name}",
-             "map_image": f"map/{image_path.name}"}
-    metadata = {
-        "format": s.FORMAT, "format_version": str(s.FORMAT_VERSION),
-        "hubero_version": __version__, "title": program.title,
-        "source_path": program.source.path,
-        "source_sha256": hashlib.sha256(source).hexdigest(),
-        "map_path": str(program.map_path),
-        "map_sha256": hashlib.sha256(map_yaml).hexdigest(),
-        "map_image_sha256": hashlib.sha256(image).hexdigest(),
-        "seed": str(sim.seed), "variant": sim.variant or "",
-        "variants": s.dumps(list(program.variants)),
-        "params": s.dumps(_params_json(sim.params)),
-        "step": repr(sim.engine.dt), "time_limit": repr(program.time_limit),
-        "on_failure": program.on_failure, "log_rate_hz": repr(rate_hz),
-        "humans": s.dumps(list(sim.engine.humans.names)),
-        "robots": s.dumps(list(sim.engine.robots.names)),
-        "attachments": s.dumps(names),
-    }
-    media = MEDIA_TYPES.get(image_path.suffix.lower(), "application/octet-stream")
-    attachments = [(names["source"], "text/plain", source),
-                   (names["map"], "application/yaml", map_yaml),
-                   (names["map_image"], media, image)]
-    return metadata, attachments
 
 
 def _result_json(result: RunResult) -> dict[str, Any]:
@@ -419,7 +391,7 @@ def _summary_json(actor: HumanSummary) -> dict[str, Any]:
 class _WriteGuard:
     """Turns OS errors while writing (full disk, vanished directory) into a LogError."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path | None) -> None:
         self.path = path
 
     def __enter__(self) -> None:
@@ -427,7 +399,7 @@ class _WriteGuard:
 
     def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
                  trace: TracebackType | None) -> None:
-        if isinstance(error, OSError):
+        if isinstance(error, OSError) and self.path is not None:
             raise LogError(f"cannot write log {self.path}: {_reason(error)}") from None
 
 
@@ -469,29 +441,3 @@ def _create_temp(final: Path) -> tuple[int, Path]:
         except OSError as exc:
             raise LogError(f"cannot write log {final}: {_reason(exc)}") from None
     raise AssertionError("unreachable")
-
-
-def _read_map_files(yaml_path: Path) -> tuple[bytes, Path, bytes]:
-    """The map's YAML bytes, its image's path and bytes, to attach them to the log."""
-    try:
-        text = yaml_path.read_bytes()
-        image_name = yaml.safe_load(text)["image"]
-        image_path = Path(image_name)
-        if not image_path.is_absolute():
-            image_path = yaml_path.parent / image_path
-        return text, image_path, image_path.read_bytes()
-    except (OSError, yaml.YAMLError, KeyError, TypeError) as exc:
-        raise LogError(f"cannot attach map {yaml_path} to the log: {exc}") from None
-
-
-def _params_json(params: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
-    """Every human's resolved parameters as JSON values (shapes as objects)."""
-    def value(v: Any) -> Any:
-        if isinstance(v, Circle | Ellipse | Rectangle):
-            return s.shape_json(v)
-        if isinstance(v, bool | int | float | str):
-            return v
-        return str(v)
-
-    return {human: {key: value(v) for key, v in values.items()}
-            for human, values in params.items()}
