@@ -170,7 +170,7 @@ def draw_maps() -> ModuleType:
     return module
 
 
-@pytest.mark.parametrize("name", ["living_room", "parking"])
+@pytest.mark.parametrize("name", ["living_room", "parking", "station"])
 def test_committed_maps_are_what_the_script_draws(draw_maps: ModuleType, name: str,
                                                   tmp_path: Path) -> None:
     written = draw_maps.draw(MAPS / f"{name}.shapes.yaml", tmp_path)

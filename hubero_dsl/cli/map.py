@@ -1,0 +1,62 @@
+"""`hubero map draw SHAPES.yaml -o NAME.yaml` and `hubero map show NAME.yaml`: maps of your own.
+
+    hubero map draw my_office.shapes.yaml -o my_office.yaml
+    hubero map show my_office.yaml -o my_office.png --scenario my_office.hub
+
+`draw` turns a shape description (a frame, an interior, rectangles, circles and polygons in
+metres: docs/maps.md) into a ROS map_server map (YAML and PGM). `show` draws a map as a PNG with
+metric axes, free, occupied and unknown space, and with --scenario the places, areas and starts
+of a scenario. Exit 0 when written, 1 for a scenario with errors, 2 for input that cannot be
+read or an output that cannot be written.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    parser: argparse.ArgumentParser = subparsers.add_parser(
+        "map", help="draw a map from shapes, or show a map as a picture", description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
+    draw = actions.add_parser("draw", help="draw a map from a shape description")
+    draw.add_argument("shapes", metavar="SHAPES.yaml", type=Path, help="a shape description")
+    draw.add_argument("-o", "--output", metavar="NAME.yaml", type=Path, required=True,
+                      help="the map to write (its image goes beside it as NAME.pgm)")
+    show = actions.add_parser("show", help="draw a map as a PNG")
+    show.add_argument("map", metavar="NAME.yaml", type=Path, help="a ROS map_server map")
+    show.add_argument("-o", "--output", metavar="OUT.png", type=Path,
+                      help="the picture to write (default: NAME.png beside the map)")
+    show.add_argument("--scenario", metavar="FILE.hub", type=Path,
+                      help="also draw this scenario's places, areas and starts")
+    return parser
+
+
+def run(args: argparse.Namespace) -> int:
+    from hubero_dsl.files import check_output
+
+    if args.action == "draw":
+        from hubero_dsl.world.drawing import draw_map
+
+        image = args.output.with_suffix(".pgm")
+        for out in (args.output, image):
+            check_output(out, (args.shapes,))
+        written = draw_map(args.shapes, args.output,
+                           comment=f"drawn by hubero map draw from {args.shapes.name}")
+        print(f"wrote {written} and {image.name}")
+        return 0
+    from hubero_dsl.analysis.mapview import show_map
+
+    output = args.output or args.map.with_suffix(".png")
+    check_output(output, tuple(p for p in (args.map, args.scenario) if p is not None))
+    program = None
+    if args.scenario is not None:
+        from hubero_dsl.pipeline import compile_file
+
+        program = compile_file(args.scenario)
+    show_map(args.map, output, program=program)
+    print(f"wrote {output}")
+    return 0

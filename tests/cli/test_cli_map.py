@@ -1,0 +1,94 @@
+"""`hubero map draw` and `hubero map show`, and the worked example of docs/maps.md run as written
+in a folder outside the repository."""
+
+from __future__ import annotations
+
+import re
+import shlex
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from hubero_dsl.world.mapfile import load_map
+
+DOCS = Path(__file__).resolve().parents[2] / "docs" / "maps.md"
+UNKNOWN_GREY = (158, 158, 158)  # mapview's 0.62 grey
+
+
+def _worked_example() -> tuple[dict[str, str], list[str]]:
+    """The files (named by their first comment line) and the commands of 'Your own map'."""
+    section = DOCS.read_text(encoding="utf-8").split("## Your own map")[1].split("\n## ")[0]
+    files, commands = {}, []
+    for language, body in re.findall(r"```(\w+)\n(.*?)```", section, flags=re.S):
+        if language == "bash":
+            commands += [line for line in body.splitlines() if line.startswith("hubero ")]
+        else:
+            name = body.splitlines()[0].removeprefix("# ").strip()
+            files[name] = body
+    return files, commands
+
+
+def test_the_worked_example_of_the_docs_runs(tmp_path: Path, cli: Any,
+                                             monkeypatch: pytest.MonkeyPatch) -> None:
+    files, commands = _worked_example()
+    assert set(files) == {"office.shapes.yaml", "office.hub"} and len(commands) == 4
+    for name, text in files.items():
+        (tmp_path / name).write_text(text, encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    for command in commands:
+        outcome = cli(*shlex.split(command)[1:])
+        assert outcome.status == 0, (command, outcome.err)
+    grid = load_map(tmp_path / "office.yaml")
+    assert grid.shape == (120, 160) and grid.unknown is not None
+    desk = grid.world_to_cell((4.0, 2.9))
+    assert grid.occupied[desk[0], desk[1]] and not grid.unknown[desk[0], desk[1]]
+    assert (tmp_path / "office.mcap").stat().st_size > 0
+    picture = np.asarray(Image.open(tmp_path / "office.png").convert("RGB")).reshape(-1, 3)
+    colours = {tuple(c) for c in np.unique(picture, axis=0).tolist()}
+    assert {(255, 255, 255), (0, 0, 0), UNKNOWN_GREY} <= colours
+    assert (148, 103, 189) in colours  # the places, in tab:purple
+
+
+def test_show_draws_any_map_next_to_it(tmp_path: Path, cli: Any) -> None:
+    nav2 = Path(__file__).resolve().parents[1] / "world" / "nav2_maps"
+    for name in ("tb3_sandbox.yaml", "tb3_sandbox.pgm"):
+        (tmp_path / name).write_bytes((nav2 / name).read_bytes())
+    outcome = cli("map", "show", str(tmp_path / "tb3_sandbox.yaml"))
+    assert outcome.status == 0, outcome.err
+    with Image.open(tmp_path / "tb3_sandbox.png") as picture:
+        assert picture.format == "PNG" and picture.width > 300
+
+
+@pytest.mark.parametrize(("text", "message", "line"), [
+    ("resolution: 0.05\norigin: [0, 0]\nsize: [1, 1\n", "not valid YAML", 4),
+    ("resolution: 0.05\norigin: [0, 0]\nsize: [1.03, 1.0]\n", "whole number", 3),
+    ("resolution: 0.05\norigin: [0, 0]\nsize: [1, 1]\nobstacles:\n"
+     "  - {name: x, circle: [0, 0], radius: -1}\n", "radius", 5),
+    ("resolution: 0.05\norigin: [0, 0]\nsize: [1, 1]\nobstacles:\n"
+     "  - {name: x, hexagon: [0, 0]}\n", "exactly one of", 5),
+    ("resolution: 0.001\norigin: [0, 0]\nsize: [100, 100]\n", "the most a map may have", 3),
+    ("resolution: 0.05\norigin: &o [0, 0]\nsize: *o\n", "anchors and aliases", 2),
+])
+def test_bad_descriptions_are_errors_at_their_line(tmp_path: Path, cli: Any, text: str,
+                                                   message: str, line: int) -> None:
+    shapes = tmp_path / "bad.shapes.yaml"
+    shapes.write_text(text, encoding="utf-8")
+    outcome = cli("map", "draw", str(shapes), "-o", str(tmp_path / "bad.yaml"))
+    assert outcome.status == 2
+    assert message in outcome.err and f"bad.shapes.yaml:{line}:" in outcome.err, outcome.err
+    assert "Traceback" not in outcome.err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.shapes.yaml"]
+
+
+def test_draw_refuses_to_write_over_its_input_or_into_nowhere(tmp_path: Path, cli: Any) -> None:
+    shapes = tmp_path / "room.yaml"
+    shapes.write_text("resolution: 0.1\norigin: [0, 0]\nsize: [2, 2]\n", encoding="utf-8")
+    over = cli("map", "draw", str(shapes), "-o", str(shapes))
+    assert over.status == 2 and shapes.read_text().startswith("resolution")
+    nowhere = cli("map", "draw", str(shapes), "-o", str(tmp_path / "no" / "room_map.yaml"))
+    assert nowhere.status == 2
+    missing = cli("map", "show", str(tmp_path / "missing.yaml"))
+    assert missing.status == 2 and "Traceback" not in missing.err
