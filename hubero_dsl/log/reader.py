@@ -138,7 +138,8 @@ def load_run(path: str | Path) -> LoggedRun:
     except OSError as exc:
         raise LogError(f"cannot read log {path}: {exc.strerror or exc}") from None
     except InvalidMagic:  # its message would quote the file's first bytes: say no more
-        raise LogError(f"{path} is not a hubero run log: it is not an MCAP file") from None
+        raise LogError(f"{path} is not a readable hubero run log: it is not an MCAP file"
+                       ) from None
     except (McapError, zstandard.ZstdError, struct.error, ValueError, KeyError, TypeError,
             IndexError, AttributeError) as exc:
         # Whatever a damaged file makes the MCAP library or the JSON decoder trip on.

@@ -85,6 +85,7 @@ class NavfnPlanner:
         # Walls as a cost grid (0 free, inf occupied): the way out of the lethal zone must not
         # pass through one.
         self._walls: FloatArray = np.where(np.asarray(grid.occupied, dtype=bool), np.inf, 0.0)
+        self.straight_plans = 0  # plans that were a free straight segment: no search
 
     @property
     def cache_stats(self) -> CacheStats:
@@ -104,11 +105,18 @@ class NavfnPlanner:
         if entry is None or costs.labels[entry] != costs.labels[goal_cell]:
             raise NoPath(f"goal {fmt_point(goal)} cannot be reached from {fmt_point(start)}: "
                          f"no free path for {body_words(body_radius, self.params.lethal_margin)}")
+        goal_uv = to_cell_units(self.grid, goal)
+        if entry == cell_at(start_uv, costs.cost.shape) and _straight_is_free(
+                costs.cost, start_uv, goal_uv):
+            # the straight segment costs its length (no comfort zone, no wall): no path is
+            # shorter or cheaper, so no search is needed (a crowd's thousand plans in the open)
+            self.straight_plans += 1
+            return self._to_world(np.vstack([start_uv, goal_uv]), start, goal)
         field = self._cache.field(key, goal_cell, entry)
         cells = _turns(field.descend(entry))
         forced = entry != cell_at(start_uv, costs.cost.shape)
-        points, to_go = self._polyline(start_uv, to_cell_units(self.grid, goal), cells, field,
-                                       costs, forced_entry=forced)
+        points, to_go = self._polyline(start_uv, goal_uv, cells, field, costs,
+                                       forced_entry=forced)
         first_free = 1 if math.isinf(to_go[0]) else 0
         keep = (_shortcut(points, to_go, costs.cost, first_free) if self.params.smooth
                 else list(range(len(points))))
@@ -178,6 +186,13 @@ class NavfnPlanner:
         world = np.column_stack([ox + points[:, 1] * res, oy + points[:, 0] * res])
         world[0], world[-1] = start, goal   # exact, not rounded through cell units
         return Plan(waypoints=world)
+
+
+def _straight_is_free(cost: FloatArray, start_uv: FloatArray, goal_uv: FloatArray) -> bool:
+    """Whether the segment costs no more than its length: every cell it crosses is plain free
+    floor (cost 1), outside every wall's lethal and comfort zones."""
+    length = float(np.hypot(*(goal_uv - start_uv)))
+    return float(segment_costs(cost, start_uv, goal_uv[None, :])[0]) <= length * (1.0 + 1e-12)
 
 
 def _turns(cells: IntArray) -> IntArray:

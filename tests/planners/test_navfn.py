@@ -185,6 +185,16 @@ def test_comfort_radii_inside_the_body_share_one_cost_grid(pillar_room: Occupanc
     assert planner.cache_stats.field_builds == 1
 
 
+def test_a_free_straight_segment_needs_no_search(pillar_room: OccupancyGrid) -> None:
+    planner = navfn(pillar_room)
+    plan = planner.plan((7.5, 5.0), (8.5, 1.0), body_radius=BODY, comfort_radius=0.5)
+    np.testing.assert_array_equal(plan.waypoints, [(7.5, 5.0), (8.5, 1.0)])
+    assert planner.straight_plans == 1 and planner.cache_stats.field_builds == 0
+    # round the pillar: a search, and the same straight plan as before from a warm cache
+    planner.plan((1.0, 1.0), (8.5, 1.0), body_radius=BODY, comfort_radius=0.5)
+    assert planner.straight_plans == 1 and planner.cache_stats.field_builds == 1
+
+
 def test_field_cache_is_bounded(pillar_room: OccupancyGrid) -> None:
     planner = navfn(pillar_room, cache_size=2)
     goals = [(8.5, 1.0), (8.5, 3.0), (8.5, 5.0), (8.5, 1.0)]
@@ -194,11 +204,12 @@ def test_field_cache_is_bounded(pillar_room: OccupancyGrid) -> None:
 
 
 def test_a_partial_field_is_widened_and_gives_the_same_paths(pillar_room: OccupancyGrid) -> None:
-    goal, near, far = (8.5, 1.0), (8.0, 2.5), (1.0, 1.0)
+    # `near` passes the pillar's corner within the comfort zone: a search, stopped early
+    goal, near, far = (8.5, 1.0), (6.3, 4.3), (1.0, 1.0)
     warm = navfn(pillar_room)
-    warm.plan(near, goal, body_radius=BODY, comfort_radius=0.5)     # stops early, near the goal
+    warm.plan(near, goal, body_radius=BODY, comfort_radius=0.5)
     far_plan = warm.plan(far, goal, body_radius=BODY, comfort_radius=0.5)
-    assert warm.cache_stats.field_builds == 2
+    assert warm.cache_stats.field_builds == 2 and warm.straight_plans == 0
     fresh = navfn(pillar_room).plan(far, goal, body_radius=BODY, comfort_radius=0.5)
     np.testing.assert_array_equal(far_plan.waypoints, fresh.waypoints)
 
