@@ -7,8 +7,10 @@ The map is drawn in grey (free space white, obstacles grey, unknown cells light 
 human gets one colour; its personal space is drawn in its own shape and heading at points spaced
 `spacing` metres apart along its path (as in the HuBeRo paper's figures), plus where it starts
 and ends. Goals are where its navigation tasks (move_to, run_to, sit_down, lie_down) finished.
-Robots' paths are dotted black. The view is the region the actors used, with a margin, unless
-`whole_map` is asked for.
+The members of a crowd or flow share their crowd's colour and one legend entry, with thin paths
+and no personal spaces, so that a picture of a thousand people stays readable. Robots' paths
+are dotted, each robot in a dark colour of its own. The view is the region the actors used,
+with a margin, unless `whole_map` is asked for.
 """
 
 from __future__ import annotations
@@ -168,12 +170,40 @@ def draw_human(axes: Axes, run: LoggedRun, name: str, colour: Any, *, spacing: f
               color=colour, markeredgecolor="black", zorder=5)
 
 
+ROBOT_COLOURS = ("black", "saddlebrown", "navy", "darkgreen", "indigo", "darkred")
+
+
+def robot_colours(names: Sequence[str]) -> dict[str, str]:
+    """One dark colour per robot, in sorted-name order, so that several robots are told apart."""
+    return {name: ROBOT_COLOURS[i % len(ROBOT_COLOURS)] for i, name in enumerate(sorted(names))}
+
+
 def draw_robots(axes: Axes, run: LoggedRun, dashed: bool = False) -> None:
-    for robot in run.robots.values():
+    palette = robot_colours(list(run.robots))
+    for name, robot in run.robots.items():
         if len(robot.position):
-            axes.plot(robot.position[:, 0], robot.position[:, 1], color="black",
+            axes.plot(robot.position[:, 0], robot.position[:, 1], color=palette[name],
                       linestyle=":" if not dashed else (0, (1, 3)), linewidth=1.4, zorder=3)
-            axes.plot(*robot.position[0], marker="s", markersize=7, color="black", zorder=5)
+            axes.plot(*robot.position[0], marker="s", markersize=7, color=palette[name],
+                      zorder=5)
+
+
+def draw_member(axes: Axes, run: LoggedRun, name: str, colour: Any) -> None:
+    """A crowd's or flow's member: a thin path and a small start, no personal spaces."""
+    track = run.humans[name]
+    if len(track.position):
+        axes.plot(track.position[:, 0], track.position[:, 1], color=colour, linewidth=0.8,
+                  alpha=0.55, zorder=3)
+        axes.plot(*track.position[0], marker="o", markersize=3, color=colour, zorder=4)
+
+
+def set_colours(run: LoggedRun) -> dict[str, Any]:
+    """One colour per crowd and flow (not tab10's, which the named humans use)."""
+    from matplotlib import colormaps
+
+    names = sorted(n for n, (kind, _) in run.metadata.sets.items() if kind != "group")
+    palette = colormaps["Dark2"](np.arange(8))
+    return {name: palette[i % len(palette)] for i, name in enumerate(names)}
 
 
 def _marker_handles() -> list[Line2D]:
@@ -186,7 +216,7 @@ def _marker_handles() -> list[Line2D]:
 def _human_handles(run: LoggedRun, palette: dict[str, Any]) -> list[Any]:
     return [Line2D([], [], color=palette[name], linewidth=2.5,
                    label=f"{name}: {short_shape(personal_space_of(run, name))}")
-            for name in sorted(run.humans)]
+            for name in sorted(palette)]
 
 
 def short_shape(shape: Shape) -> str:
@@ -202,8 +232,21 @@ def short_shape(shape: Shape) -> str:
 
 
 def _robot_handles(run: LoggedRun) -> list[Line2D]:
-    return [Line2D([], [], color="black", linestyle=":", marker="s", markersize=6,
+    palette = robot_colours(list(run.robots))
+    return [Line2D([], [], color=palette[name], linestyle=":", marker="s", markersize=6,
                    label=f"robot {name}") for name in sorted(run.robots)]
+
+
+def _set_handles(run: LoggedRun, palette: dict[str, Any]) -> list[Line2D]:
+    sets = run.metadata.sets
+
+    def label(name: str) -> str:  # a flow's people who came, not all it might have brought
+        kind, members = sets[name]
+        count = sum(1 for m in members if m in run.humans and len(run.humans[m].position))
+        return f"{kind} {name} ({count} {'person' if count == 1 else 'people'})"
+
+    return [Line2D([], [], color=palette[name], linewidth=1.5, label=label(name))
+            for name in sorted(palette)]
 
 
 def _legend(figure: Figure, axes: Axes, handles: list[Any]) -> None:
@@ -233,12 +276,19 @@ def plot_run(run: LoggedRun, out: str | Path, *, spacing: float = SPACING,
     """The run on its map: paths, starts, goals and personal spaces along the paths. `view`
     fixes the region shown (to draw several runs at the same scale)."""
     _check_spacing(spacing)
-    palette = colours(list(run.humans))
-    handles = [*_human_handles(run, palette), *_robot_handles(run), *_marker_handles()]
+    crowds = set_colours(run)
+    named = [name for name in run.humans if run.metadata.set_of(name) is None]
+    palette = colours(named)
+    handles = [*_human_handles(run, palette), *_set_handles(run, crowds),
+               *_robot_handles(run), *_marker_handles()]
     figure, axes = (view or View.around([run], whole_map)).figure(_labels(handles))
     draw_map(axes, run.grid)
     for name in sorted(run.humans):
-        draw_human(axes, run, name, palette[name], spacing=spacing)
+        crowd = run.metadata.set_of(name)
+        if crowd is None:
+            draw_human(axes, run, name, palette[name], spacing=spacing)
+        else:
+            draw_member(axes, run, name, crowds[crowd])
     draw_robots(axes, run)
     axes.set_title(_title(run), fontsize=11)
     _legend(figure, axes, handles)

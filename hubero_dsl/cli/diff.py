@@ -20,6 +20,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from rich.console import Console
 
     from hubero_dsl.analysis.diff import HumanDiff, MetricDelta, RunDiff, SweepDiff
@@ -42,7 +44,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     parser.add_argument("--epsilon", metavar="M", type=float, default=0.1,
                         help="paths further apart than this have diverged (default 0.1 m)")
     parser.add_argument("--human", metavar="NAME", action="append",
-                        help="show only this human (repeat for more)")
+                        help="show only this human, or the members of this crowd, flow or "
+                        "group (repeat for more)")
     parser.add_argument("--json", action="store_true", help="print JSON instead of tables")
     parser.add_argument("--plot", metavar="OUT.png", type=Path,
                         help="draw both runs on the map into a PNG")
@@ -79,7 +82,7 @@ def _pair(args: argparse.Namespace) -> int:
 
     a, b = load_run(args.first), load_run(args.second)
     diff = diff_runs(a, b, epsilon=args.epsilon)
-    humans = _chosen(args.human, sorted(diff.humans))
+    humans = _chosen(_expanded(args.human, a.metadata.members), sorted(diff.humans))
     if args.plot is not None:
         from hubero_dsl.analysis.plot import plot_overlay
 
@@ -91,6 +94,12 @@ def _pair(args: argparse.Namespace) -> int:
     else:
         _print_pair(diff, humans, _console())
     return 0
+
+
+def _expanded(wanted: list[str] | None, members: Callable[[str], tuple[str, ...]]
+              ) -> list[str] | None:
+    """Names as given, a crowd's, flow's or group's name standing for its members."""
+    return None if not wanted else [m for name in wanted for m in members(name)]
 
 
 def _chosen(wanted: list[str] | None, known: list[str]) -> list[str]:

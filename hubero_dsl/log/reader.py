@@ -55,6 +55,17 @@ class RunMetadata:
     log_rate_hz: float
     humans: tuple[str, ...]
     robots: tuple[str, ...]
+    # crowds, flows and groups: name -> (kind, members); empty in a run without them
+    sets: dict[str, tuple[str, tuple[str, ...]]] = field(default_factory=dict)
+
+    def members(self, name: str) -> tuple[str, ...]:
+        """The humans a name stands for: a crowd's, flow's or group's members, or the human."""
+        return self.sets[name][1] if name in self.sets else (name,)
+
+    def set_of(self, human: str) -> str | None:
+        """The crowd or flow a human belongs to (groups are of named humans), if any."""
+        return next((name for name, (kind, members) in self.sets.items()
+                     if kind != "group" and human in members), None)
 
 
 @dataclass(frozen=True)
@@ -190,7 +201,9 @@ def _metadata(values: dict[str, str], attachments: dict[str, bytes]) -> RunMetad
         variants=tuple(json.loads(values["variants"])), params=params,
         step=float(values["step"]), time_limit=float(values["time_limit"]),
         log_rate_hz=float(values["log_rate_hz"]), humans=tuple(json.loads(values["humans"])),
-        robots=tuple(json.loads(values["robots"])))
+        robots=tuple(json.loads(values["robots"])),
+        sets={name: (entry["kind"], tuple(entry["members"]))
+              for name, entry in json.loads(values.get("sets", "{}")).items()})
 
 
 def _outcome(values: dict[str, str]) -> RunOutcome:

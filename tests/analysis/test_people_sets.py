@@ -1,0 +1,60 @@
+"""Crowds, flows and groups in logs and their readers: the log names its sets of people, `plot`
+gives each crowd or flow one colour and one legend entry, and `diff --human` takes a set's name."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+from matplotlib.figure import Figure
+
+from hubero_dsl.analysis import plot as plot_module
+from hubero_dsl.cli.main import main
+from hubero_dsl.log.reader import load_run
+from hubero_dsl.pipeline import compile_file
+from hubero_dsl.simulate import simulate
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def lounge(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    log = tmp_path_factory.mktemp("sets") / "lounge.mcap"
+    simulate(compile_file(ROOT / "scenarios" / "lounge_crowd.hub"), log=log,
+             writer_process=False)
+    return log
+
+
+def test_the_log_names_crowds_and_groups(lounge: Path) -> None:
+    metadata = load_run(lounge).metadata
+    assert metadata.sets["visitors"] == ("crowd", tuple(f"visitors_{i}" for i in range(1, 9)))
+    assert metadata.sets["family"][0] == "group"
+    assert metadata.members("visitors")[0] == "visitors_1"
+    assert metadata.members("mum") == ("mum",)
+    assert metadata.set_of("visitors_3") == "visitors" and metadata.set_of("mum") is None
+
+
+def test_a_crowd_is_one_colour_and_one_legend_entry(lounge: Path, tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    legends: list[list[str]] = []
+    original = plot_module._legend
+
+    def spy(figure: Figure, axes: Any, handles: list[Any]) -> None:
+        legends.append([str(h.get_label()) for h in handles])
+        original(figure, axes, handles)
+
+    monkeypatch.setattr(plot_module, "_legend", spy)
+    plot_module.plot_run(load_run(lounge), tmp_path / "lounge.png")
+    labels = legends[0]
+    assert "crowd visitors (8 people)" in labels
+    assert not any(label.startswith("visitors_") for label in labels)
+    assert any(label.startswith("mum:") for label in labels) and "robot cart" in labels
+
+
+def test_diff_takes_a_crowds_name(lounge: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["diff", str(lounge), str(lounge), "--human", "visitors", "--json"]) == 0
+    shown = json.loads(capsys.readouterr().out)["humans"]
+    assert sorted(shown) == sorted(f"visitors_{i}" for i in range(1, 9))
+    assert main(["diff", str(lounge), str(lounge), "--human", "nobody"]) == 2
