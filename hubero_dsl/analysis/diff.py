@@ -32,10 +32,11 @@ from hubero_dsl.analysis.metrics import (
     vars_of,
 )
 from hubero_dsl.errors import InputError
+from hubero_dsl.socialnav import Track, social_metrics
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, describe_shape
 
 if TYPE_CHECKING:
-    from hubero_dsl.log.reader import HumanTrack, LoggedRun
+    from hubero_dsl.log.reader import HumanTrack, LoggedRun, RobotTrack
     from hubero_dsl.sim.status import TaskEvent
 
     FloatArray = np.ndarray[Any, np.dtype[np.float64]]
@@ -98,10 +99,12 @@ class RunDiff:
     epsilon: float
     humans: dict[str, HumanDiff]
     notes: tuple[str, ...] = ()  # what else differs (the scenario, the map), said in words
+    robots: dict[str, HumanDiff] = field(default_factory=dict)  # social-navigation metrics
 
     def to_dict(self) -> dict[str, Any]:
         return {"a": vars(self.a), "b": vars(self.b), "epsilon": self.epsilon,
                 "humans": {n: h.to_dict() for n, h in sorted(self.humans.items())},
+                "robots": {n: r.to_dict() for n, r in sorted(self.robots.items())},
                 "notes": list(self.notes)}
 
 
@@ -128,7 +131,40 @@ def diff_runs(a: LoggedRun, b: LoggedRun, *, epsilon: float = DEFAULT_EPSILON,
             diverged_at=diverged,
             parameters=parameter_changes(a.metadata.params.get(name, {}),
                                          b.metadata.params.get(name, {})))
-    return RunDiff(_side(a), _side(b), epsilon, humans, _notes(a, b))
+    return RunDiff(_side(a), _side(b), epsilon, humans, _notes(a, b), _robot_diffs(a, b, epsilon))
+
+
+def _robot_diffs(a: LoggedRun, b: LoggedRun, epsilon: float) -> dict[str, HumanDiff]:
+    """Each robot both runs have: its path against itself, and its social-navigation metrics
+    among the people (`hubero_dsl.socialnav`, from the logs' tracks)."""
+    robots = {}
+    for name in sorted(set(a.robots) & set(b.robots)):
+        frechet, hausdorff = path_distances(a.robots[name].position, b.robots[name].position)
+        separation, diverged = divergence(a.robots[name], b.robots[name], epsilon)
+        robots[name] = HumanDiff(name, _number_deltas(robot_metrics(a, name),
+                                                      robot_metrics(b, name)),
+                                 frechet, hausdorff, separation, diverged, {})
+    return robots
+
+
+def robot_metrics(run: LoggedRun, name: str) -> dict[str, float]:
+    """A robot's social-navigation metrics among every human, from a log's tracks (no goal is
+    logged: efficiency is against the straight line from its first to its last position)."""
+    robot = run.robots[name]
+    people = [Track(h.time, h.position, float(run.metadata.params.get(h.name, {}).get(
+        "radius", 0.2)))  # type: ignore[arg-type]
+        for h in run.humans.values() if len(h.time)]
+    return social_metrics(Track(robot.time, robot.position, robot.radius), people)
+
+
+def _number_deltas(a: dict[str, float], b: dict[str, float]) -> tuple[MetricDelta, ...]:
+    """B - A of each metric; None where either side is not finite (no goal, no people)."""
+    rows = []
+    for name in sorted(set(a) | set(b)):
+        left, right = (_finite(side.get(name)) for side in (a, b))
+        delta = _rounded(right - left) if left is not None and right is not None else None
+        rows.append(MetricDelta(name, left, right, delta))
+    return tuple(rows)
 
 
 def _side(run: LoggedRun) -> RunSide:
@@ -186,6 +222,11 @@ def _metric_values(metrics: HumanMetrics, places: dict[str, str]) -> dict[str, S
     return values
 
 
+def _finite(value: float | None) -> float | None:
+    """A number JSON can hold: None for a missing or infinite one (no goal, nobody near)."""
+    return _rounded(value) if value is not None and math.isfinite(value) else None
+
+
 def _tidy(value: Scalar | None) -> Scalar | None:
     return _rounded(value) if isinstance(value, float) else value
 
@@ -227,7 +268,7 @@ def path_distances(a: FloatArray, b: FloatArray) -> tuple[float | None, float | 
             _rounded(float(shapely.hausdorff_distance(line_a, line_b))))
 
 
-def divergence(a: HumanTrack, b: HumanTrack,
+def divergence(a: HumanTrack | RobotTrack, b: HumanTrack | RobotTrack,
                epsilon: float) -> tuple[float | None, float | None]:
     """(largest same-instant separation, first instant it exceeds epsilon) over the times both
     runs logged; B's position is interpolated at A's frame times."""

@@ -25,7 +25,6 @@ an export that fails leaves nothing under the name.
 
 from __future__ import annotations
 
-import json
 import math
 import shutil
 import tempfile
@@ -160,7 +159,6 @@ def _write(writer: Writer, run: LoggedRun, typestore: Typestore) -> None:
 def _frames(run: LoggedRun) -> list[tuple[int, list[Body]]]:
     """Every frame of the run (nanoseconds, with the bodies present then), in time order."""
     params = run.metadata.params
-    radius_of = _robot_radii(run)
     at: dict[int, list[Body]] = defaultdict(list)
     for name, track in run.humans.items():
         radius = float(params.get(name, {}).get("radius", DEFAULT_RADIUS))  # type: ignore[arg-type]
@@ -174,25 +172,8 @@ def _frames(run: LoggedRun) -> list[tuple[int, list[Body]]]:
         for i, ns in enumerate(np.rint(robot.time * 1e9).astype(np.int64).tolist()):
             x, y = robot.position[i].tolist()  # the log keeps robots' positions only
             at[ns].append(Body(name, "robot", x, y, float(robot.heading[i]), 0.0, 0.0,
-                               radius_of.get(name, DEFAULT_RADIUS), None))
+                               robot.radius or DEFAULT_RADIUS, None))
     return sorted(at.items())
-
-
-def _robot_radii(run: LoggedRun) -> dict[str, float]:
-    """Each robot's radius, from its body in the log's first `/scene`."""
-    from mcap.reader import make_reader
-
-    radii: dict[str, float] = {}
-    if not run.robots:
-        return radii
-    with run.path.open("rb") as stream:
-        for _, _, message in make_reader(stream).iter_messages(topics=[s.SCENE_TOPIC]):
-            for entity in json.loads(message.data)["entities"]:
-                if entity["id"].startswith("robot/") and entity["cylinders"]:
-                    radii[entity["id"].removeprefix("robot/")] = \
-                        entity["cylinders"][0]["size"]["x"] / 2
-            break
-    return radii
 
 
 class _Messages:

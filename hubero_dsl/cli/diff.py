@@ -182,14 +182,16 @@ def _print_pair(diff: RunDiff, humans: list[str], console: Console) -> None:
         console.print(f"[yellow]note:[/] {escape(note)}")
     for name in humans:
         console.print(_human_table(diff.humans[name], diff.epsilon))
+    for robot in diff.robots.values():
+        console.print(_human_table(robot, diff.epsilon, "robot "))
 
 
-def _human_table(human: HumanDiff, epsilon: float) -> Any:
+def _human_table(human: HumanDiff, epsilon: float, kind: str = "") -> Any:
     from rich.markup import escape
     from rich.table import Table
 
     changed = "; ".join(f"{name} {a} → {b}" for name, (a, b) in human.parameters.items())
-    title = f"[bold]{escape(human.name)}[/]" + (f"  {escape(changed)}" if changed else "")
+    title = f"[bold]{kind}{escape(human.name)}[/]" + (f"  {escape(changed)}" if changed else "")
     table = Table(title=title, title_justify="left")
     table.add_column("metric", no_wrap=True)
     for column in ("A", "B", "Δ (B - A)"):
@@ -208,7 +210,7 @@ def _human_table(human: HumanDiff, epsilon: float) -> Any:
 def metric_label(name: str) -> str:
     """`min_distance.actor2` -> `closest to actor2`, `task_finish_times.invite` -> `invite done`."""
     group, _, key = name.partition(".")
-    if group == "min_distance":
+    if group == "min_distance" and key:
         return f"closest to {key}"
     if group == "task_finish_times":
         kind, at, place = key.partition("@")

@@ -89,6 +89,7 @@ class RobotTrack:
     time: FloatArray
     position: FloatArray
     heading: FloatArray
+    radius: float = 0.0  # m, from its body in /scene
 
 
 @dataclass(frozen=True)
@@ -230,6 +231,7 @@ class _Collector:
         self._robot_frames = {s.robot_frame(name): name for name in robots}
         self._robots: dict[str, list[tuple[float, float, float, float]]] = {
             name: [] for name in robots}
+        self._radius: dict[str, float] = {}
 
     def add(self, topic: str, data: bytes) -> None:
         human = self._state_topics.get(topic)
@@ -246,6 +248,11 @@ class _Collector:
                                     value["message"], value["file"], int(value["line"])))
         elif topic == s.MAP_TOPIC and self.grid_message is None:
             self.grid_message = json.loads(data)
+        elif topic == s.SCENE_TOPIC and self._robot_frames and not self._radius:
+            for entity in json.loads(data)["entities"]:
+                robot = self._robot_frames.get(entity["id"])
+                if robot is not None and entity["cylinders"]:
+                    self._radius[robot] = float(entity["cylinders"][0]["size"]["x"]) / 2
 
     def _add_transforms(self, message: dict[str, Any]) -> None:
         for transform in message["transforms"]:
@@ -263,7 +270,8 @@ class _Collector:
         tracks = {}
         for name, rows in self._robots.items():
             table = np.array(rows, dtype=np.float64).reshape(-1, 4)
-            tracks[name] = RobotTrack(name, table[:, 0], table[:, 1:3], table[:, 3])
+            tracks[name] = RobotTrack(name, table[:, 0], table[:, 1:3], table[:, 3],
+                                      self._radius.get(name, 0.0))
         return tracks
 
 

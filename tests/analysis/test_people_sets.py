@@ -58,3 +58,20 @@ def test_diff_takes_a_crowds_name(lounge: Path, capsys: pytest.CaptureFixture[st
     shown = json.loads(capsys.readouterr().out)["humans"]
     assert sorted(shown) == sorted(f"visitors_{i}" for i in range(1, 9))
     assert main(["diff", str(lounge), str(lounge), "--human", "nobody"]) == 2
+
+
+def test_diff_compares_robots(lounge: Path, tmp_path: Path) -> None:
+    from hubero_dsl.analysis.diff import diff_runs
+
+    other = tmp_path / "other.mcap"
+    simulate(compile_file(ROOT / "scenarios" / "lounge_crowd.hub"), log=other, seed=11,
+             writer_process=False)
+    run = load_run(lounge)
+    assert run.robots["cart"].radius > 0
+    diff = diff_runs(run, load_run(other))
+    cart = diff.robots["cart"]
+    assert {m.name for m in cart.metrics} >= {"min_distance", "path_length", "collisions"}
+    same = diff_runs(run, run).robots["cart"]
+    assert all(m.delta in (0, 0.0, None) for m in same.metrics)
+    assert same.max_separation == 0.0 and same.diverged_at is None
+    assert "cart" in json.loads(json.dumps(diff.to_dict()))["robots"]
