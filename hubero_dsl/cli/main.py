@@ -32,7 +32,8 @@ from hubero_dsl import __version__
 from hubero_dsl.errors import CompileError, HuberoError
 
 # Command modules in the order `hubero --help` lists them.
-COMMANDS: tuple[str, ...] = ("check", "run", "test", "graph", "sweep", "plot", "diff")
+COMMANDS: tuple[str, ...] = ("check", "run", "test", "graph", "sweep", "plot", "diff",
+                             "validate")
 
 EXIT_OK = 0
 EXIT_FAILED = 1  # the input has errors, or the run or test failed
