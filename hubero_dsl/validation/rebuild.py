@@ -25,6 +25,7 @@ import numpy.typing as npt
 import pandas as pd
 import shapely
 from shapely.geometry import Polygon
+from shapely.geometry.base import BaseGeometry
 
 from hubero_dsl.diagnostics import SourceFile, Span
 from hubero_dsl.graph.build import build_activity_graph
@@ -32,7 +33,6 @@ from hubero_dsl.model.activities import Activity, ParallelStep, TaskStep
 from hubero_dsl.model.program import HumanSpec, ParamLayer, ParamValue, Pose, Program
 from hubero_dsl.model.tasks import Task
 from hubero_dsl.validation.experiments import Experiment, pedpy
-from hubero_dsl.world.grid import OccupancyGrid
 from hubero_dsl.world.mapfile import save_map
 from hubero_dsl.world.raster import grid_from_walkable
 
@@ -130,12 +130,13 @@ def run_rebuild(program: Program, experiment: Experiment, log: Path) -> Any:
     from hubero_dsl.simulate import simulate
 
     simulate(program, log=log, log_rate=LOG_RATE, writer_process=False)
-    return trajectory_from_log(load_run(log), experiment)
+    return trajectory_from_log(load_run(log), experiment.walkable)
 
 
-def trajectory_from_log(run: Any, experiment: Experiment) -> Any:
-    """A hubero run's human tracks as a pedpy.TrajectoryData, frames at the log's rate, kept
-    where the experiment measured (PedPy's Voronoi cells need points inside its area)."""
+def trajectory_from_log(run: Any, walkable: BaseGeometry | None = None) -> Any:
+    """A hubero run's human tracks as a pedpy.TrajectoryData, frames at the log's rate, ids
+    numbered in name order; only points inside `walkable` when given (PedPy's Voronoi cells
+    need points inside its walkable area)."""
     rate = run.metadata.log_rate_hz
     rows = []
     for number, (_, track) in enumerate(sorted(run.humans.items()), start=1):
@@ -143,8 +144,8 @@ def trajectory_from_log(run: Any, experiment: Experiment) -> Any:
         rows.append(pd.DataFrame({"id": number, "frame": frame, "x": track.position[:, 0],
                                   "y": track.position[:, 1]}))
     data = pd.concat(rows, ignore_index=True).drop_duplicates(["id", "frame"])
-    data = data[shapely.contains_xy(experiment.walkable, data["x"].to_numpy(),
-                                    data["y"].to_numpy())]
+    if walkable is not None:
+        data = data[shapely.contains_xy(walkable, data["x"].to_numpy(), data["y"].to_numpy())]
     return pedpy().TrajectoryData(data=data.reset_index(drop=True), frame_rate=rate)
 
 
@@ -155,8 +156,3 @@ def simulate_experiment(experiment: Experiment, measured: Any, speeds: FloatArra
         program = rebuild_program(experiment, measured, speeds, seed=seed, params=params,
                                   map_path=Path(folder) / f"{experiment.name}.yaml")
         return run_rebuild(program, experiment, Path(folder) / "run.mcap")
-
-
-def grid_of(experiment: Experiment) -> OccupancyGrid:
-    """The rebuild's map, for pictures."""
-    return grid_from_walkable(experiment.room, source=experiment.name)
