@@ -13,7 +13,7 @@ from PIL import Image
 
 pytest.importorskip("pedpy")
 
-from hubero_dsl.validation.experiments import shipped_path  # noqa: E402
+from hubero_dsl.validation.experiments import shipped_path
 
 Cli = Callable[..., Any]
 FREE_FLOW = str(shipped_path("uo-050-180-180"))
