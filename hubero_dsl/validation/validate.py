@@ -76,10 +76,13 @@ def measure(experiments: Sequence[Experiment]) -> list[Measured]:
 
 
 def simulate_and_compare(measured: Measured, *, seed: int,
-                         params: Mapping[str, ParamValue] | None = None) -> Validation:
+                         params: Mapping[str, ParamValue] | None = None,
+                         speed_scale: float = 1.0) -> Validation:
+    """Rebuild and run one recording (`params` over every person, desired speeds times
+    `speed_scale`) and compare it with the measurement."""
     experiment = measured.experiment
-    run = simulate_experiment(experiment, measured.trajectory, measured.speeds, seed=seed,
-                              params=params)
+    run = simulate_experiment(experiment, measured.trajectory, measured.speeds * speed_scale,
+                              seed=seed, params=params)
     simulated = fundamental_diagram(run, experiment, steady=EVERY_FRAME)
     return Validation(measured, simulated, compare(experiment.name, measured.diagram, simulated))
 
