@@ -1,10 +1,10 @@
 """An experiment rebuilt as a hubero scenario, run, and read back as a PedPy trajectory.
 
-    trajectory = simulate_experiment(experiment, measured, seed=1, params={"relaxation_time": 0.5})
+    trajectory = simulate_experiment(experiment, measured, speeds, seed=1, start=500)
 
 The scenario is a `Program` built in code: the map is the experiment's room rasterised
-(`hubero_dsl.world.raster`), every person measured at the first steady frame stands where they
-were measured, facing the walking direction, and walks to a goal of their own in the room
+(`hubero_dsl.world.raster`), every person measured at a start frame stands where they were
+measured, facing the walking direction, and walks to a goal of their own in the room
 beyond the exit (goals on a lattice, the first to leave going furthest), so that nobody waits on
 a goal another stands on and those who left never block the exit. Desired speeds are drawn from
 the measured distribution (`desired_speeds`). The run is logged to MCAP, and the log's tracks are
@@ -40,7 +40,7 @@ FloatArray = npt.NDArray[np.float64]
 LOG_RATE = 10.0         # Hz: frames of the simulated trajectory
 GOAL_SPACING = 0.7      # m between goals in the room beyond the exit
 BODY_RADIUS = 0.2       # m, hubero's default body
-MIN_DURATION = 20.0     # s: a rebuild runs at least this long
+SNAPSHOT = 10.0         # s each rebuild runs from its start frame
 
 
 def desired_speeds(trajectory: Any, experiment: Experiment) -> FloatArray:
@@ -55,17 +55,26 @@ def desired_speeds(trajectory: Any, experiment: Experiment) -> FloatArray:
     return np.sort(speed.groupby("id")["speed"].mean().to_numpy(dtype=np.float64))
 
 
+def start_frames(experiment: Experiment, measured: Any) -> list[int]:
+    """The frames rebuilds start from: every SNAPSHOT seconds through the steady state (the
+    whole recording when it has none), so that together they sample its densities."""
+    frames = measured.data["frame"]
+    first, last = experiment.steady or (int(frames.min()), int(frames.max()))
+    spacing = round(SNAPSHOT * experiment.frame_rate)
+    return list(range(first, max(first, last - spacing) + 1, spacing))
+
+
 def rebuild_program(experiment: Experiment, measured: Any, speeds: FloatArray, *,
-                    seed: int, params: Mapping[str, ParamValue] | None = None,
+                    seed: int, start: int, params: Mapping[str, ParamValue] | None = None,
                     map_path: Path) -> Program:
-    """The experiment as a program; its map is written to `map_path` (the log attaches it)."""
+    """The experiment from frame `start` on, as a program; its map is written to `map_path`
+    (the log attaches it)."""
     grid = grid_from_walkable(experiment.room, source=str(map_path))
     save_map(grid, map_path, comment=f"{experiment.name}: rebuilt from its geometry")
-    start, stop = _window(experiment, measured)
     present = measured.data[measured.data["frame"] == start]
     present = present[shapely.contains_xy(experiment.walkable, present["x"].to_numpy(),
                                           present["y"].to_numpy())]
-    rng = np.random.default_rng([seed, 0x7A11D])
+    rng = np.random.default_rng([seed, start])
     drawn = rng.choice(speeds, size=len(present)) if len(speeds) else np.full(len(present), 1.3)
     goals = _goals(experiment, len(present))
     order = np.argsort(_progress(experiment, present[["x", "y"]].to_numpy()))[::-1]
@@ -82,19 +91,13 @@ def rebuild_program(experiment: Experiment, measured: Any, speeds: FloatArray, *
         steps.append(TaskStep(name, Task("move_to", tuple(goals[rank]), {}, span), None, None,
                               False, span, f"{name} move_to goal"))
     activity = Activity("rebuild", (ParallelStep(tuple(steps), span),), span, span)
-    duration = max(MIN_DURATION, (stop - start) / experiment.frame_rate)
     return Program(
         source=SourceFile(experiment.name, _description(experiment, start, len(humans), seed)),
         title=f"{experiment.name} rebuilt", map_path=map_path, grid=grid, seed=seed,
-        step=0.05, time_limit=duration, on_failure="continue", bounds=None, places={},
+        step=0.05, time_limit=SNAPSHOT, on_failure="continue", bounds=None, places={},
         areas={}, defaults=ParamLayer(dict(params or {})), humans=tuple(humans), robots=(),
         variants={}, activities=(activity,), expectations=(),
         graph=build_activity_graph([activity]))
-
-
-def _window(experiment: Experiment, measured: Any) -> tuple[int, int]:
-    frames = measured.data["frame"]
-    return experiment.steady or (int(frames.min()), int(frames.max()))
 
 
 def _progress(experiment: Experiment, xy: FloatArray) -> FloatArray:
@@ -150,9 +153,11 @@ def trajectory_from_log(run: Any, walkable: BaseGeometry | None = None) -> Any:
 
 
 def simulate_experiment(experiment: Experiment, measured: Any, speeds: FloatArray, *,
-                        seed: int, params: Mapping[str, ParamValue] | None = None) -> Any:
-    """Rebuild, run and read back one experiment, in a temporary folder."""
+                        seed: int, start: int,
+                        params: Mapping[str, ParamValue] | None = None) -> Any:
+    """Rebuild from frame `start`, run and read back one experiment, in a temporary folder."""
     with tempfile.TemporaryDirectory(prefix="hubero-validate-") as folder:
-        program = rebuild_program(experiment, measured, speeds, seed=seed, params=params,
+        program = rebuild_program(experiment, measured, speeds, seed=seed, start=start,
+                                  params=params,
                                   map_path=Path(folder) / f"{experiment.name}.yaml")
         return run_rebuild(program, experiment, Path(folder) / "run.mcap")
