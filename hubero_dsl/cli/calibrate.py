@@ -56,7 +56,15 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     parser.add_argument("-o", "--output", metavar="FITTED.hub", type=Path,
                         help="write the fitted defaults block here")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
+    parser.add_argument("--quiet", "-q", action="store_true",
+                        help="no progress lines on standard error")
     return parser
+
+
+def _progress(evaluation: int, error: float) -> None:
+    import sys
+
+    print(f"evaluation {evaluation}: error {error:.4f}", file=sys.stderr, flush=True)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -86,7 +94,8 @@ def run(args: argparse.Namespace) -> int:
     jobs = args.jobs if args.jobs is not None else min(available_cores(), len(train))
     with open_executor(args.executor, jobs=jobs) as executor:
         result = calibrate(train, test, fit=fit, seed=args.seed,
-                           evaluations=args.evaluations, executor=executor)
+                           evaluations=args.evaluations, executor=executor,
+                           progress=None if args.quiet else _progress)
     block = result.defaults_block([r.name for r in result.train])
     if args.output is not None:
         _write(args.output, block)

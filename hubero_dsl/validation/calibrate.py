@@ -2,8 +2,9 @@
 
 The error of a parameter set is the mean, over the training recordings and their counted
 density bins, of the squared relative error of the simulated mean speed (`compare`); a
-recording with no counted bin adds 1. scipy's Nelder-Mead (with bounds) searches the
-parameters scaled to [0, 1], from hubero's defaults, for at most `evaluations` parameter sets.
+recording with no counted bin adds 1. With the parameters scaled to [0, 1], a Latin hypercube
+of points (scipy.stats.qmc, with hubero's defaults) surveys the box, and scipy's Nelder-Mead
+(with bounds) goes on from the best of them, for at most `evaluations` parameter sets in all.
 Each set's recordings run in parallel on a sweep executor (`hubero_dsl.sweep.executors`); the
 workers load and analyse each recording once. After the fit, the held-out recordings are run
 with the defaults and with the fitted values, and their errors reported.
@@ -60,6 +61,7 @@ FITTABLE: dict[str, Fittable] = {f.name: f for f in (
 )}
 DEFAULT_FIT = ("relaxation_time", "social_force.A", "social_force.B", "personal_space")
 SPEED_SCALE = "speed_scale"
+SIMPLEX_STEP = 0.15   # the Nelder-Mead simplex's edge, in the [0, 1]-scaled parameters
 
 
 def chosen(names: Sequence[str]) -> list[Fittable]:
@@ -142,38 +144,65 @@ def calibrate(train: Sequence[Path], test: Sequence[Path], *, fit: Sequence[Fitt
               progress: Callable[[int, float], None] | None = None) -> Calibration:
     """Fit `fit` to the `train` recordings, then report on `train` and `test`."""
     from scipy.optimize import minimize
+    from scipy.stats import qmc
 
     paths = [str(p) for p in train]
     cache: dict[tuple[float, ...], float] = {}
 
-    def errors_for(files: Sequence[str], values: dict[str, float]) -> list[list[float]]:
-        items = tuple(sorted(values.items()))
-        futures = [executor.submit(file_errors, f, seed, items) for f in files]
-        return [future.result() for future in futures]
+    def errors_for(files: Sequence[str], sets: Sequence[dict[str, float]]
+                   ) -> list[list[list[float]]]:
+        """Every set's errors on every file: all runs submitted at once, so they share the
+        executor's workers."""
+        futures = [[executor.submit(file_errors, f, seed, tuple(sorted(v.items())))
+                    for f in files] for v in sets]
+        return [[future.result() for future in row] for row in futures]
+
+    def measure_points(points: Sequence[np.ndarray[Any, Any]]) -> None:
+        fresh = [p for p in points if _key(p) not in cache]
+        for point, errors in zip(fresh, errors_for(paths, [_values(fit, p) for p in fresh]),
+                                 strict=True):
+            cache[_key(point)] = loss(errors)
+            if progress is not None:
+                progress(len(cache), cache[_key(point)])
 
     def objective(x: np.ndarray[Any, Any]) -> float:
-        key = tuple(round(float(v), 6) for v in x)
-        if key not in cache:
-            cache[key] = loss(errors_for(paths, _values(fit, x)))
-            if progress is not None:
-                progress(len(cache), cache[key])
-        return cache[key]
+        measure_points([x])
+        return cache[_key(x)]
 
+    # A first look over the whole box (a Latin hypercube, with the defaults), measured in
+    # parallel, then Nelder-Mead from the best point with what is left of the budget.
     start = np.array([(f.default - f.low) / (f.high - f.low) for f in fit])
-    result = minimize(objective, start, method="Nelder-Mead", bounds=[(0.0, 1.0)] * len(fit),
-                      options={"maxfev": evaluations, "xatol": 0.01, "fatol": 1e-4})
-    fitted = _values(fit, np.asarray(result.x))
+    survey = min(max(evaluations // 2, 1), 4 * len(fit))
+    points = [start, *qmc.LatinHypercube(d=len(fit), seed=seed).random(survey - 1)]
+    measure_points(points)
+    best = min(points, key=lambda p: cache[_key(p)])
+    simplex = [best] + [np.clip(best + SIMPLEX_STEP * np.sign(0.5 - best[i] + 1e-9)
+                                * np.eye(len(fit))[i], 0.0, 1.0) for i in range(len(fit))]
+    remaining = evaluations - len(cache)
+    result_x, result_fun = best, cache[_key(best)]
+    if remaining > 0:
+        result = minimize(objective, best, method="Nelder-Mead",
+                          bounds=[(0.0, 1.0)] * len(fit),
+                          options={"maxfev": remaining, "initial_simplex": np.array(simplex),
+                                   "xatol": 0.01, "fatol": 1e-4})
+        if float(result.fun) < result_fun:
+            result_x, result_fun = np.asarray(result.x), float(result.fun)
+    fitted = _values(fit, result_x)
     defaults = {f.name: f.default for f in fit}
 
     def reports(files: Sequence[Path]) -> tuple[FileReport, ...]:
         names = [str(p) for p in files]
-        before, after = errors_for(names, defaults), errors_for(names, fitted)
+        before, after = errors_for(names, [defaults, fitted])
         return tuple(FileReport(Path(n).name.removesuffix(".xz").removesuffix(".txt"),
                                 loss([b]), loss([a]), _worst(b), _worst(a))
                      for n, b, a in zip(names, before, after, strict=True))
 
-    return Calibration(fitted=fitted, train_loss=float(result.fun), evaluations=len(cache),
+    return Calibration(fitted=fitted, train_loss=result_fun, evaluations=len(cache),
                        train=reports(train), test=reports(test))
+
+
+def _key(x: np.ndarray[Any, Any]) -> tuple[float, ...]:
+    return tuple(round(float(v), 6) for v in x)
 
 
 def _values(fit: Sequence[Fittable], x: np.ndarray[Any, Any]) -> dict[str, float]:
