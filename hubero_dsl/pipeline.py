@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal, cast
 
-from hubero_dsl.diagnostics import Diagnostic, SourceFile
+from hubero_dsl.diagnostics import Diagnostic, SourceFile, error
 from hubero_dsl.errors import CompileError
 from hubero_dsl.graph.build import build_activity_graph
 from hubero_dsl.graph.verify import verify_activities
@@ -34,6 +34,7 @@ from hubero_dsl.model.activities import Activity
 from hubero_dsl.model.params import HUMAN_PARAMS
 from hubero_dsl.model.program import (
     Distribution,
+    FlowSpec,
     HumanSpec,
     ParamLayer,
     Pose,
@@ -156,6 +157,7 @@ def _check_module(module: ast.Module, diagnostics: list[Diagnostic]) -> Program 
     lowering = Lowering(module.source, facts.places, areas,
                         cast("Polygon | None", facts.settings.get("bounds")),
                         {**{crowd.name: crowd.members for crowd in facts.crowds},
+                         **{flow.name: flow.members for flow in facts.flows},
                          **facts.groups}, _group_starts(facts))
     activities = lowering.activities(module.of_type(ast.ActivityDecl))
     graph = build_activity_graph(activities)
@@ -163,6 +165,7 @@ def _check_module(module: ast.Module, diagnostics: list[Diagnostic]) -> Program 
     if grid is None or facts.map is None or any(d.is_error for d in diagnostics):
         return None
     crowds = _crowd_members(facts, grid, lowering, diagnostics)
+    flows, arrivals = _flows(facts, grid, lowering, diagnostics)
     if any(d.is_error for d in diagnostics):
         return None
     if (idle := no_activity(module)) is not None:
@@ -175,8 +178,8 @@ def _check_module(module: ast.Module, diagnostics: list[Diagnostic]) -> Program 
         on_failure=cast(Literal["stop", "continue"],
                         facts.settings.get("on_failure") or "stop"),
         bounds=lowering.bounds, places=dict(facts.places), areas=areas,
-        defaults=facts.defaults, humans=_humans(module, facts) + crowds,
-        robots=tuple(facts.robots), groups=dict(facts.groups),
+        defaults=facts.defaults, humans=_humans(module, facts) + crowds + arrivals,
+        robots=tuple(facts.robots), groups=dict(facts.groups), flows=flows,
         variants=_variants(facts), activities=activities,
         expectations=lowering.expectations(module.of_type(ast.ExpectDecl)), graph=graph)
 
@@ -214,6 +217,33 @@ def _crowd_members(facts: Facts, grid: OccupancyGrid, lowering: Lowering,
                               crowd.name)
                     for member, (x, y) in zip(crowd.members, places, strict=False)]
     return tuple(members)
+
+
+def _flows(facts: Facts, grid: OccupancyGrid, lowering: Lowering,
+           diagnostics: list[Diagnostic]) -> tuple[tuple[FlowSpec, ...], tuple[HumanSpec, ...]]:
+    """Every flow, with its members (who start nowhere: a run brings them in), after checking
+    that its people fit in its area with a way to its target, and fit at the target."""
+    flows: list[FlowSpec] = []
+    members: list[HumanSpec] = []
+    for flow in facts.flows:
+        if flow.target is None or flow.rate is None:
+            continue
+        area, radius = lowering.area(flow.area), _radius(flow.layer, facts)
+        check_bodies(grid, [(f"the target of flow '{flow.name}'", flow.target, radius,
+                             flow.span)], diagnostics)
+        if not len(grid.entry_places(area, flow.target, radius)):
+            diagnostics.append(error(
+                "E407", f"nowhere in the area of flow '{flow.name}' can a body of radius "
+                f"{radius:g} m stand with a way to the flow's target", flow.span,
+                "make the area larger or move it off the obstacles, or check that a way "
+                "leads from it to the target"))
+            continue
+        until = lowering.condition(flow.until) if flow.until is not None else None
+        flows.append(FlowSpec(flow.name, area, flow.target, flow.rate, flow.members, flow.span,
+                              flow.duration, until))
+        members += [HumanSpec(member, Pose(*flow.target), flow.layer, flow.span, flow.name)
+                    for member in flow.members]
+    return tuple(flows), tuple(members)
 
 
 def _radius(layer: ParamLayer | None, facts: Facts) -> float:

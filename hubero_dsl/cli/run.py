@@ -47,6 +47,9 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, metavar="N", help="override the scenario's seed")
     parser.add_argument("--quiet", "-q", action="store_true",
                         help="no progress bar and no summary, only problems")
+    parser.add_argument("--members", action="store_true",
+                        help="list every member of a crowd or flow in the summary, not one "
+                        "row per crowd or flow")
     parser.add_argument("--controller", metavar="ROBOT=MODULE:CLASS", action="append",
                         default=[], help="drive robot ROBOT with your own controller class "
                         "(importable MODULE; repeat for several robots)")
@@ -90,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
         if not args.quiet:
             from hubero_dsl.cli.summary import print_summary
 
-            print_summary(program, result, output)
+            print_summary(program, result, output, members=args.members)
         elif not result.succeeded:  # quiet means no progress and no tables, not silence
             from hubero_dsl.cli.summary import print_failure
 

@@ -6,9 +6,11 @@ summary goes to stdout (plain text when stdout is not a terminal).
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from statistics import mean
 from typing import TYPE_CHECKING
 
 from rich.console import Console
@@ -52,7 +54,9 @@ def progress_observer(program: Program, variant: str | None
 
 
 def print_summary(program: Program, result: RunResult, output: Path | None,
-                  console: Console | None = None) -> None:
+                  console: Console | None = None, *, members: bool = False) -> None:
+    """The run's tables: named humans one by one, and crowds and flows one row each (every
+    member on a row of their own with `members`), robots, their metrics, expectations."""
     console = console or make_console()
     state = result.state.value
     title = (f"{_label(program, result.variant)}: [{STATE_STYLE.get(state, '')}]{state}[/] "
@@ -60,7 +64,12 @@ def print_summary(program: Program, result: RunResult, output: Path | None,
     console.print(title)
     if result.reason:
         console.print(f"  reason: {result.reason}")
-    console.print(_actors_table(result.humans, "human", "humans"))
+    sets = None if members else _sets_table(program, result.humans)
+    named = result.humans if members else _named(program, result.humans)
+    if named or sets is None:
+        console.print(_actors_table(named, "human", "humans"))
+    if sets is not None:
+        console.print(sets)
     if result.robots:
         console.print(_actors_table(result.robots, "robot", "robots"))
     if result.robot_metrics:
@@ -106,6 +115,38 @@ def _actors_table(actors: list[HumanSummary], column: str, title: str) -> Table:
         table.add_row(human.name, f"{human.tasks_done}/{human.tasks_total}",
                       f"[{style}]{human.last_status}[/]" if style else human.last_status,
                       f"{human.path_length:.2f} m", f"{human.busy_time:.2f} s")
+    return table
+
+
+def _named(program: Program, humans: list[HumanSummary]) -> list[HumanSummary]:
+    """The humans declared one by one (not members of a crowd or flow)."""
+    named = {spec.name for spec in program.humans if spec.group is None}
+    return [human for human in humans if human.name in named]
+
+
+def _sets_table(program: Program, humans: list[HumanSummary]) -> Table | None:
+    """One row per crowd and flow: how many took part, tasks done, how their last tasks ended,
+    and the mean path length and time on tasks of those who took part."""
+    sets: dict[str, list[HumanSummary]] = {}
+    group_of = {spec.name: spec.group for spec in program.humans if spec.group is not None}
+    for human in humans:
+        if human.name in group_of:
+            sets.setdefault(group_of[human.name], []).append(human)
+    if not sets:
+        return None
+    flows = {flow.name for flow in program.flows}
+    table = Table("crowd or flow", "people", "tasks done", "last status", "mean path length",
+                  "mean time on tasks", title="crowds and flows", title_justify="left")
+    for name, everyone in sets.items():
+        came = [h for h in everyone if h.tasks_total or name not in flows]
+        statuses = Counter(h.last_status for h in came)
+        people = f"{len(came)} came" if name in flows else str(len(came))
+        table.add_row(f"{name} ({'flow' if name in flows else 'crowd'})", people,
+                      f"{sum(h.tasks_done for h in came)}/{sum(h.tasks_total for h in came)}",
+                      ", ".join(f"{count} {status}" for status, count in sorted(
+                          statuses.items())) or "-",
+                      f"{mean(h.path_length for h in came):.2f} m" if came else "-",
+                      f"{mean(h.busy_time for h in came):.2f} s" if came else "-")
     return table
 
 

@@ -455,6 +455,21 @@ MAX_CROWD = 10_000  # people in one crowd
 
 
 @dataclass(frozen=True, slots=True)
+class FlowDecl:
+    """`flow NAME from AREA to TARGET rate R [for Q | until C] [{ PARAM ... }]`: people who
+    appear in AREA at random times, R on average, walk to TARGET and leave there."""
+
+    name: NameRef
+    area: AreaValue
+    target: PointValue
+    rate: Value
+    duration: Value | None
+    until: Condition | None
+    params: tuple[Param, ...]
+    span: Span
+
+
+@dataclass(frozen=True, slots=True)
 class GroupDecl:
     """`group NAME of (H, H, ...)`: people who walk and talk together."""
 
@@ -524,7 +539,8 @@ class ExpectDecl:
 
 
 Statement: TypeAlias = (ScenarioDecl | MapDecl | SettingDecl | PlaceDecl | AreaDecl | DefaultsDecl
-                        | HumanDecl | CrowdDecl | GroupDecl | RobotDecl | VariantDecl | SweepDecl
+                        | HumanDecl | CrowdDecl | FlowDecl | GroupDecl | RobotDecl | VariantDecl
+                        | SweepDecl
                         | ActivityDecl | ExpectDecl)
 
 

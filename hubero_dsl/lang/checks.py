@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 from hubero_dsl.controllers.registry import controller_names
@@ -25,6 +25,7 @@ from hubero_dsl.model.program import (
     ParamValue,
     Pose,
     RobotSpec,
+    flow_bound,
 )
 from hubero_dsl.model.tasks import TASKS, OptionSpec, TargetRule, TaskKind, ValueKind
 from hubero_dsl.model.units import Dimension
@@ -38,6 +39,7 @@ MAX_TICKS = 1e8  # ticks in a run (time_limit / step): about 14 h of computing a
 MAX_VARIANTS = 10_000  # variants of a scenario (named variants times sweep values)
 MAX_HUMANS = 20_000    # humans of a scenario, crowds included (a log has 65,535 channels)
 TARGETS = (NameKind.PLACE, NameKind.HUMAN, NameKind.ROBOT, NameKind.GROUP)
+MANY = (NameKind.CROWD, NameKind.GROUP, NameKind.FLOW)  # names of sets of humans
 
 @dataclass(frozen=True)
 class CrowdFacts:
@@ -49,6 +51,21 @@ class CrowdFacts:
     heading: float
     layer: ParamLayer
     span: Span
+
+
+@dataclass(frozen=True)
+class FlowFacts:
+    """A flow as checked: the pipeline checks its area and target on the map."""
+
+    name: str
+    area: ast.AreaValue
+    target: tuple[float, float] | None
+    rate: float | None
+    duration: float | None
+    until: ast.Condition | None
+    layer: ParamLayer
+    span: Span
+    members: tuple[str, ...] = ()
 
 
 @dataclass
@@ -64,6 +81,7 @@ class Facts:
     human_starts: dict[str, Pose] = field(default_factory=dict)
     robots: list[RobotSpec] = field(default_factory=list)
     crowds: list[CrowdFacts] = field(default_factory=list)
+    flows: list[FlowFacts] = field(default_factory=list)
     groups: dict[str, tuple[str, ...]] = field(default_factory=dict)
     variants: list[tuple[str, ParamLayer]] = field(default_factory=list)
     sweeps: list[tuple[str, list[tuple[str, ParamLayer]]]] = field(default_factory=list)
@@ -102,6 +120,7 @@ class Checker:
         self._robot_tasks()
         self._body_places()
         self._tick_count()
+        self._flow_members()
         self._sizes()
         return self.facts
 
@@ -118,13 +137,19 @@ class Checker:
                         "sweep fewer parameters or fewer values, or run a sweep's parts in "
                         "files of their own")
         people = 0
+        flows = {flow.name: flow for flow in self.facts.flows}
         for statement in self.module.statements:
-            if isinstance(statement, ast.HumanDecl | ast.CrowdDecl):
-                people += len(statement.members) if isinstance(statement, ast.CrowdDecl) else 1
+            if isinstance(statement, ast.HumanDecl | ast.CrowdDecl | ast.FlowDecl):
+                people += len(statement.members) if isinstance(statement, ast.CrowdDecl) else \
+                    len(flows[statement.name.name].members) \
+                    if isinstance(statement, ast.FlowDecl) and statement.name.name in flows \
+                    else 1
                 if people > MAX_HUMANS:
                     self.report("E203", f"more than {MAX_HUMANS:,} humans; a scenario has at "
                                 "most that many (logs and planning are sized for it)",
-                                statement.span)
+                                statement.span, "a flow counts as many people as it may "
+                                "bring: its rate times its duration (or the time limit), "
+                                "and a margin" if isinstance(statement, ast.FlowDecl) else None)
                     break
 
     def _tick_count(self) -> None:
@@ -188,6 +213,8 @@ class Checker:
                 self.symbols.define(statement.name, kind)
             elif isinstance(statement, ast.GroupDecl):
                 self.symbols.define(statement.name, NameKind.GROUP)
+            elif isinstance(statement, ast.FlowDecl):
+                self.symbols.define(statement.name, NameKind.FLOW)
             elif isinstance(statement, ast.CrowdDecl):
                 self.symbols.define(statement.name, NameKind.CROWD)
                 for member in statement.members:  # NAME_1 ... NAME_N, at the crowd's name
@@ -228,6 +255,8 @@ class Checker:
                 self._human(statement)
             case ast.CrowdDecl():
                 self._crowd(statement)
+            case ast.FlowDecl():
+                self._flow(statement)
             case ast.GroupDecl():
                 self._group(statement)
             case ast.RobotDecl():
@@ -330,6 +359,36 @@ class Checker:
         layer = self._layer(crowd.params, per_human_allowed=False)
         self.facts.crowds.append(CrowdFacts(crowd.name.name, crowd.members, crowd.area, heading,
                                             layer, crowd.span))
+
+    def _flow(self, flow: ast.FlowDecl) -> None:
+        what = f"flow '{flow.name.name}'"
+        self._area(flow.area, f"the area of {what}")
+        target = self._fixed_point(flow.target, f"the target of {what}")
+        rate = self.values.quantity(flow.rate, Dimension.RATE, "a flow's rate", positive=True)
+        duration = None
+        if flow.duration is not None:
+            duration = self.values.quantity(flow.duration, Dimension.TIME, "a flow's duration",
+                                            positive=True)
+        if flow.until is not None:
+            self._condition(flow.until)
+        layer = self._layer(flow.params, per_human_allowed=False)
+        self.facts.flows.append(FlowFacts(flow.name.name, flow.area, target, rate, duration,
+                                          flow.until, layer, flow.span))
+
+    def _flow_members(self) -> None:
+        """Each flow's members, as many as it may bring before it stops spawning (its
+        duration, or the time limit)."""
+        limit = self.facts.settings.get("time_limit")
+        limit = limit if isinstance(limit, float) else DEFAULT_TIME_LIMIT
+        for index, flow in enumerate(self.facts.flows):
+            if flow.rate is None:
+                continue
+            seconds = min(flow.duration, limit) if flow.duration is not None else limit
+            count = flow_bound(flow.rate, seconds)
+            if count > MAX_HUMANS:  # named no further: E203 follows in _sizes
+                count = MAX_HUMANS + 1
+            self.facts.flows[index] = replace(
+                flow, members=tuple(f"{flow.name}_{i}" for i in range(1, count + 1)))
 
     def _robot(self, robot: ast.RobotDecl) -> None:
         name = robot.name.name
@@ -449,7 +508,8 @@ class Checker:
             path = param.path
             target = values
             if len(path) > 1 and self.symbols.kind_of(path[0]) in (NameKind.HUMAN,
-                                                                     NameKind.CROWD):
+                                                                     NameKind.CROWD,
+                                                                     NameKind.FLOW):
                 if not per_human_allowed:
                     self.report("E105", f"'{param.dotted}': per-human settings belong in a "
                                 "variant", param.name_span,
@@ -780,12 +840,10 @@ class Checker:
                                          non_negative=True)
                 case ast.AllReach(group=group, target=target) | \
                         ast.AnyReaches(group=group, target=target):
-                    self.symbols.resolve(group, NameKind.CROWD, NameKind.GROUP,
-                                         role="`all`/`any`")
+                    self.symbols.resolve(group, *MANY, role="`all`/`any`")
                     self._target(target, "the target of `reach`")
                 case ast.CountIn(group=group, area=area, threshold=threshold):
-                    self.symbols.resolve(group, NameKind.CROWD, NameKind.GROUP,
-                                         role="count(...)")
+                    self.symbols.resolve(group, *MANY, role="count(...)")
                     self._area(area, "count(...)")
                     self.values.integer(threshold, "a count", minimum=0)
                 case ast.InsideCondition(subject=subject, area=area):
@@ -799,7 +857,8 @@ def no_activity(module: ast.Module) -> Diagnostic | None:
     """W502 for a scenario in which nobody does anything (a run would end at once). The
     pipeline asks only of a file with no errors, where it is not the least of its problems."""
     activities = module.of_type(ast.ActivityDecl)
-    if not module.statements or any(a.steps for a in activities):
+    if not module.statements or any(a.steps for a in activities) or any(
+            f.duration is not None or f.until is not None for f in module.of_type(ast.FlowDecl)):
         return None
     return warning("W502", "the scenario has no activity: nobody does anything and a run ends "
                    "at once", Span.whole_file(module.source.path),

@@ -561,6 +561,22 @@ class _ToAst(Transformer[Token, Any]):
         return ast.CrowdDecl(self._name(name), number, area, _heading_in(rest), params,
                              self._span(meta))
 
+    def flow(self, meta: Any, children: list[Any]) -> ast.FlowDecl:
+        name, area, target, rate, *rest = children
+        end = next((r for r in rest if isinstance(r, tuple) and len(r) == 2
+                    and r[0] in ("for", "until")), None)
+        params = next((r for r in rest if isinstance(r, tuple) and r is not end), ())
+        return ast.FlowDecl(self._name(name), area, target, rate,
+                            end[1] if end is not None and end[0] == "for" else None,
+                            end[1] if end is not None and end[0] == "until" else None,
+                            params, self._span(meta))
+
+    def flow_for(self, meta: Any, children: list[Any]) -> tuple[str, Any]:
+        return ("for", children[0])
+
+    def flow_until(self, meta: Any, children: list[Any]) -> tuple[str, Any]:
+        return ("until", children[0])
+
     def group(self, meta: Any, children: list[Any]) -> ast.GroupDecl:
         name, *members = children
         return ast.GroupDecl(self._name(name), tuple(self._name(m) for m in members),

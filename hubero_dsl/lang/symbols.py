@@ -24,6 +24,7 @@ class NameKind(StrEnum):
     AREA = "area"
     HUMAN = "human"
     CROWD = "crowd"
+    FLOW = "flow"
     GROUP = "group"
     ROBOT = "robot"
     VARIANT = "variant"

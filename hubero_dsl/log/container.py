@@ -205,7 +205,9 @@ class McapContainer:
         offsets: list[SummaryOffset] = []
         totals = np.zeros(len(self._channels) + 1, dtype=np.int64)
         totals[:len(self._channel_counts)] = self._channel_counts
-        counts = {channel.id: int(totals[channel.id]) for channel in self._channels}
+        # channels with messages only: a flow's members who never came have none
+        counts = {channel.id: int(totals[channel.id]) for channel in self._channels
+                  if totals[channel.id]}
         statistics = Statistics(
             message_count=self._message_count, schema_count=len(self._schemas),
             channel_count=len(self._channels),

@@ -97,12 +97,16 @@ class _Records:
         self.template = template
         self.channels = np.array(channels, dtype=np.uint16)
 
-    def fill(self, numbers: list[SlotValue], sequence: int,
-             ns: int) -> RecordBlock:
+    def fill(self, numbers: list[SlotValue], sequence: int, ns: int,
+             present: npt.NDArray[np.bool_] | None = None) -> RecordBlock:
+        """The records of every human, or of those `present` only."""
         length = struct.pack("<Q", self.template.row_length - RECORD_PREFIX)
         rows = self.template.fill([length, MESSAGE_FIELDS.pack(sequence, ns, ns), *numbers])
-        offsets = np.arange(len(self.channels), dtype=np.uint64) * np.uint64(rows.shape[1])
-        return RecordBlock(rows.reshape(-1).data, self.channels, offsets)
+        channels = self.channels
+        if present is not None:
+            rows, channels = rows[present], channels[present]
+        offsets = np.arange(len(channels), dtype=np.uint64) * np.uint64(rows.shape[1])
+        return RecordBlock(rows.reshape(-1).data, channels, offsets)
 
 
 @dataclass
@@ -120,6 +124,7 @@ class FrameState:
     end: npt.NDArray[np.intp]
     paths: dict[int, FloatArray]  # remaining waypoints of the humans whose path changed
     removed: tuple[str, ...]
+    present: npt.NDArray[np.bool_] | None  # who is in the scene; None: everyone (no flows)
     robot_position: FloatArray    # (R, 2)
     robot_heading: FloatArray     # (R,)
     robot_velocity: FloatArray    # (R, 2)
@@ -145,6 +150,7 @@ class Capturer:
             cursor=self._cursor, end=self._end,
             paths={i: paths.waypoints(i).copy() for i in changed.tolist()},
             removed=tuple(sorted(engine.removed)),
+            present=None if humans.present is None else humans.present.copy(),
             robot_position=robots.position.copy(), robot_heading=robots.heading.copy(),
             robot_velocity=robots.velocity.copy(),
             robot_task=[(t.handle.status.value, t.handle.description) if t is not None
@@ -217,12 +223,17 @@ class FrameEncoder:
         vx, vy = np.split(metres[2 * (humans + robots):], 2)
         transforms = self._transforms.fill([w, z, stamp, np.concatenate([x, robot_x]),
                                             np.concatenate([y, robot_y])])
+        present = frame.present
+        if present is not None:  # absent people have no frame, pose or state
+            transforms = transforms[np.concatenate([present, np.ones(robots, dtype=bool)])]
+            if len(transforms):
+                transforms[0, 0] = ord(" ")  # the first transform has no comma before it
         tf = b'{"transforms":[' + transforms.tobytes() + b"]}"
         if not humans:
             return tf, []
         self._refresh_state_rows(frame)
-        poses = self._poses.fill([w[:humans], z[:humans], x, y, stamp], sequence, ns)
-        states = self._states.fill([frame.heading, x, y, stamp, vx, vy], sequence, ns)
+        poses = self._poses.fill([w[:humans], z[:humans], x, y, stamp], sequence, ns, present)
+        states = self._states.fill([frame.heading, x, y, stamp, vx, vy], sequence, ns, present)
         return tf, [poses, states]
 
     def _refresh_state_rows(self, frame: FrameState) -> None:

@@ -9,6 +9,10 @@ Entities, one set per run (ids sorted):
   line strip (both empty when the human has none);
 - `robot/NAME`, in the robot's frame: a cylinder, an arrow and a label.
 
+People who come and go (flows) are left out of the snapshots while absent; each snapshot of a
+scenario with flows then starts by deleting every entity (a `type: 1` deletion), so that it
+replaces the whole scene and those who left disappear.
+
 Because bodies live in moving frames, a body entity changes only when the human's status colour
 or posture does, and a plan entity only when its path or goal does. A snapshot of every entity is
 published when anything changed (and at the start), so that the last `/scene` message before any
@@ -194,14 +198,21 @@ class SceneBuilder:
         plans = self._update_plans(frame)
         if not (bodies or plans):
             return None
-        entities = [self._body[i] for i in self._order] + [self._plan[i] for i in self._order]
+        order = self._order
+        deletions = ""
+        if frame.present is not None:  # people come and go: the snapshot replaces the scene
+            order = [i for i in order if frame.present[i]]
+            deletions = '{"id":"","timestamp":' + TIME_MARK + ',"type":1}'
+        entities = [self._body[i] for i in order] + [self._plan[i] for i in order]
         entities += [self._robots[i] for i in self._robot_order]
-        return '{"deletions":[],"entities":[' + ",".join(entities) + "]}"
+        return '{"deletions":[' + deletions + '],"entities":[' + ",".join(entities) + "]}"
 
     def _update_bodies(self, frame: FrameState, status: npt.NDArray[np.int8]) -> bool:
         removed = np.zeros(len(self._names), dtype=np.int64)
         if frame.removed:
             removed[[i for i, name in enumerate(self._names) if name in frame.removed]] = 1
+        if frame.present is not None:  # coming and going changes the scene too
+            removed[~frame.present] = 2
         key = np.column_stack([frame.posture.astype(np.int64), status.astype(np.int64),
                                removed])
         changed = np.flatnonzero((key != self._body_key).any(axis=1))

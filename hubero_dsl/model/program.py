@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Literal
 
 from hubero_dsl.diagnostics import SourceFile, Span
 from hubero_dsl.model.activities import Activity, Expectation
+from hubero_dsl.model.conditions import Condition
 from hubero_dsl.model.params import HUMAN_PARAMS
 from hubero_dsl.world.shapes import Shape
 
@@ -73,7 +74,38 @@ class HumanSpec:
     start: Pose
     params: ParamLayer
     span: Span
-    group: str | None = None  # the crowd the human belongs to
+    group: str | None = None  # the crowd or flow the human belongs to
+
+
+@dataclass(frozen=True, slots=True)
+class FlowSpec:
+    """People who keep arriving: they appear in `area` at seeded Poisson times, `rate` per
+    second on average, walk to `target` and leave the scene there.
+
+    `members` are their names in order of appearance, as many as the flow may bring (its
+    bound, `flow_bound`); a run draws the arrival times and uses the first ones. Spawning
+    stops after `duration` seconds, or once `until` holds; a flow with either keeps the run
+    alive until it has stopped and its people have left (`keeps_alive`)."""
+
+    name: str
+    area: Polygon
+    target: tuple[float, float]
+    rate: float
+    members: tuple[str, ...]
+    span: Span
+    duration: float | None = None
+    until: Condition | None = None
+
+    @property
+    def keeps_alive(self) -> bool:
+        return self.duration is not None or self.until is not None
+
+
+def flow_bound(rate: float, seconds: float) -> int:
+    """How many people a flow may bring in `seconds`: the Poisson mean plus six standard
+    deviations (a run that draws more, about once in a billion, stops spawning there)."""
+    mean = rate * seconds
+    return math.ceil(mean + 6.0 * math.sqrt(mean) + 6.0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -132,6 +164,7 @@ class Program:
     expectations: tuple[Expectation, ...]
     graph: nx.DiGraph
     groups: Mapping[str, tuple[str, ...]] = field(default_factory=dict)  # walk together
+    flows: tuple[FlowSpec, ...] = ()
 
     @property
     def human_names(self) -> list[str]:

@@ -1,4 +1,4 @@
-"""Units and dimensions of the language. Every quantity is stored in SI: m, s, m/s, rad."""
+"""Units and dimensions of the language. Every quantity is stored in SI: m, s, m/s, rad, /s."""
 
 from __future__ import annotations
 
@@ -12,13 +12,14 @@ class Dimension(StrEnum):
     SPEED = "speed"
     ANGLE = "angle"
     RATIO = "ratio"      # a share: `10 %` is 0.1
+    RATE = "rate"        # events per second: `30 /min` is 0.5
     NUMBER = "number"
 
 
 # The largest magnitude a value of these dimensions may have in a scenario: beyond it a number
 # describes nothing physical, and would overflow tick counts and floating-point arithmetic.
 LARGEST: dict[Dimension, float] = {Dimension.TIME: 1e6, Dimension.LENGTH: 1e5,
-                                   Dimension.SPEED: 100.0}
+                                   Dimension.SPEED: 100.0, Dimension.RATE: 1000.0}
 
 # unit -> (dimension, factor to SI)
 UNITS: dict[str, tuple[Dimension, float]] = {
@@ -34,6 +35,9 @@ UNITS: dict[str, tuple[Dimension, float]] = {
     "deg": (Dimension.ANGLE, math.pi / 180.0),
     "rad": (Dimension.ANGLE, 1.0),
     "%": (Dimension.RATIO, 0.01),
+    "/s": (Dimension.RATE, 1.0),
+    "/min": (Dimension.RATE, 1.0 / 60.0),
+    "/h": (Dimension.RATE, 1.0 / 3600.0),
 }
 
 # How each dimension reads in a message, with a unit to suggest.
@@ -43,6 +47,7 @@ EXAMPLE_UNIT: dict[Dimension, str] = {
     Dimension.SPEED: "m/s",
     Dimension.ANGLE: "deg",
     Dimension.RATIO: "%",
+    Dimension.RATE: "/min",
     Dimension.NUMBER: "",
 }
 

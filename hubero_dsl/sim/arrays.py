@@ -53,6 +53,9 @@ class HumanArrays:
     teleop: BoolArray
     path_length: FloatArray       # metres walked so far
     reaction: npt.NDArray[np.int8] | None = None   # index into REACTIONS; None: all regular
+    # who is in the scene; None: everyone, always (no flows). The absent wait far outside the
+    # map, where nobody meets them (`hubero_dsl.sim.flows`), and are not logged.
+    present: BoolArray | None = None
 
     @property
     def count(self) -> int:

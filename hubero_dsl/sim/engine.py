@@ -84,6 +84,7 @@ class Engine:
         self.listeners: list[Callable[[TaskEvent], None]] = []
         self._goal_cells: dict[tuple[int, bytes], IntArray] = {}
         self.removed: set[str] = set()
+        self._row_of = {name: row for row, name in enumerate(humans.names)}
 
     # ---- time ----------------------------------------------------------------------------
 
@@ -97,15 +98,15 @@ class Engine:
     # ---- services for behaviours ---------------------------------------------------------
 
     def index_of(self, name: str) -> int:
-        return self.humans.names.index(name)
+        return self._row_of[name]
 
     def position_of(self, target: tuple[float, float] | str) -> tuple[float, float] | None:
         if not isinstance(target, str):
             return (float(target[0]), float(target[1]))
         if target in self.removed:
             return None
-        if target in self.humans.names:
-            x, y = self.humans.position[self.index_of(target)]
+        if target in self._row_of:
+            x, y = self.humans.position[self._row_of[target]]
             return (float(x), float(y))
         if target in self.groups:  # a group's centre: where its members face when talking
             x, y = self.humans.position[self.groups[target]].mean(axis=0)
@@ -114,15 +115,15 @@ class Engine:
 
     def goal_tolerance_of(self, name: str) -> float:
         """How close `name` must come to a target to have reached it."""
-        if name in self.humans.names:
-            return float(self.humans.goal_tolerance[self.index_of(name)])
+        if name in self._row_of:
+            return float(self.humans.goal_tolerance[self._row_of[name]])
         if name in self.robots.names:
             return self.robots.specs[self.robots.index_of(name)].goal_tolerance
         return 0.0
 
     def body_radius_of(self, name: str) -> float:
-        if name in self.humans.names:
-            return float(self.humans.radius[self.index_of(name)])
+        if name in self._row_of:
+            return float(self.humans.radius[self._row_of[name]])
         return self.robots.radius_of(name)
 
     def walking_speed(self, index: int, running: bool = False) -> float:
@@ -258,8 +259,8 @@ class Engine:
               status: TaskStatus = TaskStatus.ABORTED) -> None:
         """End `handle`'s task (a human's or a robot's) if it is still the actor's current one."""
         actor = handle.human
-        if actor in self.humans.names:
-            index = self.index_of(actor)
+        if actor in self._row_of:
+            index = self._row_of[actor]
             if self.handle[index] is handle:
                 self.finish(index, status, reason)
         elif actor in self.robots.names:
@@ -315,7 +316,7 @@ class Engine:
         moved = self._separate(moved, movable)
         if not np.isfinite(moved).all():  # before the walls, which would hide it as a stop
             self._diverged(moved)
-        moved = physics.keep_out_of_walls(self.grid, old, moved, humans.radius)
+        moved = self._keep_out_of_walls(old, moved)
         step = moved - old
         humans.velocity = step / dt
         humans.path_length += physics.lengths(step)
@@ -326,6 +327,15 @@ class Engine:
         if self.robots.count:
             self.robots.settle(self.tick, dt, self.ticks(self.stuck_time), self.position_of,
                                self.finish_robot)
+
+    def _keep_out_of_walls(self, old: FloatArray, moved: FloatArray) -> FloatArray:
+        present = self.humans.present
+        if present is None:
+            return physics.keep_out_of_walls(self.grid, old, moved, self.humans.radius)
+        rows = present.nonzero()[0]  # the absent wait off the map, where there are no walls
+        moved[rows] = physics.keep_out_of_walls(self.grid, old[rows], moved[rows],
+                                                self.humans.radius[rows])
+        return moved
 
     def _diverged(self, moved: FloatArray) -> None:
         """A position that is not a finite number is an error of the run: the parameters drove

@@ -69,7 +69,7 @@ def run_program(sim: Simulation, observers: Sequence[Observer] = ()) -> RunResul
         judge.observe()
         if scheduler.state is not RunState.RUNNING:
             break
-        sim.engine.step()
+        sim.advance()
         scheduler.after_step()
         judge.record()
         for observer in observers:

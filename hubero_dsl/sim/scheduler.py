@@ -71,6 +71,8 @@ class Scheduler:
     rounds: dict[str, int] = field(default_factory=dict)       # repeat start -> round
     arrivals: dict[str, int] = field(default_factory=dict)     # join -> tokens arrived
     ended: set[str] = field(default_factory=set)               # activities at their final node
+    # what else keeps the run going when every activity is done (flows still bringing people)
+    keep_alive: Callable[[], bool] | None = None
 
     def __post_init__(self) -> None:
         self.conditions = Conditions(self.engine, self.labels)
@@ -106,7 +108,8 @@ class Scheduler:
     def _check_end(self) -> None:
         if self.state is not RunState.RUNNING:
             return
-        if all(self._idle_forever(t) for t in self.tokens):
+        if all(self._idle_forever(t) for t in self.tokens) and not (
+                self.keep_alive is not None and self.keep_alive()):
             self.state = RunState.COMPLETED
         elif self.engine.tick >= self.engine.ticks(self.time_limit):
             self.state = RunState.TIMED_OUT

@@ -29,7 +29,9 @@ from hubero_dsl.model.program import Distribution, ParamValue, Program
 from hubero_dsl.planners.base import GlobalPlanner, LocalPlanner, PlannerParams
 from hubero_dsl.planners.registry import global_planner, local_planner
 from hubero_dsl.sim.arrays import HumanArrays
+from hubero_dsl.sim.conditions import Conditions, LabelBook
 from hubero_dsl.sim.engine import Engine
+from hubero_dsl.sim.flows import Flows
 from hubero_dsl.sim.handles import HumanHandle, RobotHandle
 from hubero_dsl.sim.robots import Robots, robot_body
 from hubero_dsl.sim.scheduler import Scheduler
@@ -97,6 +99,7 @@ class Simulation:
         if activities:
             self.scheduler = Scheduler(program.graph, self.engine, self._command,
                                        program.time_limit, program.on_failure)
+        self.flows = self._build_flows() if program.flows else None
 
     # ---- the API ---------------------------------------------------------------------------
 
@@ -157,9 +160,16 @@ class Simulation:
         """Advance one tick: the scheduler reacts to the world, then the world moves."""
         if self.scheduler is not None:
             self.scheduler.update()
-        self.engine.step()
+        self.advance()
         if self.scheduler is not None:
             self.scheduler.after_step()
+
+    def advance(self) -> None:
+        """The world's part of a tick: flows bring people in and see them off, then everyone
+        moves."""
+        if self.flows is not None:
+            self.flows.update()
+        self.engine.step()
 
     def run_until(self, done: Callable[[], bool], *, time_limit: float | None = None) -> bool:
         """Step until `done()` holds (True) or the time limit passes (False)."""
@@ -172,6 +182,19 @@ class Simulation:
         return True
 
     # ---- building --------------------------------------------------------------------------
+
+    def _build_flows(self) -> Flows:
+        """The flows, judging `until` with the scheduler's labels when there is one."""
+        conditions = self.scheduler.conditions if self.scheduler is not None \
+            else Conditions(self.engine, LabelBook())
+        seed = self.seed
+        flows = Flows(self.program.flows, self.engine,
+                      lambda name: np.random.default_rng(stable_seed(seed, "flow", name)),
+                      lambda name, task: self._humans[name].give(task), conditions.holds,
+                      self.program.time_limit)
+        if self.scheduler is not None:
+            self.scheduler.keep_alive = flows.keeps_alive
+        return flows
 
     def _build_engine(self, controllers: dict[str, RobotController]) -> Engine:
         program, params = self.program, self.params

@@ -471,6 +471,25 @@ class OccupancyGrid:
             return self._cached(("nowhere",), lambda: np.zeros(self.shape, dtype=np.bool_))
         return self._cached(("reachable", radius, label), lambda: labels == label)
 
+    def entry_places(self, area: Any, goal: tuple[float, float],
+                     body_radius: float) -> FloatArray:
+        """(K, 2) centres of the cells inside `area` (a shapely polygon) where a body of this
+        radius fits and from which it can walk to `goal`: where people may appear who are
+        going there. Empty when there are none."""
+        import shapely
+
+        reachable = self.reachable_mask(goal, body_radius + REACH_MARGIN)
+        x0, y0, x1, y1 = area.bounds
+        (r0, c0), (r1, c1) = self.world_to_cell([(x0, y0), (x1, y1)])
+        rows_, cols_ = self.shape
+        r0, c0 = max(int(r0), 0), max(int(c0), 0)
+        r1, c1 = min(int(r1) + 1, rows_), min(int(c1) + 1, cols_)
+        if r0 >= r1 or c0 >= c1:
+            return np.zeros((0, 2))
+        rows, cols = np.nonzero(reachable[r0:r1, c0:c1])
+        centres = self.cell_to_world(np.stack((rows + r0, cols + c0), axis=-1))
+        return centres[shapely.contains_xy(area, centres[:, 0], centres[:, 1])]
+
     def nearest_free(self, xy: tuple[float, float],
                      body_radius: float = 0.0) -> tuple[tuple[float, float], float]:
         """The nearest point whose cell fits a body of this radius, and the distance to it.
