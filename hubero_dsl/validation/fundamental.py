@@ -105,12 +105,3 @@ def _line_flow(p: Any, trajectory: Any, experiment: Experiment, frames: pd.DataF
                                                              if len(before) else 0)
     return crossed * trajectory.frame_rate / max(last - first, 1)
 
-
-def pooled(diagrams: list[Diagram]) -> Diagram:
-    """Several runs' diagrams as one: their frames and speeds together, the mean line flow."""
-    if not diagrams:
-        raise ValueError("no diagram to pool")
-    frames = pd.concat([d.frames for d in diagrams], ignore_index=True)
-    return Diagram(frames=frames, speeds=np.sort(np.concatenate([d.speeds for d in diagrams])),
-                   line_flow=float(np.mean([d.line_flow for d in diagrams])),
-                   frame_rate=diagrams[0].frame_rate)

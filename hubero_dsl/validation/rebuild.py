@@ -1,20 +1,20 @@
 """An experiment rebuilt as a hubero scenario, run, and read back as a PedPy trajectory.
 
-    trajectory = simulate_experiment(experiment, measured, speeds, seed=1, start=500)
+    trajectory = simulate_experiment(experiment, measured, speeds, seed=1)
 
 The scenario is a `Program` built in code: the map is the experiment's room rasterised
-(`hubero_dsl.world.raster`), every person measured at a start frame stands where they were
-measured, facing the walking direction, and walks to a goal of their own in the room
-beyond the exit (goals on a lattice, the first to leave going furthest), so that nobody waits on
-a goal another stands on and those who left never block the exit. Desired speeds are drawn from
-the measured distribution (`desired_speeds`). The run is logged to MCAP, and the log's tracks are
-turned into a `pedpy.TrajectoryData` of the part of the room that was measured, so that the run
-is analysed exactly as the recording is.
+(`hubero_dsl.world.raster`); over the steady state, everyone in the room at its first frame
+stands where they were measured, and everyone who came later enters at their first measured
+frame and place (each person a flow of one with an explicit arrival time,
+`hubero_dsl.sim.flows`); each walks to the far end of the room beyond the exit, level with where
+they came in, and leaves the scene there, so that nobody waits on a goal another stands on.
+Desired speeds are drawn from the measured distribution (`desired_speeds`). The run is logged
+to MCAP, and the log's tracks are turned into a `pedpy.TrajectoryData` of the part of the room
+that was measured, so that the run is analysed exactly as the recording is.
 """
 
 from __future__ import annotations
 
-import math
 import tempfile
 from collections.abc import Mapping
 from pathlib import Path
@@ -24,14 +24,19 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 import shapely
-from shapely.geometry import Polygon
+from shapely.geometry import Polygon, box
 from shapely.geometry.base import BaseGeometry
 
 from hubero_dsl.diagnostics import SourceFile, Span
 from hubero_dsl.graph.build import build_activity_graph
-from hubero_dsl.model.activities import Activity, ParallelStep, TaskStep
-from hubero_dsl.model.program import HumanSpec, ParamLayer, ParamValue, Pose, Program
-from hubero_dsl.model.tasks import Task
+from hubero_dsl.model.program import (
+    FlowSpec,
+    HumanSpec,
+    ParamLayer,
+    ParamValue,
+    Pose,
+    Program,
+)
 from hubero_dsl.validation.experiments import Experiment, pedpy
 from hubero_dsl.world.mapfile import save_map
 from hubero_dsl.world.raster import grid_from_walkable
@@ -40,7 +45,6 @@ FloatArray = npt.NDArray[np.float64]
 LOG_RATE = 10.0         # Hz: frames of the simulated trajectory
 GOAL_SPACING = 0.7      # m between goals in the room beyond the exit
 BODY_RADIUS = 0.2       # m, hubero's default body
-SNAPSHOT = 10.0         # s each rebuild runs from its start frame
 
 
 def desired_speeds(trajectory: Any, experiment: Experiment) -> FloatArray:
@@ -55,49 +59,68 @@ def desired_speeds(trajectory: Any, experiment: Experiment) -> FloatArray:
     return np.sort(speed.groupby("id")["speed"].mean().to_numpy(dtype=np.float64))
 
 
-def start_frames(experiment: Experiment, measured: Any) -> list[int]:
-    """The frames rebuilds start from: every SNAPSHOT seconds through the steady state (the
-    whole recording when it has none), so that together they sample its densities."""
-    frames = measured.data["frame"]
-    first, last = experiment.steady or (int(frames.min()), int(frames.max()))
-    spacing = round(SNAPSHOT * experiment.frame_rate)
-    return list(range(first, max(first, last - spacing) + 1, spacing))
-
-
-def rebuild_program(experiment: Experiment, measured: Any, speeds: FloatArray, *,
-                    seed: int, start: int, params: Mapping[str, ParamValue] | None = None,
-                    map_path: Path) -> Program:
-    """The experiment from frame `start` on, as a program; its map is written to `map_path`
-    (the log attaches it)."""
+def arrivals_program(experiment: Experiment, measured: Any, speeds: FloatArray, *,
+                     seed: int, params: Mapping[str, ParamValue] | None = None,
+                     map_path: Path) -> Program:
+    """The experiment's steady state as measured, as a program: those in the room at its first
+    frame stand where they were, everyone who came later enters at their first measured frame
+    and place (each person a flow of one with an explicit arrival time), and everyone leaves the
+    scene on reaching the far end of the room beyond the exit."""
     grid = grid_from_walkable(experiment.room, source=str(map_path))
     save_map(grid, map_path, comment=f"{experiment.name}: rebuilt from its geometry")
-    present = measured.data[measured.data["frame"] == start]
-    present = present[shapely.contains_xy(experiment.walkable, present["x"].to_numpy(),
-                                          present["y"].to_numpy())]
-    rng = np.random.default_rng([seed, start])
-    drawn = rng.choice(speeds, size=len(present)) if len(speeds) else np.full(len(present), 1.3)
-    goals = _goals(experiment, len(present))
-    order = np.argsort(_progress(experiment, present[["x", "y"]].to_numpy()))[::-1]
+    frames = measured.data["frame"]
+    first, last = experiment.steady or (int(frames.min()), int(frames.max()))
+    entries = _entries(measured.data, experiment, first, last)
+    rng = np.random.default_rng([seed, first])
+    drawn = rng.choice(speeds, size=len(entries)) if len(speeds) else np.full(len(entries), 1.3)
+    far = _goals(experiment, 1)[0]
     span = Span.whole_file(experiment.name)
-    heading = math.atan2(experiment.direction[1], experiment.direction[0])
-    humans, steps = [], []
-    for rank, index in enumerate(order):
-        row = present.iloc[int(index)]
-        name = f"p{int(row['id'])}"
-        where, _ = grid.nearest_free((float(row["x"]), float(row["y"])), BODY_RADIUS)
-        speed = float(drawn[index])
-        layer = ParamLayer({"speed": speed, "max_speed": max(1.8, 1.3 * speed)})
-        humans.append(HumanSpec(name, Pose(where[0], where[1], heading), layer, span))
-        steps.append(TaskStep(name, Task("move_to", tuple(goals[rank]), {}, span), None, None,
-                              False, span, f"{name} move_to goal"))
-    activity = Activity("rebuild", (ParallelStep(tuple(steps), span),), span, span)
+    duration = (last - first) / experiment.frame_rate
+    humans, flows = [], []
+    for (person, frame, x, y), speed in zip(entries, drawn, strict=True):
+        name = f"p{person}"
+        (px, py), _ = grid.nearest_free((x, y), BODY_RADIUS)
+        layer = ParamLayer({"speed": float(speed), "max_speed": max(1.8, 1.3 * float(speed))})
+        humans.append(HumanSpec(name, Pose(px, py), layer, span, group=f"arrival_{person}"))
+        # Each aims at the far end of the room beyond the exit level with where they came in,
+        # not at one point: people keep to their side of a corridor (one shared goal would
+        # pull everyone onto one line; measured lateral spread 0.38 m in free flow).
+        target = _level_with(experiment, far, (px, py))
+        flows.append(FlowSpec(f"arrival_{person}", box(px - 0.1, py - 0.1, px + 0.1, py + 0.1),
+                              target, 1.0, (name,), span, duration=duration + 1.0,
+                              arrivals=(max(0.0, (frame - first) / experiment.frame_rate),)))
     return Program(
-        source=SourceFile(experiment.name, _description(experiment, start, len(humans), seed)),
+        source=SourceFile(experiment.name, _description(experiment, first, len(humans), seed)),
         title=f"{experiment.name} rebuilt", map_path=map_path, grid=grid, seed=seed,
-        step=0.05, time_limit=SNAPSHOT, on_failure="continue", bounds=None, places={},
+        step=0.05, time_limit=duration, on_failure="continue", bounds=None, places={},
         areas={}, defaults=ParamLayer(dict(params or {})), humans=tuple(humans), robots=(),
-        variants={}, activities=(activity,), expectations=(),
-        graph=build_activity_graph([activity]))
+        variants={}, activities=(), expectations=(), graph=build_activity_graph([]),
+        flows=tuple(flows))
+
+
+def _entries(data: pd.DataFrame, experiment: Experiment, first: int,
+             last: int) -> list[tuple[int, int, float, float]]:
+    """(person, frame, x, y) of everyone in the steady window: where they were at its first
+    frame, or where and when they were first measured after it."""
+    inside = data[(data["frame"] >= first) & (data["frame"] <= last)]
+    inside = inside[shapely.contains_xy(experiment.walkable, inside["x"].to_numpy(),
+                                        inside["y"].to_numpy())]
+    firsts = inside.sort_values(["id", "frame"]).groupby("id").head(1)
+    return [(int(r.id), int(r.frame), float(r.x), float(r.y))
+            for r in firsts.sort_values(["frame", "id"]).itertuples()]
+
+
+def _level_with(experiment: Experiment, far: FloatArray,
+                where: tuple[float, float]) -> tuple[float, float]:
+    """The point of the far end of the sink across from `where` (the walking direction's
+    normal coordinate of `where`, clamped inside the sink)."""
+    dx = experiment.direction[0]
+    parts = getattr(experiment.sink, "geoms", [experiment.sink])
+    x0, y0, x1, y1 = max(parts, key=lambda part: part.area).bounds
+    margin = GOAL_SPACING
+    if dx == 0.0:   # walking along y: keep x
+        return (float(np.clip(where[0], x0 + margin, x1 - margin)), float(far[1]))
+    return (float(far[0]), float(np.clip(where[1], y0 + margin, y1 - margin)))
 
 
 def _progress(experiment: Experiment, xy: FloatArray) -> FloatArray:
@@ -153,11 +176,9 @@ def trajectory_from_log(run: Any, walkable: BaseGeometry | None = None) -> Any:
 
 
 def simulate_experiment(experiment: Experiment, measured: Any, speeds: FloatArray, *,
-                        seed: int, start: int,
-                        params: Mapping[str, ParamValue] | None = None) -> Any:
-    """Rebuild from frame `start`, run and read back one experiment, in a temporary folder."""
+                        seed: int, params: Mapping[str, ParamValue] | None = None) -> Any:
+    """Rebuild, run and read back one experiment, in a temporary folder."""
     with tempfile.TemporaryDirectory(prefix="hubero-validate-") as folder:
-        program = rebuild_program(experiment, measured, speeds, seed=seed, start=start,
-                                  params=params,
-                                  map_path=Path(folder) / f"{experiment.name}.yaml")
+        program = arrivals_program(experiment, measured, speeds, seed=seed, params=params,
+                                   map_path=Path(folder) / f"{experiment.name}.yaml")
         return run_rebuild(program, experiment, Path(folder) / "run.mcap")

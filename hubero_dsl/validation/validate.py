@@ -4,9 +4,9 @@
     for result in results:
         print(result.comparison.worst_error)
 
-Each recording is loaded and analysed by PedPy, rebuilt from several frames of its steady
-state and run for a few seconds from each (`rebuild`), the runs analysed the same way and
-pooled, and the two compared per density bin (`compare`). Desired speeds come from the free-flow
+Each recording is loaded and analysed by PedPy, its steady state rebuilt with everyone
+arriving when and where they were measured and run (`rebuild`), the run analysed the same way,
+and the two compared per density bin (`compare`). Desired speeds come from the free-flow
 recording of the file's series (shipped), so that a congested recording does not lend its own
 slowness to the people who rebuild it. Deterministic: same files, seed and parameters,
 same results.
@@ -30,8 +30,8 @@ from hubero_dsl.validation.experiments import (
     shipped,
     shipped_path,
 )
-from hubero_dsl.validation.fundamental import Diagram, fundamental_diagram, pooled
-from hubero_dsl.validation.rebuild import desired_speeds, simulate_experiment, start_frames
+from hubero_dsl.validation.fundamental import Diagram, fundamental_diagram
+from hubero_dsl.validation.rebuild import desired_speeds, simulate_experiment
 
 EVERY_FRAME = (0, 2**62)
 
@@ -82,13 +82,9 @@ def simulate_and_compare(measured: Measured, *, seed: int,
     """Rebuild and run one recording (`params` over every person, desired speeds times
     `speed_scale`) and compare it with the measurement."""
     experiment = measured.experiment
-    diagrams = []
-    for start in start_frames(experiment, measured.trajectory):
-        run = simulate_experiment(experiment, measured.trajectory,
-                                  measured.speeds * speed_scale, seed=seed, start=start,
-                                  params=params)
-        diagrams.append(fundamental_diagram(run, experiment, steady=EVERY_FRAME))
-    simulated = pooled(diagrams)
+    run = simulate_experiment(experiment, measured.trajectory, measured.speeds * speed_scale,
+                              seed=seed, params=params)
+    simulated = fundamental_diagram(run, experiment, steady=EVERY_FRAME)
     return Validation(measured, simulated, compare(experiment.name, measured.diagram, simulated))
 
 
