@@ -3,6 +3,7 @@
     hubero validate                               # the shipped Jülich corridor recordings
     hubero validate uo-180-180-070.txt --json     # another run of the series, by path
     hubero validate -o fd.png --seed 2            # the fundamental diagram as a picture
+    hubero validate --defaults fitted.hub         # with parameters hubero calibrate fitted
 
 Each recording is rebuilt as a scenario (its corridor drawn from its geometry, people placed
 where they were measured at the first steady frame, desired speeds measured in free flow), run,
@@ -12,7 +13,8 @@ measured and simulated mean speed and their relative error. Deterministic per --
 
 Files are named as the series names them (uo-AAA-BBB-CCC.txt in cm at 16 fps,
 traj_UNI_CORR_500_NN.txt in m at 25 fps): the name gives the geometry. Needs PedPy
-(pip install 'hubero[validate]'). Exit 0 when compared, 2 for bad input or a missing PedPy.
+(pip install 'hubero[validate]'). Exit 0 when compared, 1 for a --defaults file with errors,
+2 for bad input or a missing PedPy.
 """
 
 from __future__ import annotations
@@ -37,6 +39,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                         help="draw the fundamental diagram of data and simulation")
     parser.add_argument("--seed", metavar="S", type=int, default=1,
                         help="seed of the rebuilds (default 1)")
+    parser.add_argument("--defaults", metavar="FITTED.hub", type=Path,
+                        help="a `defaults { }` block for every rebuilt person (as hubero "
+                             "calibrate -o writes it)")
     return parser
 
 
@@ -48,11 +53,12 @@ def run(args: argparse.Namespace) -> int:
     if args.seed < 0:
         raise InputError(f"--seed must be a whole number of at least 0, got {args.seed}")
     if args.output is not None:
-        check_output(args.output, tuple(args.files))
+        check_output(args.output, (*args.files, *([args.defaults] if args.defaults else [])))
     pedpy()  # a missing PedPy is told before any work (and before pandas is imported)
-    from hubero_dsl.validation.validate import validate
+    from hubero_dsl.validation.validate import load_defaults, validate
 
-    results = validate(args.files, seed=args.seed)
+    params = load_defaults(args.defaults) if args.defaults is not None else None
+    results = validate(args.files, seed=args.seed, params=params)
     if args.output is not None:
         from hubero_dsl.validation.plot import plot_fundamental_diagram
 

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy.typing as npt
 
+from hubero_dsl.errors import InputError
 from hubero_dsl.model.program import ParamValue
 from hubero_dsl.validation.compare import Comparison, compare
 from hubero_dsl.validation.experiments import (
@@ -92,3 +93,33 @@ def validate(paths: Sequence[Path], *, seed: int = 1,
              params: Mapping[str, ParamValue] | None = None) -> list[Validation]:
     return [simulate_and_compare(m, seed=seed, params=params)
             for m in measure(experiments_of(paths))]
+
+
+MAX_DEFAULTS_BYTES = 2**20
+
+
+def load_defaults(path: Path) -> dict[str, ParamValue]:
+    """The parameters of a file holding a `defaults { }` block (as `hubero calibrate -o`
+    writes), checked by the language: the block is compiled behind a scenario header on its
+    first line, so that messages keep the file's own lines. CompileError for errors in it."""
+    import tempfile
+
+    import numpy as np
+
+    from hubero_dsl.files import read_bounded
+    from hubero_dsl.pipeline import compile_source
+    from hubero_dsl.world.grid import OccupancyGrid
+    from hubero_dsl.world.mapfile import save_map
+
+    try:
+        text = read_bounded(path, MAX_DEFAULTS_BYTES, "defaults file").decode("utf-8")
+    except UnicodeDecodeError:
+        raise InputError(f"defaults file {path} is not UTF-8 text") from None
+    with tempfile.TemporaryDirectory(prefix="hubero-defaults-") as folder:
+        map_yaml = Path(folder) / "room.yaml"
+        save_map(OccupancyGrid(np.zeros((20, 20), dtype=bool), 0.1, (0.0, 0.0)), map_yaml)
+        header = f'scenario "defaults"; map "{map_yaml}"; '
+        program = compile_source(header + text, str(path))
+    if program.humans or program.robots or program.activities or program.flows:
+        raise InputError(f"{path}: a defaults file holds a `defaults {{ }}` block only")
+    return dict(program.defaults.values)

@@ -75,3 +75,29 @@ def test_without_pedpy_it_says_how_to_install_it(cli: Cli,
     outcome = cli("validate")
     assert outcome.status == 2
     assert "pip install 'hubero[validate]'" in outcome.err
+
+
+def test_fitted_defaults_change_the_rebuild(cli: Cli, tmp_path: Path) -> None:
+    fitted = tmp_path / "fitted.hub"
+    fitted.write_text("# fitted\ndefaults {\n    relaxation_time 0.25 s\n"
+                      "    personal_space circle(radius: 0.3 m)\n}\n", encoding="utf-8")
+    plain = cli("validate", FREE_FLOW, "--json")
+    tuned = cli("validate", FREE_FLOW, "--json", "--defaults", str(fitted))
+    assert tuned.status == 0, tuned.err
+    assert json.loads(tuned.out)["files"] != json.loads(plain.out)["files"]
+
+
+def test_a_defaults_file_with_errors_exits_1_at_its_own_line(cli: Cli, tmp_path: Path) -> None:
+    fitted = tmp_path / "fitted.hub"
+    fitted.write_text("defaults {\n    relaxation_tme 0.25 s\n}\n", encoding="utf-8")
+    outcome = cli("validate", FREE_FLOW, "--defaults", str(fitted))
+    assert outcome.status == 1
+    assert f"{fitted}:2:" in outcome.err
+
+
+def test_a_defaults_file_with_people_is_refused(cli: Cli, tmp_path: Path) -> None:
+    fitted = tmp_path / "fitted.hub"
+    fitted.write_text("defaults { speed 1 m/s }\nhuman a at (1.0, 1.0)\n", encoding="utf-8")
+    outcome = cli("validate", FREE_FLOW, "--defaults", str(fitted))
+    assert outcome.status == 2
+    assert "holds a `defaults { }` block only" in outcome.err
