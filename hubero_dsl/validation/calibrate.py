@@ -179,14 +179,13 @@ def calibrate(train: Sequence[Path], test: Sequence[Path], *, fit: Sequence[Fitt
     simplex = [best] + [np.clip(best + SIMPLEX_STEP * np.sign(0.5 - best[i] + 1e-9)
                                 * np.eye(len(fit))[i], 0.0, 1.0) for i in range(len(fit))]
     remaining = evaluations - len(cache)
-    result_x, result_fun = best, cache[_key(best)]
     if remaining > 0:
-        result = minimize(objective, best, method="Nelder-Mead",
-                          bounds=[(0.0, 1.0)] * len(fit),
-                          options={"maxfev": remaining, "initial_simplex": np.array(simplex),
-                                   "xatol": 0.01, "fatol": 1e-4})
-        if float(result.fun) < result_fun:
-            result_x, result_fun = np.asarray(result.x), float(result.fun)
+        minimize(objective, best, method="Nelder-Mead", bounds=[(0.0, 1.0)] * len(fit),
+                 options={"maxfev": remaining, "initial_simplex": np.array(simplex),
+                          "xatol": 0.01, "fatol": 1e-4})
+    # the best set measured, wherever the search was when its budget ran out
+    best_key = min(cache, key=lambda key: (cache[key], key))
+    result_x, result_fun = np.array(best_key), cache[best_key]
     fitted = _values(fit, result_x)
     defaults = {f.name: f.default for f in fit}
 
@@ -202,7 +201,7 @@ def calibrate(train: Sequence[Path], test: Sequence[Path], *, fit: Sequence[Fitt
 
 
 def _key(x: np.ndarray[Any, Any]) -> tuple[float, ...]:
-    return tuple(round(float(v), 6) for v in x)
+    return tuple(round(float(v), 6) for v in np.clip(x, 0.0, 1.0))
 
 
 def _values(fit: Sequence[Fittable], x: np.ndarray[Any, Any]) -> dict[str, float]:
