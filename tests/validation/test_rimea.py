@@ -67,11 +67,11 @@ def test_04_speed_falls_with_density_as_in_weidmanns_diagram(tmp_path: Path) -> 
         density, speed = area_series(trajectory, (14.0, 3.0 * corridor, 18.0,
                                                   3.0 * corridor + 2.0))
         window = (density.index >= 30) & (density.index <= 90)  # 3 to 9 s
-        assert density[window].mean() == pytest.approx(nominal, rel=0.35)
+        measured = float(density[window].mean())
+        assert measured == pytest.approx(nominal, rel=0.35)  # the crowd spreads as it walks
         speeds.append(float(speed[window].mean()))
+        assert speeds[-1] == pytest.approx(weidmann(measured), rel=0.15)
     assert speeds == sorted(speeds, reverse=True), speeds  # falls as the density rises
-    assert speeds[0] == pytest.approx(weidmann(0.5), abs=0.15)
-    assert speeds[-1] < 0.75 * speeds[0]
 
 
 def test_06_twenty_people_round_a_corner_without_touching_its_walls() -> None:
