@@ -95,6 +95,9 @@ class FlowSpec:
     span: Span
     duration: float | None = None
     until: Condition | None = None
+    # Explicit arrival times (s, one per member, in order) instead of Poisson ones: people who
+    # enter at a given time, as a rebuild of a recording brings them in.
+    arrivals: tuple[float, ...] | None = None
 
     @property
     def keeps_alive(self) -> bool:

@@ -6,7 +6,8 @@ fixed numpy arrays. Until a member arrives, and after they leave, they are absen
 sensor or condition meets them, they are unknown as targets (`Engine.removed`), and the log
 leaves them out.
 
-Arrivals are a Poisson process per flow: the gaps between arrivals are drawn once per run from
+Arrivals are a Poisson process per flow (or, for a flow built in code with `arrivals`, the
+given times): the gaps between arrivals are drawn once per run from
 the flow's own seeded generator (`stable_seed(seed, "flow", NAME)`), so a run is deterministic
 and adding a flow does not change the others. At their arrival tick a member appears at a
 random place of the flow's area where their body fits clear of every body present (a few
@@ -81,8 +82,10 @@ class Flows:
     def _state(self, spec: FlowSpec, rng: np.random.Generator, time_limit: float) -> FlowState:
         engine = self.engine
         rows = np.array([engine.index_of(m) for m in spec.members], dtype=np.intp)
-        gaps = rng.exponential(1.0 / spec.rate, size=len(rows))
-        times = np.cumsum(gaps)
+        if spec.arrivals is not None:
+            times = np.asarray(spec.arrivals[:len(rows)], dtype=np.float64)
+        else:
+            times = np.cumsum(rng.exponential(1.0 / spec.rate, size=len(rows)))
         end = min(spec.duration, time_limit) if spec.duration is not None else time_limit
         ticks = np.ceil(times[times < end] / engine.dt - 1e-9).astype(np.intp)
         radius = engine.humans.radius[rows]

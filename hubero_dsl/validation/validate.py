@@ -1,0 +1,125 @@
+"""`validate`: recordings of real people against their rebuilds, file by file.
+
+    results = validate([Path("uo-180-180-070.txt")], seed=1)   # [] for the shipped recordings
+    for result in results:
+        print(result.comparison.worst_error)
+
+Each recording is loaded and analysed by PedPy, its steady state rebuilt with everyone
+arriving when and where they were measured and run (`rebuild`), the run analysed the same way,
+and the two compared per density bin (`compare`). Desired speeds come from the free-flow
+recording of the file's series (shipped), so that a congested recording does not lend its own
+slowness to the people who rebuild it. Deterministic: same files, seed and parameters,
+same results.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy.typing as npt
+
+from hubero_dsl.errors import InputError
+from hubero_dsl.model.program import ParamValue
+from hubero_dsl.validation.compare import Comparison, compare
+from hubero_dsl.validation.experiments import (
+    Experiment,
+    experiment_for,
+    load_trajectory,
+    shipped,
+    shipped_path,
+)
+from hubero_dsl.validation.fundamental import Diagram, fundamental_diagram
+from hubero_dsl.validation.rebuild import desired_speeds, simulate_experiment
+
+EVERY_FRAME = (0, 2**62)
+
+
+@dataclass(frozen=True)
+class Measured:
+    """A recording, loaded and analysed once, ready to be compared with any number of runs."""
+
+    experiment: Experiment
+    trajectory: Any            # pedpy.TrajectoryData
+    diagram: Diagram
+    speeds: npt.NDArray[Any]   # desired speeds of the series
+
+
+@dataclass(frozen=True)
+class Validation:
+    measured: Measured
+    simulated: Diagram
+    comparison: Comparison
+
+
+def experiments_of(paths: Sequence[Path]) -> list[Experiment]:
+    """The experiments of the given files, or the shipped ones when none is given."""
+    return [experiment_for(Path(p)) for p in paths] if paths else shipped()
+
+
+def measure(experiments: Sequence[Experiment]) -> list[Measured]:
+    """Load and analyse each recording (errors for unreadable files come first, before any
+    simulation)."""
+    free: dict[str, npt.NDArray[Any]] = {}
+    measured = []
+    for experiment in experiments:
+        trajectory = load_trajectory(experiment)
+        if experiment.free_flow not in free:
+            reference = experiment_for(shipped_path(experiment.free_flow))
+            source = trajectory if reference.name == experiment.name else load_trajectory(
+                reference)
+            free[experiment.free_flow] = desired_speeds(source, reference)
+        measured.append(Measured(experiment, trajectory,
+                                 fundamental_diagram(trajectory, experiment),
+                                 free[experiment.free_flow]))
+    return measured
+
+
+def simulate_and_compare(measured: Measured, *, seed: int,
+                         params: Mapping[str, ParamValue] | None = None,
+                         speed_scale: float = 1.0) -> Validation:
+    """Rebuild and run one recording (`params` over every person, desired speeds times
+    `speed_scale`) and compare it with the measurement."""
+    experiment = measured.experiment
+    run = simulate_experiment(experiment, measured.trajectory, measured.speeds * speed_scale,
+                              seed=seed, params=params)
+    simulated = fundamental_diagram(run, experiment, steady=EVERY_FRAME)
+    return Validation(measured, simulated, compare(experiment.name, measured.diagram, simulated))
+
+
+def validate(paths: Sequence[Path], *, seed: int = 1,
+             params: Mapping[str, ParamValue] | None = None) -> list[Validation]:
+    return [simulate_and_compare(m, seed=seed, params=params)
+            for m in measure(experiments_of(paths))]
+
+
+MAX_DEFAULTS_BYTES = 2**20
+
+
+def load_defaults(path: Path) -> dict[str, ParamValue]:
+    """The parameters of a file holding a `defaults { }` block (as `hubero calibrate -o`
+    writes), checked by the language: the block is compiled behind a scenario header on its
+    first line, so that messages keep the file's own lines. CompileError for errors in it."""
+    import tempfile
+
+    import numpy as np
+
+    from hubero_dsl.files import read_bounded
+    from hubero_dsl.pipeline import compile_source
+    from hubero_dsl.world.grid import OccupancyGrid
+    from hubero_dsl.world.mapfile import save_map
+
+    try:
+        text = read_bounded(path, MAX_DEFAULTS_BYTES, "defaults file").decode("utf-8")
+    except UnicodeDecodeError:
+        raise InputError(f"defaults file {path} is not UTF-8 text") from None
+    with tempfile.TemporaryDirectory(prefix="hubero-defaults-") as folder:
+        map_yaml = Path(folder) / "room.yaml"
+        save_map(OccupancyGrid(np.zeros((20, 20), dtype=bool), 0.1, (0.0, 0.0)), map_yaml)
+        header = f'scenario "defaults"; map "{map_yaml}"; '
+        program = compile_source(header + text, str(path))
+    if program.humans or program.robots or program.activities or program.flows:
+        raise InputError(f"{path}: a defaults file holds a `defaults {{ }}` block only")
+    return dict(program.defaults.values)

@@ -1,0 +1,83 @@
+"""`hubero calibrate`: a deterministic fit, its defaults block, and bad input."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+pytest.importorskip("pedpy")
+
+from hubero_dsl.errors import InputError
+from hubero_dsl.pipeline import compile_source
+from hubero_dsl.validation.calibrate import (
+    FITTABLE,
+    Calibration,
+    chosen,
+    loss,
+)
+from hubero_dsl.validation.experiments import shipped_path
+
+Cli = Callable[..., Any]
+FREE_FLOW = str(shipped_path("uo-050-180-180"))
+
+
+def test_loss_is_the_mean_square_and_a_file_without_bins_costs_one() -> None:
+    assert loss([[0.1, -0.3], [0.2]]) == pytest.approx((0.01 + 0.09 + 0.04) / 3)
+    assert loss([[0.5], []]) == pytest.approx((0.25 + 1.0) / 2)
+
+
+def test_unknown_or_repeated_parameters_are_refused() -> None:
+    with pytest.raises(InputError, match="can be fitted are relaxation_time"):
+        chosen(["relaxation"])
+    with pytest.raises(InputError, match="named twice"):
+        chosen(["relaxation_time", "relaxation_time"])
+
+
+def test_the_defaults_block_is_valid_language() -> None:
+    fitted = {"relaxation_time": 0.4, "social_force.A": 1.5, "social_force.B": 0.12,
+              "personal_space": 0.3, "speed_scale": 1.1}
+    block = Calibration(fitted, 0.01, 5, (), ()).defaults_block(["uo-050-180-180"])
+    assert "# desired speeds: the measured ones times 1.100" in block
+    map_yaml = Path(__file__).resolve().parents[2] / "maps" / "rimea_corridor.yaml"
+    program = compile_source(f'scenario "x"\nmap "{map_yaml}"\n{block}'
+                             'human a at (1.0, 1.0)\n')
+    params = program.resolved_params()["a"]
+    assert params["relaxation_time"] == pytest.approx(0.4)
+    assert params["social_force.B"] == pytest.approx(0.12)
+    assert set(FITTABLE) >= set(fitted)
+
+
+def test_a_small_fit_is_deterministic_and_reports_held_out_errors(cli: Cli,
+                                                                  tmp_path: Path) -> None:
+    out = tmp_path / "fitted.hub"
+    argv = ("calibrate", "--train", FREE_FLOW, "--test", FREE_FLOW, "--fit", "relaxation_time",
+            "--evaluations", "3", "--executor", "serial", "--json")
+    first = cli(*argv, "-o", str(out))
+    assert first.status == 0, first.err
+    report = json.loads(first.out)
+    assert set(report["fitted"]) == {"relaxation_time"}
+    assert 0.2 <= report["fitted"]["relaxation_time"] <= 1.2
+    assert report["evaluations"] <= 3
+    (held_out,) = report["test"]
+    assert held_out["file"] == "uo-050-180-180"
+    assert held_out["fitted_loss"] == pytest.approx(report["train"][0]["fitted_loss"])
+    assert out.read_text(encoding="utf-8").splitlines()[-1] == "}"
+    assert cli(*argv).out == first.out
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (("--fit", "nonsense"), "can be fitted are"),
+    (("--evaluations", "0"), "--evaluations must be"),
+    (("--seed", "-2"), "--seed must be"),
+    (("--train", "corridor.txt"), "cannot tell which experiment"),
+    (("--train", "uo-050-180-180.txt"), "trajectory file not found"),
+    (("--train", FREE_FLOW, "-o", "no/such/dir/f.hub"), "cannot be written"),
+])
+def test_bad_input_exits_2(cli: Cli, argv: tuple[str, ...], message: str) -> None:
+    outcome = cli("calibrate", "--executor", "serial", *argv)
+    assert outcome.status == 2
+    assert message in outcome.err

@@ -1,0 +1,103 @@
+"""`hubero validate`: a recording against its rebuild, as a table, JSON and a picture."""
+
+from __future__ import annotations
+
+import json
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import pytest
+from PIL import Image
+
+pytest.importorskip("pedpy")
+
+from hubero_dsl.validation.experiments import shipped_path
+
+Cli = Callable[..., Any]
+FREE_FLOW = str(shipped_path("uo-050-180-180"))
+
+
+def test_json_per_file_and_bin_with_a_picture_deterministic_per_seed(cli: Cli,
+                                                                     tmp_path: Path) -> None:
+    picture = tmp_path / "fd.png"
+    first = cli("validate", FREE_FLOW, "--json", "--seed", "3", "-o", str(picture))
+    assert first.status == 0, first.err
+    report = json.loads(first.out)
+    assert report["seed"] == 3
+    (entry,) = report["files"]
+    assert entry["file"] == "uo-050-180-180"
+    counted = [b for b in entry["bins"] if b["relative_error"] is not None]
+    assert counted
+    for b in counted:
+        error = (b["simulated_speed"] - b["measured_speed"]) / b["measured_speed"]
+        assert b["relative_error"] == pytest.approx(error, abs=1e-3)
+    assert entry["individual_speed"]["measured_mean"] == pytest.approx(1.34, abs=0.01)
+    with Image.open(picture) as image:
+        assert image.format == "PNG" and image.size[0] > 500
+    again = cli("validate", FREE_FLOW, "--json", "--seed", "3")
+    assert again.out == first.out
+
+
+def test_the_table_names_each_bin_and_the_worst_error(cli: Cli) -> None:
+    outcome = cli("validate", FREE_FLOW)
+    assert outcome.status == 0, outcome.err
+    assert "uo-050-180-180: mean speed and specific flow per Voronoi density" in outcome.out
+    assert "0.0-0.5" in outcome.out and "worst bin error" in outcome.out
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (("corridor.txt",), "cannot tell which experiment"),
+    (("uo-050-180-180.txt",), "trajectory file not found"),
+    ((".",), "cannot tell which experiment"),
+    (("--seed", "-1"), "--seed must be"),
+    ((FREE_FLOW, "-o", "no/such/folder/fd.png"), "cannot be written"),
+    ((FREE_FLOW, "-o", FREE_FLOW), "it is an input of this command"),
+])
+def test_bad_input_exits_2_with_a_message(cli: Cli, argv: tuple[str, ...],
+                                          message: str) -> None:
+    outcome = cli("validate", *argv)
+    assert outcome.status == 2
+    assert message in outcome.err
+
+
+def test_a_directory_named_as_a_recording_is_refused(cli: Cli, tmp_path: Path) -> None:
+    folder = tmp_path / "uo-050-180-180.txt"
+    folder.mkdir()
+    outcome = cli("validate", str(folder))
+    assert outcome.status == 2 and "is a directory" in outcome.err
+
+
+def test_without_pedpy_it_says_how_to_install_it(cli: Cli,
+                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "pedpy", None)  # `import pedpy` raises ImportError
+    outcome = cli("validate")
+    assert outcome.status == 2
+    assert "pip install 'hubero[validate]'" in outcome.err
+
+
+def test_fitted_defaults_change_the_rebuild(cli: Cli, tmp_path: Path) -> None:
+    fitted = tmp_path / "fitted.hub"
+    fitted.write_text("# fitted\ndefaults {\n    relaxation_time 0.25 s\n"
+                      "    personal_space circle(radius: 0.3 m)\n}\n", encoding="utf-8")
+    plain = cli("validate", FREE_FLOW, "--json")
+    tuned = cli("validate", FREE_FLOW, "--json", "--defaults", str(fitted))
+    assert tuned.status == 0, tuned.err
+    assert json.loads(tuned.out)["files"] != json.loads(plain.out)["files"]
+
+
+def test_a_defaults_file_with_errors_exits_1_at_its_own_line(cli: Cli, tmp_path: Path) -> None:
+    fitted = tmp_path / "fitted.hub"
+    fitted.write_text("defaults {\n    relaxation_tme 0.25 s\n}\n", encoding="utf-8")
+    outcome = cli("validate", FREE_FLOW, "--defaults", str(fitted))
+    assert outcome.status == 1
+    assert f"{fitted}:2:" in outcome.err
+
+
+def test_a_defaults_file_with_people_is_refused(cli: Cli, tmp_path: Path) -> None:
+    fitted = tmp_path / "fitted.hub"
+    fitted.write_text("defaults { speed 1 m/s }\nhuman a at (1.0, 1.0)\n", encoding="utf-8")
+    outcome = cli("validate", FREE_FLOW, "--defaults", str(fitted))
+    assert outcome.status == 2
+    assert "holds a `defaults { }` block only" in outcome.err
