@@ -32,7 +32,7 @@ FORCE_A, FORCE_B = 2.1, 0.3                    # m/s^2, m (Helbing & Molnar 1995
 @dataclass(frozen=True, slots=True)
 class MetricSpec:
     name: str
-    dimension: str    # length, time, ratio, count, number (angle per metre, jerk, work)
+    dimension: str    # length, time, speed, ratio, count, number (turning, jerk, work)
     unit: str
     summary: str
 
@@ -56,8 +56,8 @@ METRICS: dict[str, MetricSpec] = {spec.name: spec for spec in (
     MetricSpec("avg_centre_distance", "length", "m", "mean centre distance to the nearest person"),
     MetricSpec("max_centre_distance", "length", "m",
                "largest centre distance to the nearest person"),
-    MetricSpec("avg_speed", "number", "m/s", "path length over the time"),
-    MetricSpec("max_speed", "number", "m/s", "the fastest move between samples"),
+    MetricSpec("avg_speed", "speed", "m/s", "path length over the time"),
+    MetricSpec("max_speed", "speed", "m/s", "the fastest move between samples"),
     MetricSpec("avg_acceleration", "number", "m/s^2", "mean magnitude of the acceleration"),
     MetricSpec("max_acceleration", "number", "m/s^2", "largest magnitude of the acceleration"),
     MetricSpec("motion_energy", "number", "m^2/s", "integral of the squared speed"),
