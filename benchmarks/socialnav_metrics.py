@@ -51,7 +51,7 @@ def main() -> None:
         scenario = crossing_scenario(folder, args.humans, args.time_limit)
         log = folder / "crossing.mcap"
         subprocess.run([sys.executable, "-m", "hubero_dsl", "run", str(scenario), "-o", str(log),
-                        "--log-rate", f"{args.rate:g}", "--quiet"], check=False)  # timing out is fine
+                        "--log-rate", f"{args.rate:g}", "--quiet"], check=False)  # may time out
         if not log.exists():
             sys.exit("the run wrote no log")
         run = load_run(log)
