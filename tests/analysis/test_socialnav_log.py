@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable
 from dataclasses import replace
 
@@ -71,3 +72,32 @@ def test_robots_metrics_reach_the_flat_row(build_run: Callable, track: Callable,
     assert flat["cart.social.avg_speed"] == pytest.approx(1.0)
     assert flat["cart.social.min_centre_distance"] == pytest.approx(2.0)
     assert "cart.social.time_to_goal" in flat  # infinite: no goal is logged
+
+
+@pytest.mark.parametrize("case", ["no humans", "robot without frames", "robot with one frame",
+                                  "human without frames", "one human", "repeated times",
+                                  "late arrival"])
+def test_thin_logs_are_measured_without_warnings(build_run: Callable, track: Callable,
+                                                 robot: Callable, case: str) -> None:
+    walk = track("a", [0, 1], [(0, 0), (1, 0)])
+    runs = {
+        "no humans": lambda: build_run([], robots=[robot("r", [0, 1], [(0, 0), (1, 0)])]),
+        "robot without frames": lambda: build_run([walk], robots=[robot("r", [], [])]),
+        "robot with one frame": lambda: build_run([walk], robots=[robot("r", [0], [(2, 2)])]),
+        "human without frames": lambda: build_run([track("b", [], []), walk],
+                                                  robots=[robot("r", [0, 1], [(2, 2), (2, 3)])]),
+        "one human": lambda: build_run([walk]),
+        "repeated times": lambda: build_run(
+            [track("a", [0, 1, 1, 2], [(0, 0), (1, 0), (1, 0), (2, 0)]),
+             track("b", [0, 1, 1, 2], [(3, 0)] * 4)],
+            robots=[robot("r", [0, 1, 1, 2], [(0, 1), (1, 1), (1, 1), (2, 1)])]),
+        "late arrival": lambda: build_run([track("a", [0, 1, 2, 3], [(x, 0) for x in range(4)]),
+                                           track("b", [2, 3], [(3, 0), (3, 1)])]),
+    }
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        run = runs[case]()
+        metrics = log_social_metrics(run)
+        compute_metrics(run).flat()
+    assert set(metrics["robots"]) == set(run.robots)
+    assert set(metrics["humans"]) == set(run.humans)
