@@ -1,10 +1,11 @@
 """Social-navigation metrics over trajectories: how a robot (or a person) moved among people.
 
 The metrics a robot researcher reports, after HuNavSim's evaluator and SocNavBench, computed from
-sampled tracks alone (times, positions, body radii), so that a run's expectations
-(`expect min_distance(cart) >= 0.2 m`) and the analysis of a log give the same numbers. Distances
-between bodies are surface to surface (centre distance less both radii) unless a name says
-otherwise; time shares weight each sample by the time until the next one.
+sampled tracks (times, positions, body radii; groups of people and the map's clearance when
+given), so that a run's expectations (`expect min_distance(cart) >= 0.2 m`) and the analysis of
+a log give the same numbers. Distances between bodies are surface to surface (centre distance
+less both radii) unless a name says otherwise; time shares weight each sample by the time until
+the next one.
 
 Each metric (METRICS, below) is defined with its formula, unit and source in docs/analysis.md,
 section "Social-navigation metrics".
