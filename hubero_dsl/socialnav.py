@@ -1,10 +1,11 @@
 """Social-navigation metrics over trajectories: how a robot (or a person) moved among people.
 
 The metrics a robot researcher reports, after HuNavSim's evaluator and SocNavBench, computed from
-sampled tracks alone (times, positions, body radii), so that a run's expectations
-(`expect min_distance(cart) >= 0.2 m`) and the analysis of a log give the same numbers. Distances
-between bodies are surface to surface (centre distance less both radii) unless a name says
-otherwise; time shares weight each sample by the time until the next one.
+sampled tracks (times, positions, body radii; groups of people and the map's clearance when
+given), so that a run's expectations (`expect min_distance(cart) >= 0.2 m`) and the analysis of
+a log give the same numbers. Distances between bodies are surface to surface (centre distance
+less both radii) unless a name says otherwise; time shares weight each sample by the time until
+the next one.
 
 Each metric (METRICS, below) is defined with its formula, unit and source in docs/analysis.md,
 section "Social-navigation metrics".
@@ -16,7 +17,7 @@ measures against OTHER only.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,7 +33,7 @@ FORCE_A, FORCE_B = 2.1, 0.3                    # m/s^2, m (Helbing & Molnar 1995
 @dataclass(frozen=True, slots=True)
 class MetricSpec:
     name: str
-    dimension: str    # length, time, ratio, count, number (angle per metre, jerk, work)
+    dimension: str    # length, time, speed, ratio, count, number (turning, jerk, work)
     unit: str
     summary: str
 
@@ -52,7 +53,23 @@ METRICS: dict[str, MetricSpec] = {spec.name: spec for spec in (
     MetricSpec("time_not_moving", "time", "s", "time spent standing still"),
     MetricSpec("jerk", "number", "m/s^3", "mean magnitude of the jerk"),
     MetricSpec("social_work", "number", "m/s", "social force exerted on people, over time"),
+    MetricSpec("max_distance", "length", "m", "largest surface gap to the nearest person"),
+    MetricSpec("avg_centre_distance", "length", "m", "mean centre distance to the nearest person"),
+    MetricSpec("max_centre_distance", "length", "m",
+               "largest centre distance to the nearest person"),
+    MetricSpec("avg_speed", "speed", "m/s", "path length over the time"),
+    MetricSpec("max_speed", "speed", "m/s", "the fastest move between samples"),
+    MetricSpec("avg_acceleration", "number", "m/s^2", "mean magnitude of the acceleration"),
+    MetricSpec("max_acceleration", "number", "m/s^2", "largest magnitude of the acceleration"),
+    MetricSpec("motion_energy", "number", "m^2/s", "integral of the squared speed"),
+    MetricSpec("min_time_to_collision", "time", "s",
+               "soonest contact with a person, both keeping their velocity"),
+    MetricSpec("social_force", "number", "m/s^2", "mean social force the people exert on it"),
+    MetricSpec("group_intrusions", "ratio", "%", "time share inside a group's space"),
+    MetricSpec("obstacle_collisions", "count", "", "contact episodes with obstacles"),
 )}
+
+Clearance = Callable[[FloatArray], FloatArray]   # (N, 2) points -> (N,) metres to an obstacle
 
 
 @dataclass(frozen=True)
@@ -66,15 +83,23 @@ class Track:
 
 def social_metrics(subject: Track, people: Sequence[Track], *,
                    goal: tuple[float, float] | None = None,
-                   goal_tolerance: float = 0.2) -> dict[str, float]:
-    """Every metric of METRICS for `subject` among `people` (sampled at the subject's times)."""
+                   goal_tolerance: float = 0.2,
+                   groups: Sequence[Sequence[int]] = (),
+                   clearance: Clearance | None = None) -> dict[str, float]:
+    """Every metric of METRICS for `subject` among `people` (sampled at the subject's times).
+
+    `groups` lists groups of people as indices into `people`; `clearance` gives the distance
+    from points to the nearest obstacle (`OccupancyGrid.clearance_at`): without it there are
+    no obstacle collisions.
+    """
     time, position = subject.time, subject.position
     weights = _durations(time)
     total = float(weights.sum())
     step = np.diff(position, axis=0)
     lengths = np.hypot(step[:, 0], step[:, 1]) if len(step) else np.zeros(0)
     arrived = _arrival(time, position, goal, goal_tolerance)
-    gaps, centres = _gaps(subject, people)            # (P, T)
+    others = _positions(subject, people)               # (P, T, 2) at the subject's times
+    gaps, centres = _gaps(subject, people, others)     # (P, T)
     nearest = gaps.min(axis=0) if len(people) else np.full(len(time), math.inf)
     return {
         "path_length": float(lengths.sum()),
@@ -93,6 +118,12 @@ def social_metrics(subject: Track, people: Sequence[Track], *,
         "jerk": _jerk(time, position),
         "social_work": float((FORCE_A * np.exp(-np.maximum(gaps, 0.0) / FORCE_B)
                               * weights).sum()) if len(people) else 0.0,
+        **_distance_extremes(nearest, centres, weights, total),
+        **motion_metrics(time, position),
+        "min_time_to_collision": _min_time_to_collision(subject, people, others),
+        "social_force": _social_force(subject, others, gaps, centres, weights, total),
+        "group_intrusions": _group_share(subject, people, others, groups, weights, total),
+        "obstacle_collisions": _obstacle_episodes(subject, clearance),
     }
 
 
@@ -111,13 +142,21 @@ def _arrival(time: FloatArray, position: FloatArray, goal: tuple[float, float] |
     return float(time[int(np.argmax(near))]) if near.any() else None
 
 
-def _gaps(subject: Track, people: Sequence[Track]) -> tuple[FloatArray, FloatArray]:
+def _positions(subject: Track, people: Sequence[Track]) -> FloatArray:
+    """(P, T, 2): each person's position at the subject's times."""
+    if not people:
+        return np.zeros((0, len(subject.time), 2))
+    return np.stack([_at(person, subject.time) for person in people])
+
+
+def _gaps(subject: Track, people: Sequence[Track], others: FloatArray
+          ) -> tuple[FloatArray, FloatArray]:
     """(P, T) surface gaps and centre distances to each person at the subject's times."""
     if not people:
         empty = np.zeros((0, len(subject.time)))
         return empty, empty
-    centres = np.stack([np.hypot(*(_at(person, subject.time) - subject.position).T)
-                        for person in people])
+    away = others - subject.position
+    centres = np.hypot(away[..., 0], away[..., 1])
     radii = np.array([[person.radius] for person in people])
     return centres - radii - subject.radius, centres
 
@@ -189,3 +228,124 @@ def _jerk(time: FloatArray, position: FloatArray) -> float:
         return 0.0
     third = np.diff(position, n=3, axis=0) / dt ** 3
     return float(np.hypot(third[:, 0], third[:, 1]).mean())
+
+
+def _distance_extremes(nearest: FloatArray, centres: FloatArray, weights: FloatArray,
+                       total: float) -> dict[str, float]:
+    if not centres.size:
+        return {"max_distance": math.inf, "avg_centre_distance": math.inf,
+                "max_centre_distance": math.inf}
+    nearest_centre = centres.min(axis=0)
+    return {"max_distance": float(nearest.max()),
+            "avg_centre_distance": _time_average(nearest_centre, weights, total),
+            "max_centre_distance": float(nearest_centre.max())}
+
+
+def motion_metrics(time: FloatArray, position: FloatArray) -> dict[str, float]:
+    """Speed, acceleration and motion energy of one track (no people needed).
+
+    Velocities are per segment (its displacement over its time); accelerations are between
+    consecutive segments, over the time between their midpoints.
+    """
+    zero = {"avg_speed": 0.0, "max_speed": 0.0, "avg_acceleration": 0.0,
+            "max_acceleration": 0.0, "motion_energy": 0.0}
+    if len(time) < 2:
+        return zero
+    dt = np.diff(time)
+    ok = dt > 0
+    velocity = np.zeros((len(dt), 2))
+    velocity[ok] = np.diff(position, axis=0)[ok] / dt[ok, None]
+    speed = np.hypot(velocity[:, 0], velocity[:, 1])
+    total = float(dt.sum())
+    result = dict(zero, max_speed=float(speed.max()),
+                  avg_speed=float((speed * dt).sum() / total) if total > 0 else 0.0,
+                  motion_energy=float((speed ** 2 * dt).sum()))
+    if len(dt) >= 2:
+        middle = (dt[1:] + dt[:-1]) / 2
+        change = np.diff(velocity, axis=0)
+        accel = np.divide(np.hypot(change[:, 0], change[:, 1]), middle,
+                          out=np.zeros(len(middle)), where=middle > 0)
+        result["avg_acceleration"] = float(accel.mean())
+        result["max_acceleration"] = float(accel.max())
+    return result
+
+
+def _velocity(time: FloatArray, position: FloatArray, axis: int) -> FloatArray:
+    """Velocities at the samples along `axis` (central differences, one-sided at the ends;
+    repeated times give no velocity)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        velocity = np.gradient(position, time, axis=axis)
+    return np.nan_to_num(np.asarray(velocity, dtype=np.float64), nan=0.0, posinf=0.0,
+                         neginf=0.0)
+
+
+def _min_time_to_collision(subject: Track, people: Sequence[Track], others: FloatArray
+                           ) -> float:
+    """The smallest time to contact over the samples, each pair keeping its velocity; 0 when in
+    contact, infinite when no pair is ever closing on a contact course."""
+    times = subject.time
+    if not people or len(times) < 2 or np.any(np.diff(times) <= 0):
+        return math.inf
+    relative = others - subject.position                                          # (P, T, 2)
+    closing = _velocity(times, relative, axis=1)
+    reach = np.array([p.radius for p in people])[:, None] + subject.radius
+    a = (closing ** 2).sum(axis=2)
+    b = 2 * (relative * closing).sum(axis=2)
+    c = (relative ** 2).sum(axis=2) - reach ** 2
+    disc = b * b - 4 * a * c
+    hit = (b < 0) & (disc >= 0) & (a > 0)
+    root = np.divide(-b - np.sqrt(np.maximum(disc, 0.0)), 2 * a, out=np.full(a.shape, math.inf),
+                     where=hit)
+    ttc = np.where(c <= 0, 0.0, np.where(hit, root, math.inf))
+    return float(ttc.min())
+
+
+def _social_force(subject: Track, others: FloatArray, gaps: FloatArray,
+                  centres: FloatArray, weights: FloatArray, total: float) -> float:
+    """Time average of the magnitude of the people's summed social force on the subject."""
+    if not len(others) or not len(subject.time):
+        return 0.0
+    away = subject.position[None, :, :] - others
+    unit = np.divide(away, centres[:, :, None], out=np.zeros_like(away),
+                     where=centres[:, :, None] > 0)
+    force = (FORCE_A * np.exp(-np.maximum(gaps, 0.0) / FORCE_B))[:, :, None] * unit
+    summed = force.sum(axis=0)
+    return _time_average(np.hypot(summed[:, 0], summed[:, 1]), weights, total)
+
+
+def group_space(positions: FloatArray, radii: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """A group's space from its members' positions (M, T, 2) and radii (M,): the circle about
+    their mean position that holds every member's body, as centres (T, 2) and radii (T,)."""
+    centre = positions.mean(axis=0)
+    offset = positions - centre
+    reach = np.hypot(offset[..., 0], offset[..., 1]) + radii[:, None]
+    return centre, reach.max(axis=0)
+
+
+def _group_share(subject: Track, people: Sequence[Track], others: FloatArray,
+                 groups: Sequence[Sequence[int]], weights: FloatArray, total: float) -> float:
+    """Share of the time the subject's body overlaps some group's space (it not a member)."""
+    inside = np.zeros(len(subject.time), dtype=np.bool_)
+    for group in groups:
+        if len(group) < 2:
+            continue
+        members = list(group)
+        centre, radius = group_space(others[members],
+                                     np.array([people[i].radius for i in members]))
+        gap = np.hypot(*(subject.position - centre).T) - radius - subject.radius
+        inside |= gap < 0
+    return _share(inside, weights, total)
+
+
+def _obstacle_episodes(subject: Track, clearance: Clearance | None) -> float:
+    if clearance is None or not len(subject.time):
+        return 0.0
+    return float(_episodes((clearance(subject.position) < subject.radius)[None, :]))
+
+
+def member_indices(groups: Iterable[Sequence[str]], people: Sequence[str], subject: str
+                   ) -> list[list[int]]:
+    """Groups of names as indices into `people`, leaving out groups the subject belongs to."""
+    index = {name: i for i, name in enumerate(people)}
+    return [[index[m] for m in members if m in index] for members in groups
+            if subject not in members]

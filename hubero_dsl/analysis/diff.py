@@ -31,8 +31,8 @@ from hubero_dsl.analysis.metrics import (
     compute_metrics,
     vars_of,
 )
+from hubero_dsl.analysis.socialnav_log import robot_social_metrics
 from hubero_dsl.errors import InputError
-from hubero_dsl.socialnav import Track, social_metrics
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, describe_shape
 
 if TYPE_CHECKING:
@@ -150,11 +150,7 @@ def _robot_diffs(a: LoggedRun, b: LoggedRun, epsilon: float) -> dict[str, HumanD
 def robot_metrics(run: LoggedRun, name: str) -> dict[str, float]:
     """A robot's social-navigation metrics among every human, from a log's tracks (no goal is
     logged: efficiency is against the straight line from its first to its last position)."""
-    robot = run.robots[name]
-    people = [Track(h.time, h.position, float(run.metadata.params.get(h.name, {}).get(
-        "radius", 0.2)))  # type: ignore[arg-type]
-        for h in run.humans.values() if len(h.time)]
-    return social_metrics(Track(robot.time, robot.position, robot.radius), people)
+    return robot_social_metrics(run, name)
 
 
 def _number_deltas(a: dict[str, float], b: dict[str, float]) -> tuple[MetricDelta, ...]:

@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
+from hubero_dsl.analysis.socialnav_log import robot_social_metrics
 from hubero_dsl.sim.status import TaskStatus
 from hubero_dsl.world.personal_space import contains
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, Shape, ShapeArrays
@@ -83,6 +84,7 @@ class RobotMetrics:
     max_speed: float
     min_distance: dict[str, float]
     collisions: int
+    social: dict[str, float]  # hubero_dsl.socialnav's metrics among the people, from the log
 
 
 @dataclass(frozen=True)
@@ -176,7 +178,8 @@ def compute_metrics(run: LoggedRun) -> RunMetrics:
         robots[name] = RobotMetrics(
             name=name, path_length=speeds.path_length, duration=speeds.duration,
             mean_speed=speeds.mean_speed, max_speed=speeds.max_speed,
-            min_distance=min_distances(actor, others), collisions=collisions(actor, others))
+            min_distance=min_distances(actor, others), collisions=collisions(actor, others),
+            social=robot_social_metrics(run, name))
     return RunMetrics(humans, robots)
 
 

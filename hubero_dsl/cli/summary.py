@@ -93,18 +93,23 @@ def print_failure(program: Program, result: RunResult) -> None:
 
 def _robot_metrics_table(metrics: dict[str, dict[str, float]]) -> Table:
     """The social-navigation metrics robot researchers report (docs/analysis.md)."""
-    table = Table("robot", "min distance", "intimate", "personal", "collisions",
-                  "path length", "efficiency", "time to goal",
+    table = Table("robot", "min distance", "intimate", "personal", "collisions (people/walls)",
+                  "min TTC", "path length", "efficiency", "time to goal",
                   title="robots among people", title_justify="left")
     for name, values in metrics.items():
-        goal = values["time_to_goal"]
         table.add_row(name, f"{values['min_distance']:.2f} m",
                       f"{100 * values['intimate_intrusions']:.0f} %",
                       f"{100 * values['personal_intrusions']:.0f} %",
-                      f"{values['collisions']:.0f}", f"{values['path_length']:.2f} m",
+                      f"{values['collisions']:.0f} / {values['obstacle_collisions']:.0f}",
+                      _seconds(values["min_time_to_collision"]),
+                      f"{values['path_length']:.2f} m",
                       f"{100 * values['path_efficiency']:.0f} %",
-                      f"{goal:.2f} s" if goal != float("inf") else "-")
+                      _seconds(values["time_to_goal"]))
     return table
+
+
+def _seconds(value: float) -> str:
+    return f"{value:.2f} s" if value != float("inf") else "-"
 
 
 def _actors_table(actors: list[HumanSummary], column: str, title: str) -> Table:

@@ -291,7 +291,7 @@ class Checker:
                 self.symbols.resolve(ref, *BODIES, role=f"{compare.metric.name}(...)")
         if spec is None:
             return
-        dimension = {"length": Dimension.LENGTH, "time": Dimension.TIME,
+        dimension = {"length": Dimension.LENGTH, "time": Dimension.TIME, "speed": Dimension.SPEED,
                      "ratio": Dimension.RATIO}.get(spec.dimension, Dimension.NUMBER)
         self.values.quantity(compare.threshold, dimension, f"{spec.name}", non_negative=True)
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from hubero_dsl.model.activities import Expectation, ExpectMode
 from hubero_dsl.model.conditions import MetricCompare
-from hubero_dsl.socialnav import Track, social_metrics
+from hubero_dsl.socialnav import Track, member_indices, social_metrics
 
 if TYPE_CHECKING:
     from hubero_dsl.sim.simulation import Simulation
@@ -99,7 +99,11 @@ class Tracks:
         if subject in sim.engine.robots.names:
             spec = sim.engine.robots.specs[sim.engine.robots.index_of(subject)]
             goal, tolerance = spec.goal, spec.goal_tolerance
-        return social_metrics(track, people, goal=goal, goal_tolerance=tolerance)
+        present = [n for n in names if self.track(sim, n) is not None]
+        return social_metrics(track, people, goal=goal, goal_tolerance=tolerance,
+                              groups=member_indices(sim.program.groups.values(), present,
+                                                    subject),
+                              clearance=sim.engine.grid.clearance_at)
 
 
 class Judge:

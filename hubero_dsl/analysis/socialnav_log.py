@@ -1,0 +1,155 @@
+"""Social-navigation metrics from a run log alone (`hubero_dsl.socialnav`, per robot and human).
+
+    from hubero_dsl.analysis.socialnav_log import log_social_metrics
+    metrics = log_social_metrics(load_run("run.mcap"))
+    metrics["robots"]["cart"]["min_time_to_collision"], metrics["humans"]["actor1"]["jerk"]
+
+What the log records is used: tracks, humans' radii and personal-space shapes (their resolved
+parameters), robots' radii (from /scene), groups (metadata `sets`), the map (for collisions
+with obstacles). Robots' goals and plans are not logged: efficiency is against the straight
+line from a body's first to its last position, and `time_to_goal` is infinite. On top of
+`social_metrics`, `shape_intrusions` is the share of the time the subject's centre lay inside
+some person's own personal space, in its shape and turned to its heading.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from hubero_dsl.socialnav import FloatArray, Track, member_indices, social_metrics
+from hubero_dsl.world.personal_space import contains
+from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, Shape, ShapeArrays
+
+if TYPE_CHECKING:
+    from hubero_dsl.log.reader import LoggedRun
+
+DEFAULT_HUMAN_RADIUS = 0.2
+DEFAULT_ROBOT_RADIUS = 0.3
+NEAR = 6.0  # m between centres: beyond the social band (3.6 m) plus two bodies and a margin
+
+
+def log_social_metrics(run: LoggedRun, *, humans: bool = True
+                       ) -> dict[str, dict[str, dict[str, float]]]:
+    """`{"robots": {name: metrics}, "humans": {name: metrics}}` (humans only if asked)."""
+    neighbours = _neighbours(run) if humans else {}
+    headings = _headings(run)
+    return {
+        "robots": {name: robot_social_metrics(run, name, headings) for name in sorted(run.robots)},
+        "humans": {name: human_social_metrics(run, name, neighbours.get(name), headings)
+                   for name in sorted(run.humans)} if humans else {},
+    }
+
+
+def robot_social_metrics(run: LoggedRun, name: str,
+                         headings: dict[str, FloatArray] | None = None) -> dict[str, float]:
+    """A robot's metrics among every human of the log."""
+    robot = run.robots[name]
+    subject = Track(robot.time, robot.position, robot.radius or DEFAULT_ROBOT_RADIUS)
+    return _metrics(run, subject, name, [h for h in run.humans if len(run.humans[h].time)],
+                    headings)
+
+
+def human_social_metrics(run: LoggedRun, name: str, among: list[str] | None = None,
+                         headings: dict[str, FloatArray] | None = None) -> dict[str, float]:
+    """A human's metrics among the other humans of the log (or those of `among` only)."""
+    human = run.humans[name]
+    subject = Track(human.time, human.position, _radius(run, name))
+    others = [h for h in (among if among is not None else run.humans)
+              if h != name and len(run.humans[h].time)]
+    return _metrics(run, subject, name, others, headings)
+
+
+def _neighbours(run: LoggedRun) -> dict[str, list[str]]:
+    """Per human, the others that matter to its metrics: whoever came within NEAR (centres) at
+    some frame, whoever was its nearest at some frame, and every group's members.
+
+    Comparing every human with every other costs people squared times frames; a k-d tree per
+    frame finds these few. Left out are only people always further than NEAR: beyond every
+    intrusion band, their social force below 1e-7 m/s^2; they are left out of time to
+    collision too.
+    """
+    names = [h for h in sorted(run.humans) if len(run.humans[h].time)]
+    if len(names) < 2:
+        return {}
+    times = np.unique(np.concatenate([run.humans[h].time for h in names]))
+    positions = np.stack([_interpolated(run.humans[h].time, run.humans[h].position, times)
+                          for h in names], axis=1)                              # (T, P, 2)
+    count, found = len(names), []
+    for frame in positions:
+        tree = cKDTree(frame)
+        found.append(tree.query_pairs(NEAR, output_type="ndarray"))
+        _, nearest = tree.query(frame, k=2)
+        found.append(np.column_stack([np.arange(count), nearest[:, 1]]))
+    pairs = np.concatenate(found).astype(np.int64)
+    codes = np.unique(np.concatenate([pairs[:, 0] * count + pairs[:, 1],
+                                      pairs[:, 1] * count + pairs[:, 0]]))
+    starts = np.searchsorted(codes // count, np.arange(count + 1))
+    chosen = {name: {names[j] for j in (codes[starts[i]:starts[i + 1]] % count).tolist()}
+              for i, name in enumerate(names)}
+    # group members always: a group's space needs all of them
+    every_member = {m for kind, members in run.metadata.sets.values() if kind == "group"
+                    for m in members if m in chosen}
+    return {name: sorted((chosen[name] | every_member) - {name}) for name in names}
+
+
+def _metrics(run: LoggedRun, subject: Track, name: str, others: list[str],
+             headings: dict[str, FloatArray] | None) -> dict[str, float]:
+    people = [Track(run.humans[h].time, run.humans[h].position, _radius(run, h)) for h in others]
+    groups = [members for kind, members in run.metadata.sets.values() if kind == "group"]
+    metrics = social_metrics(subject, people, groups=member_indices(groups, others, name),
+                             clearance=run.grid.clearance_at if len(subject.time) else None)
+    metrics["shape_intrusions"] = shape_intrusions(run, subject, others, headings)
+    return metrics
+
+
+def shape_intrusions(run: LoggedRun, subject: Track, others: list[str],
+                     headings: dict[str, FloatArray] | None = None) -> float:
+    """Share of the subject's time (each sample weighs the time until the next) during which its
+    centre lay inside some person's own personal space. `headings`: `_headings(run)`, when
+    known already."""
+    times = subject.time
+    if len(times) < 2 or not others:
+        return 0.0
+    count = len(times)
+    shapes = ShapeArrays.from_shapes([_shape(run, h) for h in others])
+    repeated = ShapeArrays(np.repeat(shapes.kind, count), np.repeat(shapes.a, count),
+                           np.repeat(shapes.b, count), np.repeat(shapes.offset, count))
+    centres = np.concatenate([_interpolated(run.humans[h].time, run.humans[h].position, times)
+                              for h in others])
+    unwrapped = headings if headings is not None else _headings(run)
+    turned = np.concatenate([_interpolated(run.humans[h].time, unwrapped[h], times)
+                             for h in others])
+    points = np.tile(subject.position, (len(others), 1))
+    inside = np.asarray(contains(repeated, turned, centres, points))
+    intruded = np.asarray(inside.reshape(len(others), count).any(axis=0), dtype=np.bool_)[:-1]
+    dt = np.diff(times)
+    return float(dt[intruded].sum() / dt.sum()) if dt.sum() > 0 else 0.0
+
+
+def _interpolated(time: FloatArray, values: FloatArray, at: FloatArray) -> FloatArray:
+    """Values (T,) or (T, 2) at the times `at`, linear between samples."""
+    if time is at or (len(time) == len(at) and np.array_equal(time, at)):
+        return values
+    if values.ndim == 1:
+        return np.asarray(np.interp(at, time, values), dtype=np.float64)
+    return np.column_stack([np.interp(at, time, values[:, 0]),
+                            np.interp(at, time, values[:, 1])])
+
+
+
+def _headings(run: LoggedRun) -> dict[str, FloatArray]:
+    """Each human's heading without jumps of 2 pi, so that it interpolates."""
+    return {name: np.unwrap(human.heading) for name, human in run.humans.items()}
+
+
+def _radius(run: LoggedRun, human: str) -> float:
+    radius = run.metadata.params.get(human, {}).get("radius", DEFAULT_HUMAN_RADIUS)
+    return float(radius) if isinstance(radius, int | float) else DEFAULT_HUMAN_RADIUS
+
+
+def _shape(run: LoggedRun, human: str) -> Shape:
+    shape = run.metadata.params.get(human, {}).get("personal_space")
+    return shape if isinstance(shape, Circle | Ellipse | Rectangle) else Circle(_radius(run, human))

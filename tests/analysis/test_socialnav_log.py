@@ -1,0 +1,103 @@
+"""Social-navigation metrics from a log: per robot and human, shapes, groups, the index row."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Callable
+from dataclasses import replace
+
+import pytest
+
+from hubero_dsl.analysis.metrics import compute_metrics
+from hubero_dsl.analysis.socialnav_log import (
+    human_social_metrics,
+    log_social_metrics,
+    robot_social_metrics,
+)
+from hubero_dsl.socialnav import METRICS
+from hubero_dsl.world.shapes import Ellipse, Rectangle
+
+TIMES = [float(t) for t in range(7)]
+WALK = [(float(x), 0.0) for x in range(-3, 4)]   # 1 m/s along y = 0, x = -3..3
+
+
+@pytest.mark.parametrize(("shape", "heading", "share"), [
+    (Ellipse(1.0, 0.5), 0.0, 3 / 6),            # along the walk: inside at x = -1, 0, 1
+    (Ellipse(1.0, 0.5), math.pi / 2, 1 / 6),    # across it: only at x = 0
+    (Rectangle(4.0, 1.0), 0.0, 5 / 6),          # 2 m either side: x = -2..2
+])
+def test_a_robot_in_a_persons_own_shape(build_run: Callable, track: Callable, robot: Callable,
+                                        shape: object, heading: float, share: float) -> None:
+    ann = track("ann", TIMES, [(0.0, 0.0)] * 7, heading=heading)
+    run = build_run([ann], robots=[robot("cart", TIMES, WALK)],
+                    params={"ann": {"personal_space": shape, "radius": 0.2}})
+    metrics = robot_social_metrics(run, "cart")
+    assert metrics["shape_intrusions"] == pytest.approx(share)
+    assert set(metrics) == {*METRICS, "shape_intrusions"}
+
+
+def test_group_spaces_come_from_the_logs_sets(build_run: Callable, track: Callable,
+                                              robot: Callable) -> None:
+    mum = track("mum", TIMES, [(0.0, 1.0)] * 7)
+    dad = track("dad", TIMES, [(0.0, -1.0)] * 7)
+    run = build_run([mum, dad], robots=[robot("cart", TIMES, WALK)],
+                    params={"mum": {"radius": 0.25}, "dad": {"radius": 0.25}})
+    run = replace(run, metadata=replace(run.metadata, sets={"family": ("group", ("mum", "dad"))}))
+    # the group's circle has radius 1.25 about (0, 0); the robot's body (0.3 m) overlaps it
+    # while |x| < 1.55: at x = -1, 0, 1
+    assert robot_social_metrics(run, "cart")["group_intrusions"] == pytest.approx(3 / 6)
+    # a member is not intruding on its own group
+    assert human_social_metrics(run, "mum")["group_intrusions"] == 0.0
+
+
+def test_humans_among_their_neighbours_equal_everyone(build_run: Callable,
+                                                      track: Callable) -> None:
+    near = [track(f"p{i}", TIMES, [(i * 0.8, t * 0.3) for t in TIMES]) for i in range(4)]
+    far = track("far", TIMES, [(40.0, 40.0)] * 7)
+    run = build_run([*near, far])
+    pruned = log_social_metrics(run)["humans"]
+    for name in run.humans:
+        full = human_social_metrics(run, name)
+        for metric, value in full.items():
+            assert pruned[name][metric] == pytest.approx(value, rel=1e-6, abs=1e-9), metric
+    assert pruned["far"]["min_centre_distance"] == pytest.approx(math.hypot(40 - 2.4, 40 - 1.8))
+
+
+def test_robots_metrics_reach_the_flat_row(build_run: Callable, track: Callable,
+                                           robot: Callable) -> None:
+    run = build_run([track("ann", TIMES, [(0.0, 2.0)] * 7)],
+                    robots=[robot("cart", TIMES, WALK)])
+    flat = compute_metrics(run).flat()
+    assert flat["cart.social.avg_speed"] == pytest.approx(1.0)
+    assert flat["cart.social.min_centre_distance"] == pytest.approx(2.0)
+    assert "cart.social.time_to_goal" in flat  # infinite: no goal is logged
+
+
+@pytest.mark.parametrize("case", ["no humans", "robot without frames", "robot with one frame",
+                                  "human without frames", "one human", "repeated times",
+                                  "late arrival"])
+def test_thin_logs_are_measured_without_warnings(build_run: Callable, track: Callable,
+                                                 robot: Callable, case: str) -> None:
+    walk = track("a", [0, 1], [(0, 0), (1, 0)])
+    runs = {
+        "no humans": lambda: build_run([], robots=[robot("r", [0, 1], [(0, 0), (1, 0)])]),
+        "robot without frames": lambda: build_run([walk], robots=[robot("r", [], [])]),
+        "robot with one frame": lambda: build_run([walk], robots=[robot("r", [0], [(2, 2)])]),
+        "human without frames": lambda: build_run([track("b", [], []), walk],
+                                                  robots=[robot("r", [0, 1], [(2, 2), (2, 3)])]),
+        "one human": lambda: build_run([walk]),
+        "repeated times": lambda: build_run(
+            [track("a", [0, 1, 1, 2], [(0, 0), (1, 0), (1, 0), (2, 0)]),
+             track("b", [0, 1, 1, 2], [(3, 0)] * 4)],
+            robots=[robot("r", [0, 1, 1, 2], [(0, 1), (1, 1), (1, 1), (2, 1)])]),
+        "late arrival": lambda: build_run([track("a", [0, 1, 2, 3], [(x, 0) for x in range(4)]),
+                                           track("b", [2, 3], [(3, 0), (3, 1)])]),
+    }
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        run = runs[case]()
+        metrics = log_social_metrics(run)
+        compute_metrics(run).flat()
+    assert set(metrics["robots"]) == set(run.robots)
+    assert set(metrics["humans"]) == set(run.humans)
