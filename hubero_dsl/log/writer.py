@@ -262,6 +262,9 @@ class _LocalSink:
         self._encoder.discard()
 
 
+_STOPS = {signal.SIGINT, signal.SIGTERM}
+
+
 class _ProcessSink:
     """Encodes in a forked writer process; updates go to it through a pipe.
 
@@ -279,7 +282,13 @@ class _ProcessSink:
                 stream.flush()
         self._process = context.Process(target=_serve, args=(setup, fd, child, self._conn),
                                         name="hubero-log-writer", daemon=True)
-        self._process.start()
+        # Ctrl-C or SIGTERM during the fork would run this process's handler in the child's
+        # start-up, before it ignores them, and print a traceback there: hold them until then
+        held = signal.pthread_sigmask(signal.SIG_BLOCK, _STOPS)
+        try:
+            self._process.start()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, held)
         child.close()
         os.close(fd)
 
@@ -325,6 +334,7 @@ def _serve(setup: LogSetup, fd: int, conn: Connection, parent_end: Connection) -
     then aborts the writer, or its pipe closes."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOPS)  # held since the fork; now ignored
     parent_end.close()  # else the pipe would never report the run's end, even if it is killed
     stream = os.fdopen(fd, "wb", buffering=1 << 20)
     encoder: LogEncoder | None = None
