@@ -94,3 +94,11 @@ def test_bad_input_is_exit_2_with_a_message(args: list[str], message: str, small
     assert main([*argv, "-o", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
+
+
+def test_the_documented_reference_table_is_what_the_command_writes(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    assert main(["bench", str(SUITE), "-o", str(out), "--jobs", "2"]) == 0
+    doc = (ROOT / "docs" / "benchmark.md").read_text(encoding="utf-8")
+    committed = doc.split("<!-- bench-summary:start -->\n")[1].split("<!-- bench-summary:end")[0]
+    assert committed == (out / "summary.md").read_text(encoding="utf-8")
