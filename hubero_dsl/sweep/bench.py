@@ -169,19 +169,28 @@ def plot_paths(rows: Sequence[BenchRow], out_dir: Path) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from hubero_dsl.analysis.plot import draw_map
+
     written = []
     for scenario in dict.fromkeys(r.scenario for r in rows):
-        figure, axes = plt.subplots(figsize=(6, 5))
+        figure, axes = plt.subplots(figsize=(7, 6))
+        drawn_map = False
         for row in rows:
             if row.scenario != scenario or row.log is None or not Path(row.log).is_file():
                 continue
-            _draw_run(axes, load_run(row.log), f"{row.controller} {row.variant or ''}",
+            run = load_run(row.log)
+            if not drawn_map:  # every run of a scenario is on its map
+                draw_map(axes, run.grid)
+                drawn_map = True
+            _draw_run(axes, run, f"{row.controller} {row.variant or ''}",
                       "-" if row.controller == REFERENCE else "--")
         axes.set_aspect("equal")
         axes.set_xlabel("x (m)")
         axes.set_ylabel("y (m)")
         axes.set_title(scenario)
-        axes.legend(fontsize="x-small")
+        axes.legend(fontsize="x-small", loc="upper center", bbox_to_anchor=(0.5, -0.12),
+                    ncol=2)
+        figure.tight_layout()
         path = out_dir / f"{scenario}.png"
         tmp = path.with_suffix(".png.tmp")
         figure.savefig(tmp, format="png", dpi=100)
