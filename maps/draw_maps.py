@@ -35,8 +35,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--preview", type=Path, default=None, metavar="DIR",
                         help="also write a labelled PNG of each map into DIR")
     args = parser.parse_args(argv)
-    names = args.names or sorted(p.name.removesuffix(SHAPES_SUFFIX)
-                                 for p in MAPS_DIR.glob(f"*{SHAPES_SUFFIX}"))
+    # the benchmark suite's maps live in their own folder, named benchmark/NAME
+    names = args.names or sorted(
+        str(p.relative_to(MAPS_DIR)).removesuffix(SHAPES_SUFFIX)
+        for pattern in (f"*{SHAPES_SUFFIX}", f"benchmark/*{SHAPES_SUFFIX}")
+        for p in MAPS_DIR.glob(pattern))
     try:
         for name in names:
             shapes_path = MAPS_DIR / f"{name}{SHAPES_SUFFIX}"
@@ -44,7 +47,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"wrote {written} and {written.with_suffix('.pgm').name}")
             if args.preview is not None:
                 args.preview.mkdir(parents=True, exist_ok=True)
-                png_path = args.preview / f"{name}.png"
+                png_path = args.preview / f"{name.replace('/', '_')}.png"
                 show_map(written, png_path, marks=load_drawing(shapes_path).marks)
                 print(f"wrote {png_path}")
     except HuberoError as exc:

@@ -42,15 +42,18 @@ def _stage() -> Path:
 def _logs() -> dict[str, str]:
     stage = _stage()
     digests: dict[str, str] = {}
-    for scenario in sorted((stage / "scenarios").glob("*.hub")):
-        out_dir = stage / "logs" / scenario.stem
-        command = [sys.executable, "-m", "hubero_dsl", "run", f"scenarios/{scenario.name}",
+    scenarios = stage / "scenarios"
+    # the benchmark suite's logs are pinned too, keyed benchmark/NAME/...
+    for scenario in sorted([*scenarios.glob("*.hub"), *scenarios.glob("benchmark/*.hub")]):
+        name = scenario.relative_to(scenarios).with_suffix("").as_posix()
+        out_dir = stage / "logs" / name
+        command = [sys.executable, "-m", "hubero_dsl", "run", f"scenarios/{name}.hub",
                    "--all-variants", "--quiet", "--out-dir", str(out_dir)]
         done = subprocess.run(command, cwd=stage, capture_output=True, text=True, check=False,
                               env={**os.environ, "PYTHONHASHSEED": "0"})
         assert done.returncode in (0, 1), done.stderr
         for log in sorted(out_dir.glob("*.mcap")):
-            key = f"{scenario.stem}/{log.name}"
+            key = f"{name}/{log.name}"
             digests[key] = hashlib.sha256(log.read_bytes()).hexdigest()
     return digests
 

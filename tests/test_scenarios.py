@@ -17,7 +17,9 @@ from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.sim.status import TaskStatus
 
 ROOT = Path(__file__).resolve().parents[1]
-SCENARIOS = sorted((ROOT / "scenarios").glob("*.hub"))
+# the shipped scenarios and the social-navigation benchmark suite (docs/benchmark.md)
+SCENARIOS = sorted([*(ROOT / "scenarios").glob("*.hub"),
+                    *(ROOT / "scenarios" / "benchmark").glob("*.hub")])
 ORIGINAL_MAPS = ROOT.parent / "shared" / "maps" / "hubero-original"
 RUNS = [(path, variant) for path in SCENARIOS
         for variant in (list(compile_file(path).variants)[:4] or [None])]
@@ -25,6 +27,11 @@ RUNS = [(path, variant) for path in SCENARIOS
 
 def test_there_are_scenarios() -> None:
     assert {"living_room.hub", "parking.hub"} <= {p.name for p in SCENARIOS}
+
+
+def test_the_benchmark_suite_is_collected() -> None:
+    assert {"frontal_approach.hub", "overtaking.hub", "crossing.hub",
+            "doorway.hub"} <= {p.name for p in SCENARIOS if p.parent.name == "benchmark"}
 
 
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.name)

@@ -33,7 +33,7 @@ from hubero_dsl.errors import CompileError, HuberoError
 
 # Command modules in the order `hubero --help` lists them.
 COMMANDS: tuple[str, ...] = ("check", "run", "test", "graph", "sweep", "plot", "diff",
-                             "export", "map", "validate", "calibrate")
+                             "export", "map", "validate", "calibrate", "bench")
 
 EXIT_OK = 0
 EXIT_FAILED = 1  # the input has errors, or the run or test failed

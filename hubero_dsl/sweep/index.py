@@ -95,8 +95,8 @@ def write_index(out_dir: str | Path, plan: SweepPlan, outcome: SweepOutcome
     """Write index.json and index.csv atomically; their paths."""
     folder = Path(out_dir)
     json_path, csv_path = folder / INDEX_JSON, folder / INDEX_CSV
-    _write_atomically(json_path, index_json(build_index(plan, outcome)))
-    _write_atomically(csv_path, index_csv(plan, outcome))
+    write_atomically(json_path, index_json(build_index(plan, outcome)))
+    write_atomically(csv_path, index_csv(plan, outcome))
     return json_path, csv_path
 
 
@@ -127,7 +127,7 @@ def _finite(value: Any) -> Any:
     return value
 
 
-def _write_atomically(path: Path, text: str) -> None:
+def write_atomically(path: Path, text: str) -> None:
     temp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
         with open(temp, "w", encoding="utf-8", newline="") as stream:

@@ -18,7 +18,7 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from dataclasses import dataclass
 from pathlib import Path
@@ -71,19 +71,25 @@ def prepare_out_dir(plan: SweepPlan, out_dir: str | Path) -> Path:
 
 
 def build_tasks(plan: SweepPlan, out_dir: str | Path, *, log_rate: float = 10.0,
-                metrics: MetricsFunction | None = standard_metrics) -> list[RunTask]:
+                metrics: MetricsFunction | None = standard_metrics,
+                controllers: Mapping[str, type] | None = None) -> list[RunTask]:
     """One picklable task per planned run, with absolute paths (workers' folders differ)."""
     folder = os.path.abspath(out_dir)
+    handed = tuple(sorted((controllers or {}).items()))
     return [RunTask(plan.scenario_path, plan.source, spec.variant, spec.seed,
-                    os.path.join(folder, *spec.log.split("/")), spec.log, log_rate, metrics)
+                    os.path.join(folder, *spec.log.split("/")), spec.log, log_rate, metrics,
+                    handed)
             for spec in plan.runs]
 
 
 def run_sweep(plan: SweepPlan, out_dir: str | Path, executor: Executor, *,
               log_rate: float = 10.0, metrics: MetricsFunction | None = standard_metrics,
-              on_done: OnDone | None = None, window: int | None = None) -> SweepOutcome:
-    """Run every planned run on the executor; the records in plan order."""
-    tasks = build_tasks(plan, out_dir, log_rate=log_rate, metrics=metrics)
+              on_done: OnDone | None = None, window: int | None = None,
+              controllers: Mapping[str, type] | None = None) -> SweepOutcome:
+    """Run every planned run on the executor; the records in plan order. `controllers` hands
+    robots to the caller's own classes, as `hubero run --controller` does."""
+    tasks = build_tasks(plan, out_dir, log_rate=log_rate, metrics=metrics,
+                        controllers=controllers)
     limit = window if window is not None else 2 * executor_slots(executor)
     records: dict[int, RunRecord] = {}
     pending: dict[Future[RunRecord], int] = {}

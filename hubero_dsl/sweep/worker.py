@@ -67,6 +67,8 @@ class RunTask:
     log: str             # relative to the output folder, for the record
     log_rate: float
     metrics: MetricsFunction | None
+    # robots handed to classes of the caller's own (picklable by reference: MODULE:CLASS)
+    controllers: tuple[tuple[str, type], ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -131,7 +133,8 @@ def _simulate(program: Program, task: RunTask) -> RunResult:
     # Encode in this process: a sweep's parallelism is across runs, and Dask's daemonic worker
     # processes may not start a writer process of their own.
     return simulate(program, variant=task.variant, seed=task.seed, log=Path(task.log_path),
-                    log_rate=task.log_rate, writer_process=False)
+                    log_rate=task.log_rate, writer_process=False,
+                    controllers=dict(task.controllers) or None)
 
 
 def _measure(task: RunTask) -> tuple[dict[str, Any], dict[str, Any]]:

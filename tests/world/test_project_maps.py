@@ -170,12 +170,20 @@ def draw_maps() -> ModuleType:
     return module
 
 
-@pytest.mark.parametrize("name", ["living_room", "parking", "station"])
+@pytest.mark.parametrize("name", ["living_room", "parking", "station", "benchmark/corridor",
+                                  "benchmark/crossing", "benchmark/doorway"])
 def test_committed_maps_are_what_the_script_draws(draw_maps: ModuleType, name: str,
                                                   tmp_path: Path) -> None:
     written = draw_maps.draw(MAPS / f"{name}.shapes.yaml", tmp_path)
     assert written.read_bytes() == (MAPS / f"{name}.yaml").read_bytes()
-    assert (tmp_path / f"{name}.pgm").read_bytes() == (MAPS / f"{name}.pgm").read_bytes()
+    assert written.with_suffix(".pgm").read_bytes() == (MAPS / f"{name}.pgm").read_bytes()
+
+
+def test_script_draws_every_description_including_the_benchmark_maps(
+        draw_maps: ModuleType, tmp_path: Path) -> None:
+    assert draw_maps.main(["--out", str(tmp_path)]) == 0
+    assert {"corridor.yaml", "crossing.yaml", "doorway.yaml",
+            "living_room.yaml"} <= {p.name for p in tmp_path.glob("*.yaml")}
 
 
 def test_parked_cars_have_the_size_of_cars(draw_maps: ModuleType) -> None:

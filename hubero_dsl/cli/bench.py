@@ -1,0 +1,68 @@
+"""`hubero bench FOLDER`: the social-navigation benchmark (docs/benchmark.md).
+
+    hubero bench scenarios/benchmark/ -o out/bench
+    hubero bench scenarios/benchmark/ --controller cart=my_pkg:Planner -o out/bench --jobs 2
+
+Runs every scenario and variant of FOLDER with the reference controllers the scenarios name
+and, with --controller, with yours beside them. Writes OUT/NAME.csv, OUT/NAME.md and
+OUT/NAME.png per scenario, OUT/summary.csv and OUT/summary.md, and the logs under OUT/runs/.
+
+Exit 0 when every run completed and met its expectations, 1 when any did not (a controller
+that raises is reported in its run's row and the bench goes on), 2 for bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    parser: argparse.ArgumentParser = subparsers.add_parser(
+        "bench", help="run a benchmark suite with your controller beside the reference",
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("folder", metavar="FOLDER", type=Path,
+                        help="folder of scenarios (.hub), e.g. scenarios/benchmark/")
+    parser.add_argument("--controller", metavar="ROBOT=MODULE:CLASS", action="append",
+                        default=[], help="drive robot ROBOT with your own controller class")
+    parser.add_argument("-o", "--out-dir", metavar="DIR", type=Path, default=Path("bench"),
+                        help="where the tables, plots and logs go (default: bench/)")
+    parser.add_argument("--jobs", "-j", metavar="N", type=int,
+                        help="worker processes (default: the cores)")
+    return parser
+
+
+def run(args: argparse.Namespace) -> int:
+    from hubero_dsl.cli.console import make_console
+    from hubero_dsl.cli.run import handed_controllers
+    from hubero_dsl.errors import InputError
+    from hubero_dsl.sweep.bench import (
+        find_suite,
+        plot_paths,
+        robots_of,
+        run_bench,
+        write_tables,
+    )
+    from hubero_dsl.sweep.executors import available_cores, open_executor
+
+    if args.jobs is not None and args.jobs < 1:
+        raise InputError(f"--jobs must be at least 1, got {args.jobs}")
+    scenarios = find_suite(args.folder)
+    controllers = handed_controllers(args)
+    unknown = sorted(set(controllers) - robots_of(scenarios))
+    if unknown:
+        raise InputError(f"--controller: no robot named '{unknown[0]}' in every scenario of "
+                         f"{args.folder}")
+    args.out_dir.mkdir(parents=True, exist_ok=True)
+    with open_executor("process", jobs=args.jobs or available_cores()) as executor:
+        rows = run_bench(scenarios, args.out_dir, executor, controllers=controllers)
+    written = write_tables(rows, args.out_dir) + plot_paths(rows, args.out_dir)
+    console = make_console()
+    for row in rows:
+        if not row.succeeded:
+            console.print(f"{row.scenario} [{row.variant}] {row.controller}: {row.status}: "
+                          f"{row.reason}", highlight=False, soft_wrap=True, markup=False)
+    console.print(f"{len(rows)} runs; {sum(r.succeeded for r in rows)} ok; wrote "
+                  f"{len(written)} files to {args.out_dir}", highlight=False, soft_wrap=True)
+    return 0 if all(r.succeeded for r in rows) else 1

@@ -1,0 +1,205 @@
+"""The social-navigation benchmark: every scenario of a suite folder, every variant, run with
+the reference controller the scenarios name and with the caller's own, side by side.
+
+Runs go through the sweep runner (`run_sweep`) on any executor; the robot's metrics come from
+each log with `hubero_dsl.analysis.diff.robot_metrics` (socialnav's). The tables are plain text
+(CSV and Markdown) written atomically; paths per scenario are drawn with matplotlib.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections.abc import Mapping, Sequence
+from concurrent.futures import Executor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from hubero_dsl.errors import InputError
+from hubero_dsl.log.reader import LoggedRun, load_run
+from hubero_dsl.pipeline import compile_file
+from hubero_dsl.sweep.index import write_atomically
+from hubero_dsl.sweep.plan import plan_sweep
+from hubero_dsl.sweep.runner import prepare_out_dir, run_sweep
+
+REFERENCE, YOURS = "reference", "yours"
+METRICS = ("min_distance", "collisions", "intimate_intrusions", "personal_intrusions",
+           "path_length")
+COLUMNS = ("scenario", "variant", "controller", "status", "succeeded", *METRICS, "reason")
+
+
+@dataclass(frozen=True, slots=True)
+class BenchRow:
+    """One run of one scenario's variant with one controller."""
+
+    scenario: str
+    variant: str | None
+    controller: str      # reference | yours
+    status: str
+    succeeded: bool
+    reason: str
+    metrics: Mapping[str, float] = field(default_factory=dict)
+    log: str | None = None  # absolute
+
+
+def find_suite(folder: str | Path) -> list[Path]:
+    """The suite's scenarios, sorted; InputError when there are none."""
+    path = Path(folder)
+    if not path.is_dir():
+        raise InputError(f"{folder}: not a folder of scenarios")
+    scenarios = sorted(path.glob("*.hub"))
+    if not scenarios:
+        raise InputError(f"{folder}: no scenarios (*.hub) in this folder")
+    return scenarios
+
+
+def robots_of(scenarios: Sequence[Path]) -> set[str]:
+    """The robots every scenario of the suite names."""
+    names = [{robot.name for robot in compile_file(path).robots} for path in scenarios]
+    return set.intersection(*names) if names else set()
+
+
+def run_bench(scenarios: Sequence[Path], out_dir: Path, executor: Executor, *,
+              controllers: Mapping[str, type]) -> list[BenchRow]:
+    """Every scenario's every variant with the reference, then (when given) the caller's
+    controllers; a run that goes wrong is a row, never an exception."""
+    rows: list[BenchRow] = []
+    sides: list[tuple[str, dict[str, type]]] = [(REFERENCE, {})]
+    if controllers:
+        sides.append((YOURS, dict(controllers)))
+    for path in scenarios:
+        program = compile_file(path)
+        plan = plan_sweep(path, program, list(program.variants) or [None], (program.seed,))
+        robots = sorted(robot.name for robot in program.robots)
+        for side, handed in sides:
+            folder = out_dir / "runs" / path.stem / side
+            prepare_out_dir(plan, folder)
+            outcome = run_sweep(plan, folder, executor, metrics=None, controllers=handed)
+            for record in outcome.records:
+                log = str(folder / record.log) if record.log else None
+                rows.append(BenchRow(path.stem, record.variant, side, record.status,
+                                     record.succeeded, record.reason,
+                                     _measure(log, robots), log))
+    return rows
+
+
+def _measure(log: str | None, robots: Sequence[str]) -> dict[str, float]:
+    """The first robot's social-navigation metrics; empty when there is no readable log."""
+    from hubero_dsl.analysis.diff import robot_metrics
+
+    if log is None or not robots or not Path(log).is_file():
+        return {}
+    try:
+        return robot_metrics(load_run(log), robots[0])
+    except Exception:  # a run that died mid-way may leave a log without the robot's track
+        return {}
+
+
+def table_csv(rows: Sequence[BenchRow]) -> str:
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(COLUMNS)
+    for row in rows:
+        writer.writerow(_cells(row))
+    return out.getvalue()
+
+
+def table_markdown(rows: Sequence[BenchRow]) -> str:
+    lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
+    lines += ["| " + " | ".join(c.replace("|", "/") for c in _cells(row)) + " |"
+              for row in rows]
+    return "\n".join(lines) + "\n"
+
+
+def summary_rows(rows: Sequence[BenchRow]) -> list[BenchRow]:
+    """Per controller and scenario: the worst of each metric over the variants (the smallest
+    distance, the largest of the rest), succeeded only if every run did."""
+    summary = []
+    for scenario in dict.fromkeys(r.scenario for r in rows):
+        for side in dict.fromkeys(r.controller for r in rows):
+            mine = [r for r in rows if r.scenario == scenario and r.controller == side]
+            if not mine:
+                continue
+            worst = {name: _worst(name, [r.metrics.get(name) for r in mine]) for name in METRICS}
+            ok = sum(r.succeeded for r in mine)
+            summary.append(BenchRow(scenario, f"{ok}/{len(mine)} ok", side,
+                                    "completed" if ok == len(mine) else "not ok",
+                                    ok == len(mine), "", worst))
+    return summary
+
+
+def _worst(name: str, values: list[float | None]) -> float:
+    finite = [v for v in values if v is not None and math.isfinite(v)]
+    if not finite:
+        return math.nan
+    return min(finite) if name == "min_distance" else max(finite)
+
+
+def _cells(row: BenchRow) -> list[str]:
+    return [row.scenario, row.variant or "(as written)", row.controller, row.status,
+            "true" if row.succeeded else "false",
+            *(_number(row.metrics.get(name)) for name in METRICS), row.reason]
+
+
+def _number(value: float | None) -> str:
+    return "" if value is None or not math.isfinite(value) else f"{value:.3f}"
+
+
+def write_tables(rows: Sequence[BenchRow], out_dir: Path) -> list[Path]:
+    """Per scenario NAME.csv and NAME.md, and summary.csv and summary.md; the paths."""
+    written = []
+    groups: dict[str, list[BenchRow]] = {}
+    for row in rows:
+        groups.setdefault(row.scenario, []).append(row)
+    groups["summary"] = summary_rows(rows)
+    for name, group in groups.items():
+        for suffix, text in ((".csv", table_csv(group)), (".md", table_markdown(group))):
+            path = out_dir / f"{name}{suffix}"
+            write_atomically(path, text)
+            written.append(path)
+    return written
+
+
+def plot_paths(rows: Sequence[BenchRow], out_dir: Path) -> list[Path]:
+    """Per scenario NAME.png: the robot's path in every run, reference and yours."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from hubero_dsl.analysis.plot import draw_map
+
+    written = []
+    for scenario in dict.fromkeys(r.scenario for r in rows):
+        figure, axes = plt.subplots(figsize=(7, 6))
+        drawn_map = False
+        for row in rows:
+            if row.scenario != scenario or row.log is None or not Path(row.log).is_file():
+                continue
+            run = load_run(row.log)
+            if not drawn_map:  # every run of a scenario is on its map
+                draw_map(axes, run.grid)
+                drawn_map = True
+            _draw_run(axes, run, f"{row.controller} {row.variant or ''}",
+                      "-" if row.controller == REFERENCE else "--")
+        axes.set_aspect("equal")
+        axes.set_xlabel("x (m)")
+        axes.set_ylabel("y (m)")
+        axes.set_title(scenario)
+        axes.legend(fontsize="x-small", loc="upper center", bbox_to_anchor=(0.5, -0.12),
+                    ncol=2)
+        figure.tight_layout()
+        path = out_dir / f"{scenario}.png"
+        tmp = path.with_suffix(".png.tmp")
+        figure.savefig(tmp, format="png", dpi=100)
+        plt.close(figure)
+        tmp.replace(path)
+        written.append(path)
+    return written
+
+
+def _draw_run(axes: Any, run: LoggedRun, label: str, style: str) -> None:
+    for name, robot in run.robots.items():
+        axes.plot(robot.position[:, 0], robot.position[:, 1], style, label=f"{name} {label}")

@@ -1,0 +1,104 @@
+"""`hubero bench`: the suite with the reference and a controller of the user's own, the tables
+read back with csv, the plots opened with Pillow, and bad input refused with exit 2."""
+
+from __future__ import annotations
+
+import csv
+import math
+import shutil
+from pathlib import Path
+
+import pytest
+from PIL import Image
+
+from hubero_dsl.cli.main import main
+from hubero_dsl.sweep.bench import COLUMNS
+
+ROOT = Path(__file__).resolve().parents[2]
+SUITE = ROOT / "scenarios" / "benchmark"
+HERE = "tests.sweep.bench_controllers"
+
+
+@pytest.fixture
+def small_suite(tmp_path: Path) -> Path:
+    """Two scenarios of the suite (they name their maps relative to the repository)."""
+    folder = ROOT / "scenarios" / "benchmark"
+    suite = tmp_path / "scenarios" / "benchmark"
+    suite.mkdir(parents=True)
+    for name in ("crossing.hub", "doorway.hub"):
+        shutil.copy(folder / name, suite / name)
+    shutil.copytree(ROOT / "maps" / "benchmark", tmp_path / "maps" / "benchmark")
+    return suite
+
+
+def _rows(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="", encoding="utf-8") as stream:
+        return list(csv.DictReader(stream))
+
+
+def test_bench_with_a_controller_of_your_own(small_suite: Path, tmp_path: Path,
+                                             monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.syspath_prepend(str(ROOT))  # worker processes inherit sys.path
+    out = tmp_path / "out"
+    code = main(["bench", str(small_suite), "-o", str(out), "--jobs", "2",
+                 "--controller", f"cart={HERE}:SlowNavigator"])
+    assert code in (0, 1)
+    for name in ("crossing", "doorway"):
+        rows = _rows(out / f"{name}.csv")
+        assert tuple(rows[0]) == COLUMNS
+        assert [(r["variant"], r["controller"]) for r in rows] == [
+            (v, side) for side in ("reference", "yours")
+            for v in ("robot_reaction=regular", "robot_reaction=surprised",
+                      "robot_reaction=impassive" if name == "crossing" else
+                      "robot_reaction=curious")]
+        assert all(math.isfinite(float(r["min_distance"])) for r in rows)
+        assert all(r["succeeded"] == "true" for r in rows if r["controller"] == "reference")
+        assert (out / f"{name}.md").read_text().startswith("| scenario |")
+        with Image.open(out / f"{name}.png") as image:
+            assert image.format == "PNG" and image.size[0] > 100
+    summary = _rows(out / "summary.csv")
+    assert [(r["scenario"], r["controller"]) for r in summary] == [
+        ("crossing", "reference"), ("crossing", "yours"),
+        ("doorway", "reference"), ("doorway", "yours")]
+
+
+def test_a_controller_that_raises_is_a_row_and_exit_1(small_suite: Path, tmp_path: Path,
+                                                       monkeypatch: pytest.MonkeyPatch,
+                                                       capsys: pytest.CaptureFixture[str]
+                                                       ) -> None:
+    monkeypatch.syspath_prepend(str(ROOT))
+    (small_suite / "doorway.hub").unlink()
+    out = tmp_path / "out"
+    assert main(["bench", str(small_suite), "-o", str(out), "--jobs", "1",
+                 "--controller", f"cart={HERE}:Raising"]) == 1
+    rows = _rows(out / "crossing.csv")
+    mine = [r for r in rows if r["controller"] == "yours"]
+    assert len(mine) == 3 and all(r["status"] == "error" for r in mine)
+    assert all("bug in the controller" in r["reason"] for r in mine)
+    assert "bug in the controller" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["bench", "{empty}"], "no scenarios"),
+    (["bench", "{suite}", "--controller", "robot9=tests.sweep.bench_controllers:Raising"],
+     "no robot named 'robot9'"),
+    (["bench", "{suite}", "--controller", "cart=no_such_module_x:Planner"], "cannot be imported"),
+    (["bench", "{suite}", "--controller", "cart"], "ROBOT=MODULE:CLASS"),
+])
+def test_bad_input_is_exit_2_with_a_message(args: list[str], message: str, small_suite: Path,
+                                            tmp_path: Path, capsys: pytest.CaptureFixture[str]
+                                            ) -> None:
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    argv = [a.format(empty=empty, suite=small_suite) for a in args]
+    assert main([*argv, "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+
+
+def test_the_documented_reference_table_is_what_the_command_writes(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    assert main(["bench", str(SUITE), "-o", str(out), "--jobs", "2"]) == 0
+    doc = (ROOT / "docs" / "benchmark.md").read_text(encoding="utf-8")
+    committed = doc.split("<!-- bench-summary:start -->\n")[1].split("<!-- bench-summary:end")[0]
+    assert committed == (out / "summary.md").read_text(encoding="utf-8")
