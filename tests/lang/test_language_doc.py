@@ -90,3 +90,18 @@ def test_every_code_the_docs_name_exists() -> None:
     named = {(page.name, code) for page in pages
              for code in re.findall(r"\b([EW]\d{3})\b", page.read_text(encoding="utf-8"))}
     assert sorted((page, code) for page, code in named if code not in emitted) == []
+
+
+@pytest.mark.parametrize("index", range(len(_reference_blocks())))
+def test_every_reference_example_runs_and_its_expectations_hold(index: int) -> None:
+    """The examples of docs/language.md (crowds, flows, groups, robots among them) are what
+    `hubero test` would pass: every variant completes and every `expect` holds."""
+    from hubero_dsl.pipeline import compile_source
+    from hubero_dsl.sim.loop import run_program
+    from hubero_dsl.sim.simulation import Simulation
+
+    program = compile_source(_reference_blocks()[index], str(REFERENCE))
+    for variant in list(program.variants) or [None]:
+        result = run_program(Simulation(program, variant=variant))
+        assert result.succeeded, (program.title, variant, result.reason,
+                                  [e.text for e in result.expectations if not e.held])
