@@ -141,16 +141,10 @@ def _robot_diffs(a: LoggedRun, b: LoggedRun, epsilon: float) -> dict[str, HumanD
     for name in sorted(set(a.robots) & set(b.robots)):
         frechet, hausdorff = path_distances(a.robots[name].position, b.robots[name].position)
         separation, diverged = divergence(a.robots[name], b.robots[name], epsilon)
-        robots[name] = HumanDiff(name, _number_deltas(robot_metrics(a, name),
-                                                      robot_metrics(b, name)),
+        robots[name] = HumanDiff(name, _number_deltas(robot_social_metrics(a, name),
+                                                      robot_social_metrics(b, name)),
                                  frechet, hausdorff, separation, diverged, {})
     return robots
-
-
-def robot_metrics(run: LoggedRun, name: str) -> dict[str, float]:
-    """A robot's social-navigation metrics among every human, from a log's tracks (no goal is
-    logged: efficiency is against the straight line from its first to its last position)."""
-    return robot_social_metrics(run, name)
 
 
 def _number_deltas(a: dict[str, float], b: dict[str, float]) -> tuple[MetricDelta, ...]:

@@ -87,12 +87,12 @@ def run_bench(scenarios: Sequence[Path], out_dir: Path, executor: Executor, *,
 
 def _measure(log: str | None, robots: Sequence[str]) -> dict[str, float]:
     """The first robot's social-navigation metrics; empty when there is no readable log."""
-    from hubero_dsl.analysis.diff import robot_metrics
+    from hubero_dsl.analysis.socialnav_log import robot_social_metrics
 
     if log is None or not robots or not Path(log).is_file():
         return {}
     try:
-        return robot_metrics(load_run(log), robots[0])
+        return robot_social_metrics(load_run(log), robots[0])
     except Exception:  # a run that died mid-way may leave a log without the robot's track
         return {}
 
