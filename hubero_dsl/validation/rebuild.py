@@ -3,9 +3,9 @@
     trajectory = simulate_experiment(experiment, measured, speeds, seed=1)
 
 The scenario is a `Program` built in code: the map is the experiment's room rasterised
-(`hubero_dsl.world.raster`); over the steady state, everyone in the room at its first frame
-stands where they were measured, and everyone who came later enters at their first measured
-frame and place (each person a flow of one with an explicit arrival time,
+(`hubero_dsl.world.drawing.grid_from_walkable`); over the steady state, everyone in the room
+at its first frame stands where they were measured, and everyone who came later enters at
+their first measured frame and place (each person a flow of one with an explicit arrival time,
 `hubero_dsl.sim.flows`); each walks to the far end of the room beyond the exit, level with where
 they came in, and leaves the scene there, so that nobody waits on a goal another stands on.
 Desired speeds are drawn from the measured distribution (`desired_speeds`). The run is logged
@@ -38,8 +38,8 @@ from hubero_dsl.model.program import (
     Program,
 )
 from hubero_dsl.validation.experiments import Experiment, pedpy
+from hubero_dsl.world.drawing import grid_from_walkable
 from hubero_dsl.world.mapfile import save_map
-from hubero_dsl.world.raster import grid_from_walkable
 
 FloatArray = npt.NDArray[np.float64]
 LOG_RATE = 10.0         # Hz: frames of the simulated trajectory

@@ -209,11 +209,11 @@ def load_drawing(path: str | Path) -> MapDrawing:
         description=str(spec.get("description", "")).strip())
 
 
-def _cells_covered(geometry: BaseGeometry, drawing: MapDrawing) -> tuple[slice, slice,
-                                                                          npt.NDArray[np.bool_]]:
+def _cells_covered(geometry: BaseGeometry, cells: tuple[int, int], resolution: float,
+                   origin: tuple[float, float]) -> tuple[slice, slice, npt.NDArray[np.bool_]]:
     """The window of cells around `geometry` and which of them have their centre in it."""
-    rows, cols = drawing.cells
-    res, (ox, oy) = drawing.resolution, drawing.origin
+    rows, cols = cells
+    res, (ox, oy) = resolution, origin
     xmin, ymin, xmax, ymax = geometry.bounds
     col0, col1 = max(0, math.floor((xmin - ox) / res)), min(cols, math.ceil((xmax - ox) / res))
     row0, row1 = max(0, math.floor((ymin - oy) / res)), min(rows, math.ceil((ymax - oy) / res))
@@ -224,24 +224,40 @@ def _cells_covered(geometry: BaseGeometry, drawing: MapDrawing) -> tuple[slice, 
     return slice(row0, row1), slice(col0, col1), np.asarray(inside, dtype=np.bool_)
 
 
-def _centres_in(geometry: BaseGeometry, drawing: MapDrawing) -> npt.NDArray[np.bool_]:
-    """(rows, cols): which cells have their centre in (or on the edge of) `geometry`."""
-    mask = np.zeros(drawing.cells, dtype=np.bool_)
-    rows, cols, inside = _cells_covered(geometry, drawing)
+def centres_in(geometry: BaseGeometry, cells: tuple[int, int], resolution: float,
+               origin: tuple[float, float]) -> npt.NDArray[np.bool_]:
+    """(rows, cols): which cells of the frame (row 0 = lowest y) have their centre in (or on
+    the edge of) `geometry`."""
+    mask = np.zeros(cells, dtype=np.bool_)
+    rows, cols, inside = _cells_covered(geometry, cells, resolution, origin)
     mask[rows, cols] = inside
     return mask
 
 
 def rasterise(drawing: MapDrawing) -> OccupancyGrid:
     """The occupancy grid of a drawing (grid row 0 = lowest y)."""
+    frame = (drawing.cells, drawing.resolution, drawing.origin)
     occupied = np.zeros(drawing.cells, dtype=np.bool_)
     for obstacle in drawing.obstacles:
-        occupied |= _centres_in(obstacle.geometry, drawing)
+        occupied |= centres_in(obstacle.geometry, *frame)
     unknown = None
     if drawing.interior is not None:
-        unknown = ~_centres_in(drawing.interior, drawing) & ~occupied
+        unknown = ~centres_in(drawing.interior, *frame) & ~occupied
     return OccupancyGrid(occupied, drawing.resolution, drawing.origin,
                          source=str(drawing.source), unknown=unknown)
+
+
+def grid_from_walkable(walkable: BaseGeometry, resolution: float = 0.05,
+                       margin: float = 0.5, source: str = "<memory>") -> OccupancyGrid:
+    """A map built in code from the walkable space of a place (the validation corridors): a
+    grid covering `walkable` plus `margin` metres of wall on every side, free where a cell's
+    centre lies in `walkable`, as obstacles are drawn."""
+    x0, y0, x1, y1 = walkable.bounds
+    origin = (x0 - margin, y0 - margin)
+    cells = (math.ceil((y1 - y0 + 2 * margin) / resolution),
+             math.ceil((x1 - x0 + 2 * margin) / resolution))
+    free = centres_in(walkable, cells, resolution, origin)
+    return OccupancyGrid(occupied=~free, resolution=resolution, origin=origin, source=source)
 
 
 def draw_map(shapes_path: str | Path, yaml_path: str | Path, *, comment: str) -> Path:
