@@ -4,11 +4,13 @@ they should not.
 A scenario names its map, and a map its image: either may point at a device (`/dev/zero` reads
 for ever), a FIFO (blocks), a directory, or a huge file. `read_bounded` reads only regular files
 and at most a given number of bytes; `check_output` refuses to write over anything but a
-regular file, and over the files a command reads.
+regular file, and over the files a command reads; `write_replacing` writes an output beside
+its name and renames it into place, so that a failure never leaves a partial file there.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import stat
 from collections.abc import Callable, Sequence
@@ -82,3 +84,21 @@ def _output_problem(path: Path, reads: Sequence[Path]) -> str | None:
 
 def _size(count: int) -> str:
     return f"{count / 2**20:g} MiB" if count >= 2**20 else f"{count / 2**10:g} KiB"
+
+
+def write_replacing(path: Path, write: Callable[[Path], object],
+                    failure: Failure = InputError) -> Path:
+    """Write `path` through `write(temp)`, a temporary file beside it (same suffix, so writers
+    that go by it still do), then rename it over `path`; `failure` for an OS error, and no
+    temporary file left behind either way."""
+    temp = path.with_name(f".{path.name}.{os.getpid()}.tmp{path.suffix}")
+    try:
+        write(temp)
+        os.replace(temp, path)
+    except OSError as exc:
+        raise failure(f"{path}: cannot be written ({exc.strerror or exc})") from None
+    finally:
+        with contextlib.suppress(OSError):
+            temp.unlink()
+    return path
+

@@ -9,14 +9,13 @@ scenario give the same bytes (no date in the file).
 
 from __future__ import annotations
 
-import os
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from hubero_dsl.files import write_replacing
 from hubero_dsl.world.mapfile import load_map
 
 if TYPE_CHECKING:
@@ -123,13 +122,8 @@ def _save(figure: Any, path: Path) -> Path:
     """Write the figure to `path` through a temporary file in the same folder."""
     import matplotlib.pyplot as plt
 
-    handle, temp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".png", dir=path.parent)
-    os.close(handle)
     try:
-        figure.savefig(temp, bbox_inches="tight", metadata={"Software": None})
-        os.replace(temp, path)
+        return write_replacing(path, lambda temp: figure.savefig(
+            temp, bbox_inches="tight", metadata={"Software": None}))
     finally:
         plt.close(figure)
-        if os.path.exists(temp):
-            os.unlink(temp)
-    return path

@@ -107,17 +107,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _write(path: Path, text: str) -> None:
-    import os
+    from hubero_dsl.files import write_replacing
 
-    from hubero_dsl.errors import InputError
-
-    temp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        temp.write_text(text, encoding="utf-8")
-        os.replace(temp, path)
-    except OSError as exc:
-        temp.unlink(missing_ok=True)
-        raise InputError(f"{path}: cannot be written ({exc.strerror or exc})") from None
+    write_replacing(path, lambda temp: temp.write_text(text, encoding="utf-8"))
 
 
 def _report(report: FileReport) -> dict[str, Any]:

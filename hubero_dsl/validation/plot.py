@@ -7,8 +7,6 @@ colour per recording.
 
 from __future__ import annotations
 
-import contextlib
-import os
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -16,6 +14,7 @@ from typing import TYPE_CHECKING
 from matplotlib.figure import Figure
 
 from hubero_dsl.analysis.plot import colours, save
+from hubero_dsl.files import write_replacing
 
 if TYPE_CHECKING:
     from hubero_dsl.validation.validate import Validation
@@ -49,11 +48,4 @@ def plot_fundamental_diagram(results: Sequence[Validation], out: Path) -> Path:
                   xlim=(0, None), ylim=(0, None), title="flow")
     speed_axes.legend(fontsize=6, loc="upper right")
     figure.tight_layout()
-    temp = out.with_name(f".{out.name}.{os.getpid()}.tmp.png")
-    try:
-        save(figure, temp)
-        os.replace(temp, out)
-    finally:
-        with contextlib.suppress(OSError):
-            temp.unlink()
-    return out
+    return write_replacing(out, lambda temp: save(figure, temp))
