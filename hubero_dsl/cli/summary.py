@@ -132,21 +132,18 @@ def _named(program: Program, humans: list[HumanSummary]) -> list[HumanSummary]:
 def _sets_table(program: Program, humans: list[HumanSummary]) -> Table | None:
     """One row per crowd and flow: how many took part, tasks done, how their last tasks ended,
     and the mean path length and time on tasks of those who took part."""
-    sets: dict[str, list[HumanSummary]] = {}
-    group_of = {spec.name: spec.group for spec in program.humans if spec.group is not None}
-    for human in humans:
-        if human.name in group_of:
-            sets.setdefault(group_of[human.name], []).append(human)
+    by_name = {human.name: human for human in humans}
+    sets = {name: (kind, [by_name[m] for m in members if m in by_name])
+            for name, (kind, members) in program.people_sets().items() if kind != "group"}
     if not sets:
         return None
-    flows = {flow.name for flow in program.flows}
     table = Table("crowd or flow", "people", "tasks done", "last status", "mean path length",
                   "mean time on tasks", title="crowds and flows", title_justify="left")
-    for name, everyone in sets.items():
-        came = [h for h in everyone if h.tasks_total or name not in flows]
+    for name, (kind, everyone) in sets.items():
+        came = [h for h in everyone if h.tasks_total or kind != "flow"]
         statuses = Counter(h.last_status for h in came)
-        people = f"{len(came)} came" if name in flows else str(len(came))
-        table.add_row(f"{name} ({'flow' if name in flows else 'crowd'})", people,
+        people = f"{len(came)} came" if kind == "flow" else str(len(came))
+        table.add_row(f"{name} ({kind})", people,
                       f"{sum(h.tasks_done for h in came)}/{sum(h.tasks_total for h in came)}",
                       ", ".join(f"{count} {status}" for status, count in sorted(
                           statuses.items())) or "-",

@@ -15,7 +15,6 @@ from hubero_dsl.log import schemas as s
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle
 
 if TYPE_CHECKING:
-    from hubero_dsl.model.program import Program
     from hubero_dsl.sim.simulation import Simulation
 
 MEDIA_TYPES = {".yaml": "application/yaml", ".yml": "application/yaml",
@@ -50,8 +49,9 @@ def provenance(sim: Simulation, rate_hz: float
         "robots": s.dumps(list(sim.engine.robots.names)),
         "attachments": s.dumps(names),
     }
-    if sets := people_sets(program):  # only then: the logs of other scenarios keep their bytes
-        metadata["sets"] = s.dumps(sets)
+    if sets := program.people_sets():  # only then: the logs of other scenarios keep their bytes
+        metadata["sets"] = s.dumps({name: {"kind": kind, "members": list(members)}
+                                    for name, (kind, members) in sorted(sets.items())})
     media = MEDIA_TYPES.get(image_path.suffix.lower(), "application/octet-stream")
     attachments = [(names["source"], "text/plain", source),
                    (names["map"], "application/yaml", map_yaml),
@@ -83,19 +83,3 @@ def params_json(params: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
 
     return {human: {key: value(v) for key, v in values.items()}
             for human, values in params.items()}
-
-
-def people_sets(program: Program) -> dict[str, dict[str, object]]:
-    """The crowds, flows and groups of a scenario: name -> {"kind", "members"}."""
-    flows = {flow.name for flow in program.flows}
-    sets: dict[str, dict[str, object]] = {}
-    for human in program.humans:
-        if human.group is not None:
-            kind = "flow" if human.group in flows else "crowd"
-            entry = sets.setdefault(human.group, {"kind": kind, "members": []})
-            members = entry["members"]
-            assert isinstance(members, list)
-            members.append(human.name)
-    for name, members in program.groups.items():
-        sets[name] = {"kind": "group", "members": list(members)}
-    return dict(sorted(sets.items()))

@@ -169,6 +169,19 @@ class Program:
     groups: Mapping[str, tuple[str, ...]] = field(default_factory=dict)  # walk together
     flows: tuple[FlowSpec, ...] = ()
 
+    def people_sets(self) -> dict[str, tuple[str, tuple[str, ...]]]:
+        """The crowds, flows and groups: name -> (kind, members), crowds and flows in the order
+        of their first member, then groups."""
+        flows = {flow.name for flow in self.flows}
+        members: dict[str, list[str]] = {}
+        for human in self.humans:
+            if human.group is not None:
+                members.setdefault(human.group, []).append(human.name)
+        sets = {name: ("flow" if name in flows else "crowd", tuple(names))
+                for name, names in members.items()}
+        sets.update((name, ("group", tuple(names))) for name, names in self.groups.items())
+        return sets
+
     @property
     def human_names(self) -> list[str]:
         return [h.name for h in self.humans]
