@@ -40,6 +40,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     where.add_argument("--no-log", action="store_true", help="write no log")
     parser.add_argument("--log-rate", metavar="HZ", type=float, default=10.0,
                         help="how often the log records the humans' state (default 10 Hz)")
+    parser.add_argument("--members", action="store_true",
+                        help="list every member of a crowd or flow in the summary, not one "
+                        "row per crowd or flow")
     add_live_options(parser)
     return parser
 
@@ -96,9 +99,6 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, metavar="N", help="override the scenario's seed")
     parser.add_argument("--quiet", "-q", action="store_true",
                         help="no progress bar and no summary, only problems")
-    parser.add_argument("--members", action="store_true",
-                        help="list every member of a crowd or flow in the summary, not one "
-                        "row per crowd or flow")
     parser.add_argument("--controller", metavar="ROBOT=MODULE:CLASS", action="append",
                         default=[], help="drive robot ROBOT with your own controller class "
                         "(importable MODULE; repeat for several robots)")

@@ -116,3 +116,13 @@ def test_a_closed_pipe_is_reported_as_for_every_command(tmp_path: Path) -> None:
                                capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert completed.stdout.splitlines()[-1] == "141"
     assert "Traceback" not in completed.stderr
+
+
+def test_the_summary_has_a_row_per_crowd_or_every_member_with_members(
+        cli: Callable[..., Outcome]) -> None:
+    scenario = str(REPO_ROOT / "scenarios" / "lounge_crowd.hub")
+    grouped = cli("run", scenario, "--no-log")
+    assert "visitors (crowd)" in grouped.out and "visitors_1 " not in grouped.out
+    listed = cli("run", scenario, "--no-log", "--members")
+    assert "visitors_1 " in listed.out and "visitors (crowd)" not in listed.out
+    assert cli("test", scenario, "--members").status == 2  # a summary option of run only
