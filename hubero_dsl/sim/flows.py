@@ -58,7 +58,6 @@ class FlowState:
     arrived: int = 0          # members brought in so far
     stopped: bool = False     # no more arrivals: the duration passed or `until` held
     walking: dict[int, TaskHandle] = field(default_factory=dict)  # row -> its walk
-    left: int = 0             # members who have left the scene
 
     @property
     def spawning(self) -> bool:
@@ -114,7 +113,6 @@ class Flows:
         for row in ended:
             del state.walking[row]
         if ended:
-            state.left += len(ended)
             self._leave(np.array(ended, dtype=np.intp))
 
     def _bring_in(self, state: FlowState) -> bool:
