@@ -137,13 +137,16 @@ class Checker:
                         "sweep fewer parameters or fewer values, or run a sweep's parts in "
                         "files of their own")
         people = 0
-        flows = {flow.name: flow for flow in self.facts.flows}
+        flows = {flow.name: len(flow.members) for flow in self.facts.flows}
         for statement in self.module.statements:
             if isinstance(statement, ast.HumanDecl | ast.CrowdDecl | ast.FlowDecl):
-                people += len(statement.members) if isinstance(statement, ast.CrowdDecl) else \
-                    len(flows[statement.name.name].members) \
-                    if isinstance(statement, ast.FlowDecl) and statement.name.name in flows \
-                    else 1
+                match statement:
+                    case ast.CrowdDecl():
+                        people += len(statement.members)
+                    case ast.FlowDecl():  # as many as it may bring (1 when its rate is wrong)
+                        people += flows.get(statement.name.name, 1)
+                    case _:
+                        people += 1
                 if people > MAX_HUMANS:
                     self.report("E203", f"more than {MAX_HUMANS:,} humans; a scenario has at "
                                 "most that many (logs and planning are sized for it)",
