@@ -1,10 +1,14 @@
-"""What writing an MCAP log adds to a run: the crossing workload with and without `RunLog`.
+"""What writing an MCAP log adds to a run: a workload with and without `RunLog`.
 
     python benchmarks/logging_cost.py [--humans 1000] [--time-limit 20] [--rate 10] [--repeat 5]
+                                      [--workload crossing|crowd]
 
-The workload is the one of `benchmarks/crossing.py`: N humans on a circle (0.8 m apart) on an
-open map each walk to the antipode (straight-line global planner, social force local planner,
-50 ms steps, personal space a 0.3 m circle). The scenario is compiled once; each repetition runs
+`crossing` (the default) is the workload of `benchmarks/crossing.py`: N humans written one by
+one on a circle (0.8 m apart) on an open map each walk to the antipode (straight-line global
+planner, social force local planner, 50 ms steps, personal space a 0.3 m circle); each has
+topics of their own. `crowd` is one `crowd` of N people wandering (`move_around`) in a square
+of 4 m^2 per person on the same kind of map, with the default planners; the crowd's members
+share its two aggregate topics. The scenario is compiled once; each repetition runs
 a fresh `Simulation` without a log, with a log encoded by a writer process (the default where
 the platform can fork), with a log encoded in this process, and (when foxglove-sdk is
 installed) with a log also served live at `max` pace to no client (`hubero run --live`, before
@@ -63,6 +67,30 @@ def crossing_scenario(folder: Path, humans: int, time_limit: float) -> Path:
     return scenario
 
 
+def crowd_scenario(folder: Path, humans: int, time_limit: float) -> Path:
+    """The same open map with one `crowd` of N people wandering in a square at about one
+    person per 4 m^2 (their log is the crowd's two topics, not two topics per person)."""
+    half_side = math.sqrt(4.0 * humans) / 2
+    resolution = 0.1 if half_side < 55 else 0.5
+    half = half_side + 3.0
+    cells = math.ceil(2 * half / resolution)
+    occupied = np.zeros((cells, cells), dtype=bool)
+    occupied[[0, -1], :] = occupied[:, [0, -1]] = True
+    save_map(OccupancyGrid(occupied, resolution, (-half, -half)), folder / "open.yaml")
+    area = f"rect(({-half_side:.2f}, {-half_side:.2f}), ({half_side:.2f}, {half_side:.2f}))"
+    text = "\n".join([
+        f'scenario "crowd {humans}"', 'map "open.yaml"', "seed 1", "step 50 ms",
+        f"time_limit {time_limit:g} s", "defaults { personal_space circle(radius: 0.3 m) }",
+        f"crowd walkers {humans} in {area}",
+        f"activity {{ walkers move_around in {area} forever }}"]) + "\n"
+    scenario = folder / "crowd.hub"
+    scenario.write_text(text, encoding="utf-8")
+    return scenario
+
+
+WORKLOADS = {"crossing": crossing_scenario, "crowd": crowd_scenario}
+
+
 def timed(run: Callable[[], int]) -> tuple[float, float, float, int]:
     """(wall s, CPU s of this process, CPU s of finished child processes, what run() gave)."""
     wall, cpu, children = time.perf_counter(), time.process_time(), _children_cpu()
@@ -107,6 +135,9 @@ def main() -> None:
     parser.add_argument("--time-limit", type=float, default=20.0, help="simulated seconds")
     parser.add_argument("--rate", type=float, default=10.0, help="log rate in Hz")
     parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--workload", choices=sorted(WORKLOADS), default="crossing",
+                        help="crossing: N named humans (topics of their own); crowd: one "
+                             "crowd of N (aggregate topics)")
     args = parser.parse_args()
     modes = [("writer process", True)] if can_fork() else []
     modes.append(("in this process", False))
@@ -117,8 +148,8 @@ def main() -> None:
     frames, size = 0, 0
     with tempfile.TemporaryDirectory() as name:
         folder = Path(name)
-        program = compile_file(crossing_scenario(folder, args.humans, args.time_limit))
-        output = folder / "crossing.mcap"
+        program = compile_file(WORKLOADS[args.workload](folder, args.humans, args.time_limit))
+        output = folder / "run.mcap"
         for _ in range(args.repeat):
             times["no log"].append(timed(lambda: run_bare(program)))
             for mode, writer_process in modes:
@@ -129,8 +160,8 @@ def main() -> None:
                     lambda: run_live(program, output, args.rate)))
             size = output.stat().st_size
         frames = len(next(iter(load_run(output).humans.values())).time)
-    print(f"crossing: {args.humans} humans, {args.time_limit:g} s simulated at 50 ms steps, "
-          f"log at {args.rate:g} Hz ({frames} frames, {size / 1e6:.1f} MB); "
+    print(f"{args.workload}: {args.humans} humans, {args.time_limit:g} s simulated at 50 ms "
+          f"steps, log at {args.rate:g} Hz ({frames} frames, {size / 1e6:.1f} MB); "
           f"median of {args.repeat}")
     bare_wall = statistics.median(sample[0] for sample in times["no log"])
     bare_cpu = statistics.median(sample[1] for sample in times["no log"])

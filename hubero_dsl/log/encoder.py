@@ -20,8 +20,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO
 
+import numpy as np
+
 from hubero_dsl.log import schemas as s
 from hubero_dsl.log.container import McapContainer
+from hubero_dsl.log.crowds import (
+    CrowdChannels,
+    CrowdEncoder,
+    crowd_poses_topic,
+    crowd_state_topic,
+)
 from hubero_dsl.log.frames import FrameEncoder, FrameState
 from hubero_dsl.log.scene import TIME_MARK, SceneBuilder
 from hubero_dsl.log.sinks import Fanout, MessageSink
@@ -46,6 +54,7 @@ class LogSetup:
     humans: list[str]
     radius: list[float]
     shapes: list[Shape]
+    crowds: list[tuple[str, list[int]]]  # crowds and flows: name, their members' rows
     robots: list[str]
     robot_radius: list[float]
     robot_controllers: list[str]
@@ -84,7 +93,14 @@ class LogEncoder:
         if not sinks:
             raise ValueError("a log needs a file or a live server to write to")
         self._out: MessageSink = sinks[0] if len(sinks) == 1 else Fanout(sinks)
-        self._scene = SceneBuilder(setup.humans, setup.radius, setup.shapes, setup.robots,
+        in_crowd = {row for _, rows in setup.crowds for row in rows}
+        # the humans with topics of their own: everyone not in a crowd or flow
+        self._named = np.array([row for row in range(len(setup.humans)) if row not in in_crowd],
+                               dtype=np.intp)
+        named = self._named.tolist()
+        self._scene = SceneBuilder([setup.humans[i] for i in named],
+                                   [setup.radius[i] for i in named],
+                                   [setup.shapes[i] for i in named], setup.robots,
                                    setup.robot_radius)
         self._frames = 0
         self._define_channels()
@@ -95,17 +111,27 @@ class LogEncoder:
         self._log(s.LOG_INFO, setup.start_message, None, 0)
 
     def _define_channels(self) -> None:
-        names = sorted({*s.TOPIC_SCHEMAS.values(), s.POSE_IN_FRAME, s.HUMAN_STATE})
-        schema_id = {name: self._out.add_schema(name, s.schema_bytes(name)) for name in names}
+        setup = self._setup
+        names = {*s.TOPIC_SCHEMAS.values(), s.POSE_IN_FRAME, s.HUMAN_STATE}
+        if setup.crowds:  # logs without crowds keep the schemas they always had
+            names |= {s.POSES_IN_FRAME, s.CROWD_STATE}
+        schema_id = {name: self._out.add_schema(name, s.schema_bytes(name))
+                     for name in sorted(names)}
         self._channel = {topic: self._out.add_channels([topic], schema_id[name])[0]
                          for topic, name in s.TOPIC_SCHEMAS.items()}
-        humans = self._setup.humans
+        humans = [setup.humans[i] for i in self._named.tolist()]
         poses = self._out.add_channels([s.human_pose_topic(n) for n in humans],
                                        schema_id[s.POSE_IN_FRAME])
         states = self._out.add_channels([s.human_state_topic(n) for n in humans],
                                         schema_id[s.HUMAN_STATE])
-        self._frame = FrameEncoder(humans, self._setup.robots, poses, states,
-                                   self._setup.dt_ns)
+        self._frame = FrameEncoder(humans, setup.robots, poses, states, setup.dt_ns)
+        self._crowds = [CrowdEncoder(CrowdChannels(
+            name, np.array(rows, dtype=np.intp), [setup.humans[i] for i in rows],
+            *self._out.add_channels([crowd_poses_topic(name)], schema_id[s.POSES_IN_FRAME]),
+            *self._out.add_channels([crowd_state_topic(name)], schema_id[s.CROWD_STATE])),
+            setup.dt_ns) for name, rows in setup.crowds]
+        self._crowd_of = {member: crowd for crowd in self._crowds
+                          for member in crowd.crowd.members}
         self._robot_states: list[int] = []
         self._robot_status = [s.IDLE] * len(self._setup.robots)
         if self._setup.robots:  # logs without robots keep the schemas they always had
@@ -132,7 +158,8 @@ class LogEncoder:
             "end_line": span.end_line if span else 0,
             "end_column": span.end_column if span else 0,
             "source_line": self._source_line(span)}).encode())
-        self._frame.record_event(event, description)
+        crowd = self._crowd_of.get(event.human)
+        (crowd or self._frame).record_event(event, description)
         if event.status is TaskStatus.ABORTED:
             self._log(s.LOG_WARNING, f"{event.human} {event.kind} aborted: {event.reason}",
                       span, ns)
@@ -146,14 +173,19 @@ class LogEncoder:
     def _write_frame(self, frame: FrameState) -> None:
         ns = frame.tick * self._setup.dt_ns
         ts = s.timestamp_json(ns)
-        scene = self._scene.snapshot(frame, self._frame.status)
+        named = frame.select(self._named)
+        scene = self._scene.snapshot(named, self._frame.status)
         if scene is not None:
             self._out.add_message(self._channel[s.SCENE_TOPIC], ns,
                                   scene.replace(TIME_MARK, ts).encode())
-        tf, blocks = self._frame.encode(frame, self._frames)
+        tf, blocks = self._frame.encode(named, self._frames)
         self._out.add_message(self._channel[s.TF_TOPIC], ns, tf)
         for block in blocks:
             self._out.add_block(block.data, block.channels, block.offsets, ns)
+        for crowd in self._crowds:
+            poses, state = crowd.encode(frame)
+            self._out.add_message(crowd.crowd.poses, ns, poses)
+            self._out.add_message(crowd.crowd.state, ns, state)
         self._write_robots(frame, ns)
         self._frames += 1
 

@@ -97,14 +97,11 @@ class _Records:
         self.template = template
         self.channels = np.array(channels, dtype=np.uint16)
 
-    def fill(self, numbers: list[SlotValue], sequence: int, ns: int,
-             present: npt.NDArray[np.bool_] | None = None) -> RecordBlock:
-        """The records of every human, or of those `present` only."""
+    def fill(self, numbers: list[SlotValue], sequence: int, ns: int) -> RecordBlock:
+        """The records of every human."""
         length = struct.pack("<Q", self.template.row_length - RECORD_PREFIX)
         rows = self.template.fill([length, MESSAGE_FIELDS.pack(sequence, ns, ns), *numbers])
         channels = self.channels
-        if present is not None:
-            rows, channels = rows[present], channels[present]
         offsets = np.arange(len(channels), dtype=np.uint64) * np.uint64(rows.shape[1])
         return RecordBlock(rows.reshape(-1).data, channels, offsets)
 
@@ -130,17 +127,36 @@ class FrameState:
     robot_velocity: FloatArray    # (R, 2)
     robot_task: list[tuple[str, str]]  # (status, description) of each robot's task now
 
+    def select(self, rows: npt.NDArray[np.intp]) -> FrameState:
+        """The frame of the humans at `rows` only (those with topics of their own), robots
+        included. They are never members of a flow, so they are always present."""
+        if len(rows) == len(self.heading) and self.present is None:
+            return self
+        where = {int(row): i for i, row in enumerate(rows.tolist())}
+        return FrameState(
+            tick=self.tick, position=self.position[rows], velocity=self.velocity[rows],
+            heading=self.heading[rows], posture=self.posture[rows], goal=self.goal[rows],
+            fsm=[self.fsm[row] for row in rows.tolist()], cursor=self.cursor[rows],
+            end=self.end[rows],
+            paths={where[row]: path for row, path in self.paths.items() if row in where},
+            removed=self.removed, present=None, robot_position=self.robot_position,
+            robot_heading=self.robot_heading, robot_velocity=self.robot_velocity,
+            robot_task=self.robot_task)
+
 
 class Capturer:
     """Copies frames out of an engine, remembering whose path it has already sent."""
 
-    def __init__(self, count: int) -> None:
+    def __init__(self, count: int, drawn: npt.NDArray[np.bool_] | None = None) -> None:
         self._cursor = np.full(count, -1, dtype=np.intp)
         self._end = np.full(count, -1, dtype=np.intp)
+        # whose paths the scene draws (crowd members' are not): only theirs are copied
+        self._drawn = np.ones(count, dtype=bool) if drawn is None else drawn
 
     def capture(self, engine: Engine) -> FrameState:
         humans, paths, robots = engine.humans, engine.paths, engine.robots
-        changed = np.flatnonzero((paths.cursor != self._cursor) | (paths.end != self._end))
+        changed = np.flatnonzero(((paths.cursor != self._cursor) | (paths.end != self._end))
+                                 & self._drawn)
         self._cursor, self._end = paths.cursor.copy(), paths.end.copy()
         return FrameState(
             tick=engine.tick, position=np.nan_to_num(humans.position),
@@ -157,6 +173,35 @@ class Capturer:
                         else ("", "") for t in robots.tasks])
 
 
+class TaskTracker:
+    """Each human's current task (as JSON) and status, followed from the task events."""
+
+    def __init__(self, humans: list[str]) -> None:
+        self.index = {name: i for i, name in enumerate(humans)}
+        count = len(humans)
+        self.status: npt.NDArray[np.int8] = np.zeros(count, dtype=np.int8)
+        self.task = ["null"] * count
+        self.task_id = np.zeros(count, dtype=np.int64)
+        self.changed: set[int] = set(range(count))  # whose task or status changed
+
+    def record_event(self, event: TaskEvent, description: str) -> None:
+        index = self.index.get(event.human)
+        if index is None:
+            return
+        if event.status is TaskStatus.ACTIVE:
+            self.task_id[index] = event.task_id
+            self.task[index] = s.dumps({"id": event.task_id, "kind": event.kind,
+                                        "description": description,
+                                        "line": event.span.line if event.span else 0})
+        elif self.task_id[index] == event.task_id:
+            self.task_id[index] = 0
+            self.task[index] = "null"
+        elif event.status.is_final:
+            return  # an earlier task ending late must not hide the current one's status
+        self.status[index] = s.STATUS_CODE[event.status.value]
+        self.changed.add(index)
+
+
 class FrameEncoder:
     """Encodes frames of every human and robot; keeps the humans' task state between frames."""
 
@@ -164,11 +209,8 @@ class FrameEncoder:
                  state_channels: list[int], dt_ns: int) -> None:
         self.names = humans
         self.dt_ns = dt_ns
-        self._index = {name: i for i, name in enumerate(humans)}
+        self.tasks = TaskTracker(humans)
         count = len(humans)
-        self.status: npt.NDArray[np.int8] = np.zeros(count, dtype=np.int8)
-        self._task = ["null"] * count
-        self._task_id = [0] * count
         frames = [s.human_frame(n) for n in humans] + [s.robot_frame(n) for n in robots]
         self._transforms = RowTemplate(TRANSFORM_SLOTS, [
             _transform_pieces(row == 0, frame) for row, frame in enumerate(frames)])
@@ -182,27 +224,16 @@ class FrameEncoder:
         self._fsm: list[str] = []
         self._posture = np.full(count, -1, dtype=np.int8)
         self._status = np.full(count, -1, dtype=np.int8)
-        self._task_changed: set[int] = set(range(count))
 
     # ---- tasks ------------------------------------------------------------------------------
 
+    @property
+    def status(self) -> npt.NDArray[np.int8]:
+        return self.tasks.status
+
     def record_event(self, event: TaskEvent, description: str) -> None:
         """Follow each human's current task and status (the /state and the scene show them)."""
-        index = self._index.get(event.human)
-        if index is None:
-            return
-        if event.status is TaskStatus.ACTIVE:
-            self._task_id[index] = event.task_id
-            self._task[index] = s.dumps({"id": event.task_id, "kind": event.kind,
-                                         "description": description,
-                                         "line": event.span.line if event.span else 0})
-        elif self._task_id[index] == event.task_id:
-            self._task_id[index] = 0
-            self._task[index] = "null"
-        elif event.status.is_final:
-            return  # an earlier task ending late must not hide the current one's status
-        self.status[index] = s.STATUS_CODE[event.status.value]
-        self._task_changed.add(index)
+        self.tasks.record_event(event, description)
 
     # ---- messages ---------------------------------------------------------------------------
 
@@ -223,21 +254,16 @@ class FrameEncoder:
         vx, vy = np.split(metres[2 * (humans + robots):], 2)
         transforms = self._transforms.fill([w, z, stamp, np.concatenate([x, robot_x]),
                                             np.concatenate([y, robot_y])])
-        present = frame.present
-        if present is not None:  # absent people have no frame, pose or state
-            transforms = transforms[np.concatenate([present, np.ones(robots, dtype=bool)])]
-            if len(transforms):
-                transforms[0, 0] = ord(" ")  # the first transform has no comma before it
         tf = b'{"transforms":[' + transforms.tobytes() + b"]}"
         if not humans:
             return tf, []
         self._refresh_state_rows(frame)
-        poses = self._poses.fill([w[:humans], z[:humans], x, y, stamp], sequence, ns, present)
-        states = self._states.fill([frame.heading, x, y, stamp, vx, vy], sequence, ns, present)
+        poses = self._poses.fill([w[:humans], z[:humans], x, y, stamp], sequence, ns)
+        states = self._states.fill([frame.heading, x, y, stamp, vx, vy], sequence, ns)
         return tf, [poses, states]
 
     def _refresh_state_rows(self, frame: FrameState) -> None:
-        changed = self._task_changed
+        changed = self.tasks.changed
         if frame.fsm != self._fsm:
             old = self._fsm or [""] * len(frame.fsm)
             changed.update(i for i, (a, b) in enumerate(zip(frame.fsm, old, strict=True))
@@ -248,6 +274,6 @@ class FrameEncoder:
             return
         self._states.template.set_rows({i: _state_pieces(
             self._state_channels[i], frame.fsm[i], s.POSTURE_NAMES[frame.posture[i]],
-            s.STATUS_NAMES[self.status[i]], self._task[i]) for i in sorted(changed)})
+            s.STATUS_NAMES[self.status[i]], self.tasks.task[i]) for i in sorted(changed)})
         self._fsm, self._posture, self._status = frame.fsm, frame.posture, self.status.copy()
-        self._task_changed = set()
+        self.tasks.changed = set()

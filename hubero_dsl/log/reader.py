@@ -28,6 +28,7 @@ from mcap.reader import make_reader
 from hubero_dsl.diagnostics import Span
 from hubero_dsl.errors import LogError
 from hubero_dsl.log import schemas as s
+from hubero_dsl.log.crowds import crowd_state_topic
 from hubero_dsl.model.program import ParamValue
 from hubero_dsl.sim.status import Posture, TaskEvent, TaskStatus
 from hubero_dsl.world.grid import OccupancyGrid
@@ -172,7 +173,10 @@ def _read(path: Path, stream: Any) -> LoggedRun:
                        f"{provenance.get('hubero_version')}; this hubero reads format "
                        f"{s.FORMAT_VERSION} and older")
     attachments = {a.name: a.data for a in reader.iter_attachments()}
-    collector = _Collector(json.loads(provenance["humans"]), json.loads(provenance["robots"]))
+    crowds = [name for name, entry in json.loads(provenance.get("sets", "{}")).items()
+              if entry["kind"] != "group"]
+    collector = _Collector(json.loads(provenance["humans"]), json.loads(provenance["robots"]),
+                           crowds)
     for _, channel, message in reader.iter_messages(log_time_order=False):
         collector.add(channel.topic, message.data)
     if collector.grid_message is None:
@@ -222,12 +226,15 @@ def _seconds(stamp: dict[str, int]) -> float:
 class _Collector:
     """Sorts a log's messages by topic into rows for the arrays of `LoggedRun`."""
 
-    def __init__(self, humans: list[str], robots: list[str]) -> None:
+    def __init__(self, humans: list[str], robots: list[str], crowds: list[str]) -> None:
         self.grid_message: dict[str, Any] | None = None
         self.events: list[TaskEvent] = []
         self.log: list[LogLine] = []
         self._states: dict[str, list[dict[str, Any]]] = {name: [] for name in humans}
         self._state_topics = {s.human_state_topic(name): name for name in humans}
+        # crowds' and flows' states, one message for all their members (format 2 and later)
+        self._crowd_states: list[dict[str, Any]] = []
+        self._crowd_topics = {crowd_state_topic(name) for name in crowds}
         self._robot_frames = {s.robot_frame(name): name for name in robots}
         self._robots: dict[str, list[tuple[float, float, float, float]]] = {
             name: [] for name in robots}
@@ -237,6 +244,8 @@ class _Collector:
         human = self._state_topics.get(topic)
         if human is not None:
             self._states[human].append(json.loads(data))
+        elif topic in self._crowd_topics:
+            self._crowd_states.append(json.loads(data))
         elif topic == s.TF_TOPIC:
             if self._robot_frames:
                 self._add_transforms(json.loads(data))
@@ -264,7 +273,9 @@ class _Collector:
                                             translation["x"], translation["y"], heading))
 
     def human_tracks(self) -> dict[str, HumanTrack]:
-        return {name: _human_track(name, rows) for name, rows in self._states.items()}
+        tracks = {name: _human_track(name, rows) for name, rows in self._states.items()}
+        tracks.update(_crowd_tracks(self._crowd_states))
+        return tracks
 
     def robot_tracks(self) -> dict[str, RobotTrack]:
         tracks = {}
@@ -287,6 +298,33 @@ def _human_track(name: str, rows: list[dict[str, Any]]) -> HumanTrack:
         status=np.array([r["status"] for r in rows], dtype=np.str_),
         fsm_state=np.array([r["fsm_state"] for r in rows], dtype=np.str_),
         task_id=np.array([r["task"]["id"] if r["task"] else 0 for r in rows], dtype=np.int64))
+
+
+def _crowd_tracks(messages: list[dict[str, Any]]) -> dict[str, HumanTrack]:
+    """Each member's track from crowd state messages (parallel arrays, one per frame)."""
+    names = np.array([name for m in messages for name in m["names"]], dtype=np.str_)
+    if not len(names):
+        return {}
+    time = np.repeat([_seconds(m["timestamp"]) for m in messages],
+                     [len(m["names"]) for m in messages])
+    numbers = np.array([[value for m in messages for value in m[key]]
+                        for key in ("x", "y", "vx", "vy", "heading")], dtype=np.float64).T
+    postures = {posture.name: posture.value for posture in Posture}
+    posture = np.array([postures[p] for m in messages for p in m["posture"]], dtype=np.int8)
+    status = np.array([v for m in messages for v in m["status"]], dtype=np.str_)
+    fsm_state = np.array([v for m in messages for v in m["fsm_state"]], dtype=np.str_)
+    task_id = np.array([v for m in messages for v in m["task_id"]], dtype=np.int64)
+    order = np.argsort(names, kind="stable")  # each member's rows together, in time order
+    ordered = names[order]
+    starts = np.flatnonzero(np.r_[True, ordered[1:] != ordered[:-1]])
+    tracks = {}
+    for rows in np.split(order, starts[1:]):
+        name = str(names[rows[0]])
+        tracks[name] = HumanTrack(
+            name=name, time=time[rows], position=numbers[rows, 0:2],
+            velocity=numbers[rows, 2:4], heading=numbers[rows, 4], posture=posture[rows],
+            status=status[rows], fsm_state=fsm_state[rows], task_id=task_id[rows])
+    return tracks
 
 
 def _task_event(value: dict[str, Any]) -> TaskEvent:

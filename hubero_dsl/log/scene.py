@@ -9,9 +9,8 @@ Entities, one set per run (ids sorted):
   line strip (both empty when the human has none);
 - `robot/NAME`, in the robot's frame: a cylinder, an arrow and a label.
 
-People who come and go (flows) are left out of the snapshots while absent; each snapshot of a
-scenario with flows then starts by deleting every entity (a `type: 1` deletion), so that it
-replaces the whole scene and those who left disappear.
+Members of crowds and flows have no entities: they are drawn from their crowd's poses
+(`crowds.py`).
 
 Because bodies live in moving frames, a body entity changes only when the human's status colour
 or posture does, and a plan entity only when its path or goal does. A snapshot of every entity is
@@ -200,20 +199,14 @@ class SceneBuilder:
         if not (bodies or plans):
             return None
         order = self._order
-        deletions = ""
-        if frame.present is not None:  # people come and go: the snapshot replaces the scene
-            order = [i for i in order if frame.present[i]]
-            deletions = '{"id":"","timestamp":' + TIME_MARK + ',"type":1}'
         entities = [self._body[i] for i in order] + [self._plan[i] for i in order]
         entities += [self._robots[i] for i in self._robot_order]
-        return '{"deletions":[' + deletions + '],"entities":[' + ",".join(entities) + "]}"
+        return '{"deletions":[],"entities":[' + ",".join(entities) + "]}"
 
     def _update_bodies(self, frame: FrameState, status: npt.NDArray[np.int8]) -> bool:
         removed = np.zeros(len(self._names), dtype=np.int64)
         if frame.removed:
             removed[[self._row[name] for name in frame.removed if name in self._row]] = 1
-        if frame.present is not None:  # coming and going changes the scene too
-            removed[~frame.present] = 2
         key = np.column_stack([frame.posture.astype(np.int64), status.astype(np.int64),
                                removed])
         changed = np.flatnonzero((key != self._body_key).any(axis=1))

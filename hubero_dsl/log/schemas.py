@@ -4,13 +4,14 @@ Every message is JSON (MCAP message encoding `json`) described by a JSON Schema 
 `jsonschema`). Where Foxglove defines a message type, the log uses it under its exact name with
 the official schema (vendored in `foxglove/`, see its README): `/map` foxglove.Grid,
 `/scene` foxglove.SceneUpdate, `/tf` foxglove.FrameTransforms, `/humans/NAME/pose`
-foxglove.PoseInFrame, `/log` foxglove.Log. hubero's own schemas cover the rest:
-`/humans/NAME/state` hubero.HumanState, `/robots/NAME/state` hubero.RobotState (in logs with
-robots) and `/tasks` hubero.TaskEvent.
+foxglove.PoseInFrame, `/crowds/NAME/poses` foxglove.PosesInFrame, `/log` foxglove.Log. hubero's
+own schemas cover the rest: `/humans/NAME/state` hubero.HumanState, `/crowds/NAME/state`
+hubero.CrowdState (in logs with crowds or flows), `/robots/NAME/state` hubero.RobotState (in
+logs with robots) and `/tasks` hubero.TaskEvent.
 
 Frames: everything is in the fixed frame `map` (the map's coordinates, z up); `/tf` places one
-frame per human (`human/NAME`) and per robot (`robot/NAME`) in it, so scene bodies drawn in those
-frames follow them.
+frame per human written one by one (`human/NAME`) and per robot (`robot/NAME`) in it, so scene
+bodies drawn in those frames follow them.
 
 JSON is canonical: object keys sorted, no spaces, ASCII only, and numbers rounded to
 `DECIMALS` places (0.1 mm, 0.1 mrad) and written with Python's shortest round-trip repr (or
@@ -36,7 +37,7 @@ if TYPE_CHECKING:
     from hubero_dsl.world.grid import OccupancyGrid
 
 FORMAT = "hubero-run-log"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: crowds and flows share aggregate topics
 METADATA_NAME = "hubero"          # the provenance record
 RESULT_METADATA_NAME = "hubero.result"  # how the run ended, written when it ends
 MAP_FRAME = "map"
@@ -53,14 +54,16 @@ GRID = "foxglove.Grid"
 SCENE_UPDATE = "foxglove.SceneUpdate"
 FRAME_TRANSFORMS = "foxglove.FrameTransforms"
 POSE_IN_FRAME = "foxglove.PoseInFrame"
+POSES_IN_FRAME = "foxglove.PosesInFrame"
 LOG = "foxglove.Log"
 HUMAN_STATE = "hubero.HumanState"
+CROWD_STATE = "hubero.CrowdState"
 ROBOT_STATE = "hubero.RobotState"
 TASK_EVENT = "hubero.TaskEvent"
 
 FOXGLOVE_FILES = {GRID: "Grid.json", SCENE_UPDATE: "SceneUpdate.json",
                   FRAME_TRANSFORMS: "FrameTransforms.json", POSE_IN_FRAME: "PoseInFrame.json",
-                  LOG: "Log.json"}
+                  POSES_IN_FRAME: "PosesInFrame.json", LOG: "Log.json"}
 TOPIC_SCHEMAS = {MAP_TOPIC: GRID, SCENE_TOPIC: SCENE_UPDATE, TF_TOPIC: FRAME_TRANSFORMS,
                  TASKS_TOPIC: TASK_EVENT, LOG_TOPIC: LOG}
 
@@ -162,8 +165,8 @@ def schema_of(name: str) -> dict[str, Any]:
     """The JSON Schema embedded in the log for schema `name`, Foxglove's or hubero's."""
     if name in FOXGLOVE_FILES:
         return foxglove_schema(name)
-    return {HUMAN_STATE: HUMAN_STATE_SCHEMA, ROBOT_STATE: ROBOT_STATE_SCHEMA,
-            TASK_EVENT: TASK_EVENT_SCHEMA}[name]
+    return {HUMAN_STATE: HUMAN_STATE_SCHEMA, CROWD_STATE: CROWD_STATE_SCHEMA,
+            ROBOT_STATE: ROBOT_STATE_SCHEMA, TASK_EVENT: TASK_EVENT_SCHEMA}[name]
 
 
 def schema_bytes(name: str) -> bytes:
@@ -219,6 +222,41 @@ HUMAN_STATE_SCHEMA: dict[str, Any] = {
     },
     "required": ["timestamp", "position", "velocity", "heading", "posture", "status",
                  "fsm_state", "task"],
+    "additionalProperties": False,
+}
+
+
+
+def _column(items: dict[str, Any], description: str) -> dict[str, Any]:
+    return {"type": "array", "items": items, "description": description}
+
+
+_NUMBERS = {"type": "number"}
+CROWD_STATE_SCHEMA: dict[str, Any] = {
+    "title": CROWD_STATE,
+    "description": "The state of every member of a crowd or flow present at one tick of a "
+                   "hubero run, as parallel arrays: element i of each is names[i]'s",
+    "type": "object",
+    "properties": {
+        "timestamp": _TIME,
+        "names": _column({"type": "string"}, "The members in the scene, in member order"),
+        "x": _column(_NUMBERS, "Position x in the map frame, metres"),
+        "y": _column(_NUMBERS, "Position y in the map frame, metres"),
+        "vx": _column(_NUMBERS, "Velocity x in the map frame, metres per second"),
+        "vy": _column(_NUMBERS, "Velocity y in the map frame, metres per second"),
+        "heading": _column(_NUMBERS, "Heading in the map frame, radians, 0 along +x, "
+                                     "counter-clockwise"),
+        "posture": _column({"enum": list(POSTURE_NAMES)}, "Body posture"),
+        "status": _column({"enum": list(STATUS_NAMES)},
+                          "Status of the current task, or of the last one (IDLE before the "
+                          "first)"),
+        "fsm_state": _column({"type": "string"}, "State of the task's behaviour; idle "
+                                                 "without a task"),
+        "task_id": _column({"type": "integer"}, "The current task's id (its events are on "
+                                                "/tasks), 0 when none"),
+    },
+    "required": ["timestamp", "names", "x", "y", "vx", "vy", "heading", "posture", "status",
+                 "fsm_state", "task_id"],
     "additionalProperties": False,
 }
 

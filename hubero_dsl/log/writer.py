@@ -12,7 +12,8 @@ file (a killed run's writer process deletes it too; an in-process writer cannot)
 What is written (topics and schemas in `schemas.py`, frames in `frames.py`, the scene in
 `scene.py`): at the start the provenance metadata, the scenario source and its map (YAML and
 image) as attachments, `/map` and a first frame (the state before the first step); a frame
-(`/tf`, `/humans/NAME/pose`, `/humans/NAME/state`, and `/scene` when it changed) each time the
+(`/tf`, `/humans/NAME/pose`, `/humans/NAME/state`, `/crowds/NAME/poses` and `/state` (in
+`crowds.py`), and `/scene` when it changed) each time the
 simulation clock passes a multiple of 1/rate_hz, plus one at the last tick if that was not a
 sample; every task status change on `/tasks` as it happens; scenario events on `/log`; at the
 end how the run ended (`hubero.result` metadata). Log and publish times are simulation time.
@@ -39,6 +40,8 @@ import threading
 from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, Protocol
+
+import numpy as np
 
 from hubero_dsl import __version__
 from hubero_dsl.errors import LogError
@@ -79,7 +82,11 @@ class RunLog:
         self._writer_process = writer_process
         self._sink: _Sink | None = None
         self._closed = False
-        self._capturer = Capturer(sim.engine.humans.count)
+        self._crowds = _crowds(sim)
+        drawn = np.ones(sim.engine.humans.count, dtype=bool)
+        for _, rows in self._crowds:
+            drawn[rows] = False
+        self._capturer = Capturer(sim.engine.humans.count, drawn)
         self._events_sent = 0
         self._last_sample = -1
         self._last_frame_tick = -1
@@ -202,6 +209,7 @@ class RunLog:
             compression=self._compression, chunk_size=self._chunk_size,
             dt_ns=s.nanoseconds(engine.dt), humans=list(humans.names),
             radius=[float(r) for r in humans.radius], shapes=list(humans.shapes),
+            crowds=self._crowds,
             robots=list(robots.names), robot_radius=[float(r) for r in robots.radius],
             robot_controllers=robots.controller_names(),
             source_path=program.source.path, source_lines=program.source.text.splitlines(),
@@ -215,6 +223,14 @@ class RunLog:
         if self._sink is not None and not self._closed:
             self._sink.abort()
         self._closed = True
+
+
+def _crowds(sim: Simulation) -> list[tuple[str, list[int]]]:
+    """The crowds and flows of the run with their members' rows: they share topics."""
+    row = {name: i for i, name in enumerate(sim.engine.humans.names)}
+    return [(name, [row[member] for member in members])
+            for name, (kind, members) in sim.program.people_sets().items()
+            if kind in ("crowd", "flow")]
 
 
 def can_fork() -> bool:

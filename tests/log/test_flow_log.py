@@ -1,5 +1,5 @@
-"""The log of a run with a flow: people are logged only while they are in the scene, and the
-scene adds and deletes them; the file stays valid MCAP, read back with the mcap library."""
+"""The log of a run with a flow: its members share the flow's topics, in which they appear only
+while they are in the scene; the file stays valid MCAP, read back with the mcap library."""
 
 from __future__ import annotations
 
@@ -9,9 +9,11 @@ import subprocess
 from collections import defaultdict
 from pathlib import Path
 
+import numpy as np
 import pytest
 from mcap.reader import make_reader
 
+from hubero_dsl.log.reader import load_run
 from hubero_dsl.pipeline import compile_file
 from hubero_dsl.sim.status import TaskStatus
 from hubero_dsl.simulate import simulate
@@ -50,50 +52,59 @@ def _messages(log: Path) -> list[tuple[str, int, bytes]]:
                 for _, channel, message in make_reader(stream).iter_messages()]
 
 
+MARGIN = 100_000_000  # ns: frames are sampled at 10 Hz, arrivals fall between them
+
+
 def test_people_are_logged_only_while_they_are_in_the_scene(
         flow_log: tuple[Path, dict[str, tuple[int, int]]]) -> None:
     log, present = flow_log
     assert len(present) >= 3
-    poses: dict[str, list[int]] = defaultdict(list)
-    for topic, time, _ in _messages(log):
-        if topic.startswith("/humans/f_") and topic.endswith("/pose"):
-            poses[topic.split("/")[2]].append(time)
-    assert set(poses) == set(present)  # the members who never came have no messages
+    seen: dict[str, list[int]] = defaultdict(list)
+    states = [(time, json.loads(data)) for topic, time, data in _messages(log)
+              if topic == "/crowds/f/state"]
+    poses = [json.loads(data) for topic, _, data in _messages(log) if topic == "/crowds/f/poses"]
+    assert len(states) == len(poses) > 0
+    for (time, state), pose in zip(states, poses, strict=True):
+        assert len(pose["poses"]) == len(state["names"])
+        for key in ("x", "y", "vx", "vy", "heading", "posture", "status", "fsm_state",
+                    "task_id"):
+            assert len(state[key]) == len(state["names"])
+        for name in state["names"]:
+            seen[name].append(time)
+        inside = {n for n, (a, d) in present.items() if a + MARGIN < time < d - MARGIN}
+        assert inside <= set(state["names"])
+    assert set(seen) == set(present)  # the members who never came are in no message
     for name, (arrival, departure) in present.items():
-        assert arrival - 1e8 <= min(poses[name]) and max(poses[name]) <= departure + 1e8
+        assert arrival - MARGIN <= min(seen[name]) and max(seen[name]) <= departure + MARGIN
 
 
-def test_the_scene_adds_and_deletes_people(
+def test_members_of_a_flow_have_no_topic_frame_or_entity_of_their_own(
+        flow_log: tuple[Path, dict[str, tuple[int, int]]]) -> None:
+    log, _ = flow_log
+    messages = _messages(log)
+    assert not any(topic.startswith("/humans/f_") for topic, _, _ in messages)
+    assert any(topic == "/humans/host/state" for topic, _, _ in messages)
+    for topic, _, data in messages:
+        if topic == "/tf":
+            assert {t["child_frame_id"] for t in json.loads(data)["transforms"]} == {
+                "human/host"}
+        elif topic == "/scene":
+            assert {e["id"] for e in json.loads(data)["entities"]} == {"human/host",
+                                                                        "plan/host"}
+
+
+def test_the_tracks_read_back_follow_each_member(
         flow_log: tuple[Path, dict[str, tuple[int, int]]]) -> None:
     log, present = flow_log
-    scenes = [(time, json.loads(data)) for topic, time, data in _messages(log)
-              if topic == "/scene"]
-    assert all(s["deletions"] and s["deletions"][0]["type"] == 1 for _, s in scenes)
-    shown = {time: {e["id"] for e in s["entities"]} for time, s in scenes}
-    first = min(present, key=lambda n: present[n][0])
-    arrival, departure = present[first]
-    times = sorted(shown)
-    before = max(t for t in times if t < arrival)
-    during = max(t for t in times if t <= (arrival + departure) // 2)
-    after = min(t for t in times if t > departure)
-    assert f"human/{first}" not in shown[before]
-    assert f"human/{first}" in shown[during]
-    assert f"human/{first}" not in shown[after]
-    assert all("human/host" in ids for ids in shown.values())
-
-
-def test_transforms_name_only_the_people_present(
-        flow_log: tuple[Path, dict[str, tuple[int, int]]]) -> None:
-    log, present = flow_log
-    margin = 100_000_000  # a frame is sampled at 10 Hz: arrivals fall between frames
-    for topic, time, data in _messages(log):
-        if topic != "/tf":
-            continue
-        frames = {t["child_frame_id"] for t in json.loads(data)["transforms"]}
-        members = {f.removeprefix("human/") for f in frames} - {"host"}
-        assert all(present[m][0] - margin <= time <= present[m][1] + margin for m in members)
-        inside = {n for n, (a, d) in present.items() if a + margin < time < d - margin}
-        assert inside <= members
+    run = load_run(log)
+    for name, (arrival, departure) in present.items():
+        track = run.humans[name]
+        assert arrival - MARGIN <= track.time[0] * 1e9
+        assert track.time[-1] * 1e9 <= departure + MARGIN
+        assert (np.diff(track.time) > 0).all()
+        assert np.linalg.norm(track.position[-1] - (9.0, 4.0)) < 1.0  # they left at the target
+    never = set(run.metadata.members("f")) - set(present)
+    assert all(len(run.humans[name].time) == 0 for name in never)
 
 
 @pytest.mark.skipif(shutil.which("pymcap-cli") is None and not (

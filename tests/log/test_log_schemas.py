@@ -19,6 +19,18 @@ from hubero_dsl.log import schemas as s
 from tests.log.conftest import BLOCKED, LoggedMeeting, World, write_log
 
 FOXGLOVE_DIR = Path(s.__file__).parent / "foxglove"
+CROWDED = """\
+scenario "log test: a crowd and a flow"
+map "room.yaml"
+seed 3
+step 50 ms
+time_limit 6 s
+crowd visitors 6 in rect((1, 1), (4, 6))
+flow passers from rect((6, 1), (9, 3)) to (8.0, 7.0) rate 1 /s for 4 s
+activity main {
+    visitors move_to (8.0, 4.0)
+}
+"""
 
 
 def assert_same_fields(value: Any, schema: dict[str, Any], where: str = "") -> None:
@@ -51,11 +63,12 @@ def logged_messages(path: Path) -> dict[str, list[Any]]:
 @pytest.fixture(scope="module")
 def every_message(meeting: LoggedMeeting, world: World,
                   tmp_path_factory: pytest.TempPathFactory) -> dict[str, list[Any]]:
-    blocked = tmp_path_factory.mktemp("blocked") / "blocked.mcap"
-    write_log(world.scenario("blocked.hub", BLOCKED), blocked)
+    folder = tmp_path_factory.mktemp("more")
     found = logged_messages(meeting.log)
-    for name, values in logged_messages(blocked).items():
-        found[name] += values
+    for name, text in (("blocked", BLOCKED), ("crowded", CROWDED)):
+        write_log(world.scenario(f"{name}.hub", text), folder / f"{name}.mcap")
+        for schema, values in logged_messages(folder / f"{name}.mcap").items():
+            found.setdefault(schema, []).extend(values)
     return found
 
 
@@ -78,7 +91,8 @@ def test_field_names_are_foxglove_s() -> None:
         ["timestamp", "level", "message", "name", "file", "line"]
 
 
-@pytest.mark.parametrize("name", [*sorted(s.FOXGLOVE_FILES), s.HUMAN_STATE, s.TASK_EVENT])
+@pytest.mark.parametrize("name", [*sorted(s.FOXGLOVE_FILES), s.HUMAN_STATE, s.CROWD_STATE,
+                                  s.TASK_EVENT])
 def test_every_message_matches_its_schema(every_message: dict[str, list[Any]],
                                           name: str) -> None:
     schema = s.schema_of(name)
@@ -91,7 +105,7 @@ def test_every_message_matches_its_schema(every_message: dict[str, list[Any]],
 
 
 def test_own_schemas_are_valid_and_closed() -> None:
-    for name in (s.HUMAN_STATE, s.TASK_EVENT):
+    for name in (s.HUMAN_STATE, s.CROWD_STATE, s.TASK_EVENT):
         schema = s.schema_of(name)
         jsonschema.validators.validator_for(schema).check_schema(schema)
         assert schema["title"] == name
