@@ -80,9 +80,10 @@ def crowd_scenario(folder: Path, humans: int, time_limit: float) -> Path:
     area = f"rect(({-half_side:.2f}, {-half_side:.2f}), ({half_side:.2f}, {half_side:.2f}))"
     text = "\n".join([
         f'scenario "crowd {humans}"', 'map "open.yaml"', "seed 1", "step 50 ms",
-        f"time_limit {time_limit:g} s", "defaults { personal_space circle(radius: 0.3 m) }",
+        f"time_limit {time_limit + 1:g} s",
+        "defaults { personal_space circle(radius: 0.3 m) }",
         f"crowd walkers {humans} in {area}",
-        f"activity {{ walkers move_around in {area} forever }}"]) + "\n"
+        f"activity {{ walkers move_around in {area} for {time_limit:g} s }}"]) + "\n"
     scenario = folder / "crowd.hub"
     scenario.write_text(text, encoding="utf-8")
     return scenario

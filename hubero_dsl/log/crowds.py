@@ -12,9 +12,9 @@ keep topics of their own:
   current task ids, as parallel arrays (`x[i]` is the x of `names[i]`; Foxglove's Plot panel
   plots `/crowds/NAME/state.x[0]`).
 
-People of a flow appear in both messages only while they are in the scene. Numbers are
-formatted as whole columns of fixed-width text (`digits`), like the per-person rows, and the
-padding is then dropped from the whole block at once.
+People of a flow appear in both messages only while they are in the scene. Every array is
+written as a whole column of fixed-width text (numbers by `digits`, postures and statuses from
+tables of padded JSON strings), like the per-person rows; JSON allows the padding.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from hubero_dsl.log import schemas as s
-from hubero_dsl.log.digits import METRES, RADIANS, UNIT, FixedFormat
+from hubero_dsl.log.digits import METRES, UNIT, FixedFormat
 from hubero_dsl.log.frames import TaskTracker
 
 if TYPE_CHECKING:
@@ -34,13 +34,16 @@ if TYPE_CHECKING:
     from hubero_dsl.sim.status import TaskEvent
 
 ByteArray = npt.NDArray[np.uint8]
+FloatArray = npt.NDArray[np.float64]
 
-# one member's pose in /crowds/NAME/poses: literal text and the formats of the numbers between
-POSE_ROW: tuple[bytes | FixedFormat, ...] = (
-    b'{"orientation":{"w":', UNIT, b',"x":0,"y":0,"z":', UNIT, b'},"position":{"x":', METRES,
-    b',"y":', METRES, b',"z":0}},')
-POSTURE_JSON = [s.dumps(name) for name in s.POSTURE_NAMES]
-STATUS_JSON = [s.dumps(name) for name in s.STATUS_NAMES]
+
+def pose_row(metres: FixedFormat) -> tuple[bytes | FixedFormat, ...]:
+    """One member's pose in /crowds/NAME/poses: literal text and the numbers' formats."""
+    return (b'{"orientation":{"w":', UNIT, b',"x":0,"y":0,"z":', UNIT, b'},"position":{"x":',
+            metres, b',"y":', metres, b',"z":0}},')
+
+
+NARROW = FixedFormat(head_groups=1, decimals=4)  # |x| < 1000: metres, m/s and radians
 
 
 def crowd_poses_topic(name: str) -> str:
@@ -73,20 +76,36 @@ class ColumnRows:
         return rows
 
 
-def json_numbers(text: ByteArray) -> bytes:
-    """Formatted numbers (one per row) as a JSON array."""
+def json_array(text: ByteArray) -> bytes:
+    """Fixed-width JSON values (one per row, padded with spaces) as a JSON array."""
     if not len(text):
         return b"[]"
     rows = np.empty((text.shape[0], text.shape[1] + 1), dtype=np.uint8)
     rows[:, :-1] = text
     rows[:, -1] = ord(",")
-    return b"[" + _unpadded(rows)[:-1] + b"]"
+    return b"[" + rows.tobytes()[:-1] + b"]"
 
 
-def _unpadded(rows: ByteArray) -> bytes:
-    """Rows of numbers and JSON keys without the numbers' padding: shorter to compress and
-    read (the rows hold no other spaces)."""
-    return rows.tobytes().replace(b" ", b"")
+def _columns(values: list[FloatArray]) -> list[ByteArray]:
+    """Columns of numbers as text in one call: the narrow format when every value fits it
+    (every map up to a kilometre), else the wide one."""
+    joined = np.concatenate(values)
+    fits = not len(joined) or float(np.abs(joined).max()) < NARROW.limit
+    text = (NARROW if fits else METRES).text(joined)
+    return np.split(text, np.cumsum([len(v) for v in values])[:-1])
+
+
+def _fixed_strings(names: tuple[str, ...]) -> ByteArray:
+    """JSON strings padded to one width, one row each: row k is names[k]."""
+    quoted = [s.dumps(name).encode() for name in names]
+    width = max(map(len, quoted))
+    return np.frombuffer(b"".join(q.ljust(width) for q in quoted),
+                         dtype=np.uint8).reshape(len(names), width)
+
+
+POSE_ROWS = {format.width: ColumnRows(pose_row(format)) for format in (NARROW, METRES)}
+POSTURE_TEXT = _fixed_strings(s.POSTURE_NAMES)
+STATUS_TEXT = _fixed_strings(s.STATUS_NAMES)
 
 
 @dataclass(frozen=True)
@@ -102,8 +121,6 @@ class CrowdChannels:
 
 class CrowdEncoder:
     """Encodes one crowd's two messages per frame; follows its members' tasks."""
-
-    POSES = ColumnRows(POSE_ROW)
 
     def __init__(self, crowd: CrowdChannels, dt_ns: int) -> None:
         self.crowd = crowd
@@ -126,24 +143,21 @@ class CrowdEncoder:
         heading = frame.heading[here]
         half = heading / 2.0
         w, z = np.split(UNIT.text(np.concatenate([np.cos(half), np.sin(half)])), 2)
-        count = len(here)
-        metres = METRES.text(np.concatenate([frame.position[here].T.ravel(),
-                                             frame.velocity[here].T.ravel()]))
-        x, y, vx, vy = (metres[i * count:(i + 1) * count] for i in range(4))
-        poses = _unpadded(self.POSES.fill([w, z, x, y]))[:-1]
+        x, y, vx, vy, heading_text = _columns(
+            [frame.position[here, 0], frame.position[here, 1], frame.velocity[here, 0],
+             frame.velocity[here, 1], heading])
+        poses = POSE_ROWS[x.shape[1]].fill([w, z, x, y]).tobytes()[:-1]
         poses_json = (b'{"frame_id":"map","poses":[' + poses + b'],"timestamp":' + stamp
                       + b"}")
         state_json = b"".join([
             b'{"fsm_state":[', self._strings([frame.fsm[row] for row in here.tolist()]),
-            b'],"heading":', json_numbers(RADIANS.text(heading)),
+            b'],"heading":', json_array(heading_text),
             b',"names":', self._names_of(present),
-            b',"posture":[', ",".join([POSTURE_JSON[p] for p in
-                                        frame.posture[here].tolist()]).encode(),
-            b'],"status":[', ",".join([STATUS_JSON[c] for c in
-                                       self.tasks.status[present].tolist()]).encode(),
-            b'],"task_id":[', ",".join(map(str, self.tasks.task_id[present].tolist())).encode(),
-            b'],"timestamp":', stamp, b',"vx":', json_numbers(vx), b',"vy":', json_numbers(vy),
-            b',"x":', json_numbers(x), b',"y":', json_numbers(y), b"}"])
+            b',"posture":', json_array(POSTURE_TEXT[frame.posture[here]]),
+            b',"status":', json_array(STATUS_TEXT[self.tasks.status[present]]),
+            b',"task_id":[', ",".join(map(str, self.tasks.task_id[present].tolist())).encode(),
+            b'],"timestamp":', stamp, b',"vx":', json_array(vx), b',"vy":', json_array(vy),
+            b',"x":', json_array(x), b',"y":', json_array(y), b"}"])
         return poses_json, state_json
 
     def _names_of(self, present: npt.NDArray[np.bool_]) -> bytes:
