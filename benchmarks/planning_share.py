@@ -8,7 +8,8 @@ default planner is) in a timer; the run then goes through hubero's own command-l
 Reported: the run's wall time from the interpreter's start, the time inside `plan` calls, their
 ratio (the target is at most 20 %), and how many plans were made. Workloads: the circle
 crossing of `crossing.py` (5 s, and the whole window at N = 100), the car park flow of
-`flow.py` (1 person a second for 3 minutes) and the shipped `scenarios/station.hub`.
+`flow.py` (1 person a second for 3 minutes), a crowd of 300 wandering among the parked cars
+(each walk to a goal of its own) and the shipped `scenarios/station.hub`.
 """
 
 from __future__ import annotations
@@ -24,6 +25,16 @@ from crossing import circle_radius, scenario_text, window_end, write_open_map
 from flow import SCENARIO as FLOW
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
+# a crowd wandering among the parked cars: every walk is to a goal of its own, most of them
+# behind cars, so most plans need a search
+SHOPPERS = """scenario "Shoppers in the car park"
+map "{map}"
+seed 1
+time_limit 61 s
+area lot rect((-6.0, -6.5), (20.9, 21.2))
+crowd shoppers 300 in lot
+activity {{ shoppers move_around in lot for 60 s }}
+"""
 
 # Runs in the child: time every plan, then hand over to the CLI as `python -m hubero_dsl` does.
 TIMED_RUN = """
@@ -75,6 +86,9 @@ def workloads(folder: Path) -> dict[str, Path]:
     files["flow 1/s, 3 min"].write_text(FLOW.format(
         map=REPO_ROOT / "maps" / "parking.yaml", rate=1, minutes=3, limit=300),
         encoding="utf-8")
+    files["shoppers 300, 60 s"] = folder / "shoppers.hub"
+    files["shoppers 300, 60 s"].write_text(SHOPPERS.format(
+        map=REPO_ROOT / "maps" / "parking.yaml"), encoding="utf-8")
     files["scenarios/station.hub"] = REPO_ROOT / "scenarios" / "station.hub"
     return files
 
