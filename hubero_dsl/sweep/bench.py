@@ -27,7 +27,8 @@ from hubero_dsl.sweep.runner import prepare_out_dir, run_sweep
 REFERENCE, YOURS = "reference", "yours"
 METRICS = ("min_distance", "collisions", "intimate_intrusions", "personal_intrusions",
            "path_length")
-COLUMNS = ("scenario", "variant", "controller", "status", "succeeded", *METRICS, "reason")
+COLUMNS = ("scenario", "variant", "seed", "controller", "status", "succeeded", *METRICS,
+           "reason")
 
 
 @dataclass(frozen=True, slots=True)
@@ -42,6 +43,7 @@ class BenchRow:
     reason: str
     metrics: Mapping[str, float] = field(default_factory=dict)
     log: str | None = None  # absolute
+    seed: int | None = None  # None in a summary row
 
 
 def find_suite(folder: str | Path) -> list[Path]:
@@ -62,16 +64,18 @@ def robots_of(scenarios: Sequence[Path]) -> set[str]:
 
 
 def run_bench(scenarios: Sequence[Path], out_dir: Path, executor: Executor, *,
-              controllers: Mapping[str, type]) -> list[BenchRow]:
-    """Every scenario's every variant with the reference, then (when given) the caller's
-    controllers; a run that goes wrong is a row, never an exception."""
+              controllers: Mapping[str, type], seeds: Sequence[int] = ()) -> list[BenchRow]:
+    """Every scenario's every variant (with each of `seeds`, else the scenario's own seed) with
+    the reference, then (when given) the caller's controllers; a run that goes wrong is a row,
+    never an exception."""
     rows: list[BenchRow] = []
     sides: list[tuple[str, dict[str, type]]] = [(REFERENCE, {})]
     if controllers:
         sides.append((YOURS, dict(controllers)))
     for path in scenarios:
         program = compile_file(path)
-        plan = plan_sweep(path, program, list(program.variants) or [None], (program.seed,))
+        plan = plan_sweep(path, program, list(program.variants) or [None],
+                          tuple(seeds) or (program.seed,))
         robots = sorted(robot.name for robot in program.robots)
         for side, handed in sides:
             folder = out_dir / "runs" / path.stem / side
@@ -81,7 +85,7 @@ def run_bench(scenarios: Sequence[Path], out_dir: Path, executor: Executor, *,
                 log = str(folder / record.log) if record.log else None
                 rows.append(BenchRow(path.stem, record.variant, side, record.status,
                                      record.succeeded, record.reason,
-                                     _measure(log, robots), log))
+                                     _measure(log, robots), log, record.seed))
     return rows
 
 
@@ -138,7 +142,8 @@ def _worst(name: str, values: list[float | None]) -> float:
 
 
 def _cells(row: BenchRow) -> list[str]:
-    return [row.scenario, row.variant or "(as written)", row.controller, row.status,
+    return [row.scenario, row.variant or "(as written)",
+            "" if row.seed is None else str(row.seed), row.controller, row.status,
             "true" if row.succeeded else "false",
             *(_number(row.metrics.get(name)) for name in METRICS), row.reason]
 
@@ -182,7 +187,7 @@ def plot_paths(rows: Sequence[BenchRow], out_dir: Path) -> list[Path]:
             if not drawn_map:  # every run of a scenario is on its map
                 draw_map(axes, run.grid)
                 drawn_map = True
-            _draw_run(axes, run, f"{row.controller} {row.variant or ''}",
+            _draw_run(axes, run, f"{row.controller} {row.variant or ''} seed {row.seed}",
                       "-" if row.controller == REFERENCE else "--")
         axes.set_aspect("equal")
         axes.set_xlabel("x (m)")

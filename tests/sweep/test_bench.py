@@ -84,6 +84,7 @@ def test_a_controller_that_raises_is_a_row_and_exit_1(small_suite: Path, tmp_pat
      "no robot named 'robot9'"),
     (["bench", "{suite}", "--controller", "cart=no_such_module_x:Planner"], "cannot be imported"),
     (["bench", "{suite}", "--controller", "cart"], "ROBOT=MODULE:CLASS"),
+    (["bench", "{suite}", "--seeds", "3..1"], "the range 3..1 is empty"),
 ])
 def test_bad_input_is_exit_2_with_a_message(args: list[str], message: str, small_suite: Path,
                                             tmp_path: Path, capsys: pytest.CaptureFixture[str]
@@ -94,6 +95,19 @@ def test_bad_input_is_exit_2_with_a_message(args: list[str], message: str, small
     assert main([*argv, "-o", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
+
+
+def test_seeds_run_every_variant_with_each(small_suite: Path, tmp_path: Path) -> None:
+    (small_suite / "doorway.hub").unlink()
+    out = tmp_path / "out"
+    assert main(["bench", str(small_suite), "-o", str(out), "--jobs", "2",
+                 "--seeds", "1,4"]) == 0
+    rows = _rows(out / "crossing.csv")
+    assert [(r["variant"], r["seed"]) for r in rows] == [
+        (f"robot_reaction={v}", s) for v in ("regular", "surprised", "impassive")
+        for s in ("1", "4")]
+    (summary,) = _rows(out / "summary.csv")
+    assert (summary["variant"], summary["seed"]) == ("6/6 ok", "")
 
 
 def test_the_documented_reference_table_is_what_the_command_writes(tmp_path: Path) -> None:
