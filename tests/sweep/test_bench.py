@@ -53,6 +53,8 @@ def test_bench_with_a_controller_of_your_own(small_suite: Path, tmp_path: Path,
                       "robot_reaction=curious")]
         assert all(math.isfinite(float(r["min_distance"])) for r in rows)
         assert all(r["succeeded"] == "true" for r in rows if r["controller"] == "reference")
+        assert all((r["success"], r["termination"], r["collided_with"]) ==
+                   ("true", "reached_goal", "") for r in rows if r["controller"] == "reference")
         assert (out / f"{name}.md").read_text().startswith("| scenario |")
         with Image.open(out / f"{name}.png") as image:
             assert image.format == "PNG" and image.size[0] > 100
@@ -75,6 +77,9 @@ def test_a_controller_that_raises_is_a_row_and_exit_1(small_suite: Path, tmp_pat
     mine = [r for r in rows if r["controller"] == "yours"]
     assert len(mine) == 3 and all(r["status"] == "error" for r in mine)
     assert all("bug in the controller" in r["reason"] for r in mine)
+    assert all((r["success"], r["termination"]) == ("false", "error") for r in mine)
+    (_, yours) = _rows(out / "summary.csv")
+    assert (yours["success"], yours["termination"]) == ("0/3", "error:3")
     assert "bug in the controller" in capsys.readouterr().out
 
 
