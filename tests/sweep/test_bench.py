@@ -13,6 +13,7 @@ from PIL import Image
 
 from hubero_dsl.cli.main import main
 from hubero_dsl.sweep.bench import COLUMNS
+from tests.plugin_controller import install_straight_drive
 
 ROOT = Path(__file__).resolve().parents[2]
 SUITE = ROOT / "scenarios" / "benchmark"
@@ -38,11 +39,15 @@ def _rows(path: Path) -> list[dict[str, str]]:
 
 def test_bench_with_a_controller_of_your_own(small_suite: Path, tmp_path: Path,
                                              monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.syspath_prepend(str(ROOT))  # worker processes inherit sys.path
+    """The plugin package of the plugin tests, `straight_drive` (straight at the goal, blind to
+    people), beside the reference navigator: both columns, and they differ where they must."""
+    site = install_straight_drive(tmp_path / "site")
+    monkeypatch.syspath_prepend(str(site))  # worker processes inherit sys.path
     out = tmp_path / "out"
     code = main(["bench", str(small_suite), "-o", str(out), "--jobs", "2",
-                 "--controller", f"cart={HERE}:SlowNavigator"])
-    assert code in (0, 1)
+                 "--controller", "cart=straight_drive:StraightDrive"])
+    assert code == 1  # the straight drive fails the doorway's expectations
+    runs = {}
     for name in ("crossing", "doorway"):
         rows = _rows(out / f"{name}.csv")
         assert tuple(rows[0]) == COLUMNS
@@ -52,16 +57,28 @@ def test_bench_with_a_controller_of_your_own(small_suite: Path, tmp_path: Path,
                       "robot_reaction=impassive" if name == "crossing" else
                       "robot_reaction=curious")]
         assert all(math.isfinite(float(r["min_distance"])) for r in rows)
-        assert all(r["succeeded"] == "true" for r in rows if r["controller"] == "reference")
-        assert all((r["success"], r["termination"], r["collided_with"]) ==
-                   ("true", "reached_goal", "") for r in rows if r["controller"] == "reference")
+        for row in rows:
+            runs[name, row["variant"], row["controller"]] = row
         assert (out / f"{name}.md").read_text().startswith("| scenario |")
         with Image.open(out / f"{name}.png") as image:
             assert image.format == "PNG" and image.size[0] > 100
+    for (name, variant, side), row in runs.items():
+        if side == "reference":
+            assert (row["succeeded"], row["success"], row["termination"], row["collided_with"]
+                    ) == ("true", "true", "reached_goal", ""), (name, variant)
+        elif name == "doorway":  # it drives into the person in the door
+            assert row["succeeded"] == "false" and row["collided_with"].startswith("walker:")
+            assert float(row["min_distance"]) < float(
+                runs[name, variant, "reference"]["min_distance"])
+    # a surprised person stops in the junction: the navigator keeps away, the straight drive not
+    surprised = ("crossing", "robot_reaction=surprised")
+    assert float(runs[(*surprised, "yours")]["min_distance"]) < 0.5 * float(
+        runs[(*surprised, "reference")]["min_distance"])
     summary = _rows(out / "summary.csv")
     assert [(r["scenario"], r["controller"]) for r in summary] == [
         ("crossing", "reference"), ("crossing", "yours"),
         ("doorway", "reference"), ("doorway", "yours")]
+    assert summary[2]["success"] == "3/3" and summary[3]["collided_with"].startswith("walker:")
 
 
 def test_a_controller_that_raises_is_a_row_and_exit_1(small_suite: Path, tmp_path: Path,
