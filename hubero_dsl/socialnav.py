@@ -70,6 +70,22 @@ METRICS: dict[str, MetricSpec] = {spec.name: spec for spec in (
 )}
 
 Clearance = Callable[[FloatArray], FloatArray]   # (N, 2) points -> (N,) metres to an obstacle
+# (N, 2) points -> (N,) metres to the nearest obstacle and (N, 2) unit vectors away from it
+ClearanceAndDirection = Callable[[FloatArray], tuple[FloatArray, FloatArray]]
+OBSTACLE = -1   # Contact.partner of a contact with the map
+
+
+@dataclass(frozen=True, slots=True)
+class Contact:
+    """One collision: an episode (run of samples) during which the subject's body overlapped a
+    person's (surface gap below 0) or an obstacle (clearance below its radius)."""
+
+    time: float                   # s, its first sample
+    end: float                    # s, its last sample
+    partner: int                  # index into the people, or OBSTACLE
+    point: tuple[float, float]    # the person's centre, or the obstacle's nearest point, then
+    struck: bool                  # the subject moved into the partner at least as fast as the
+                                  # partner moved into it (always, for an obstacle)
 
 
 @dataclass(frozen=True)
@@ -341,6 +357,52 @@ def _obstacle_episodes(subject: Track, clearance: Clearance | None) -> float:
     if clearance is None or not len(subject.time):
         return 0.0
     return float(_episodes((clearance(subject.position) < subject.radius)[None, :]))
+
+
+def contacts(subject: Track, people: Sequence[Track], *,
+             obstacles: ClearanceAndDirection | None = None) -> list[Contact]:
+    """Every collision of `subject` with a person or (given the map's `clearance_and_direction_at`)
+    an obstacle, in order of time: the episodes `collisions` and `obstacle_collisions` count.
+
+    Who hit whom: at the contact's first sample, each body's approach speed is its velocity
+    (central differences) along the line towards the other; the subject `struck` when its own
+    is at least the person's.
+    """
+    time = subject.time
+    found: list[Contact] = []
+    if people and len(time):
+        others = _positions(subject, people)
+        gaps, _ = _gaps(subject, people, others)
+        mine = _velocity(time, subject.position, axis=0) if len(time) > 1 else np.zeros((1, 2))
+        for index, first, last in _runs(gaps < 0.0):
+            theirs = (_velocity(time, others[index], axis=0)[first] if len(time) > 1
+                      else np.zeros(2))
+            towards = others[index, first] - subject.position[first]
+            length = float(np.hypot(*towards))
+            unit = towards / length if length > 0 else np.zeros(2)
+            struck = float(mine[first] @ unit) >= float(-(theirs @ unit))
+            found.append(Contact(float(time[first]), float(time[last]), index,
+                                 _pair(others[index, first]), struck))
+    if obstacles is not None and len(time):
+        clearance, away = obstacles(subject.position)
+        for _, first, last in _runs((clearance < subject.radius)[None, :]):
+            touched = subject.position[first] - clearance[first] * away[first]
+            found.append(Contact(float(time[first]), float(time[last]), OBSTACLE,
+                                 _pair(touched), True))
+    return sorted(found, key=lambda c: (c.time, c.partner))
+
+
+def _runs(mask: npt.NDArray[np.bool_]) -> list[tuple[int, int, int]]:
+    """(row, first, last) of every run of True along the time axis of a (P, T) mask."""
+    padded = np.pad(mask.astype(np.int8), ((0, 0), (1, 1)))
+    edges = np.diff(padded, axis=1)
+    rows, firsts = np.nonzero(edges == 1)
+    _, lasts = np.nonzero(edges == -1)
+    return [(int(r), int(f), int(e) - 1) for r, f, e in zip(rows, firsts, lasts, strict=True)]
+
+
+def _pair(point: FloatArray) -> tuple[float, float]:
+    return (float(point[0]), float(point[1]))
 
 
 def member_indices(groups: Iterable[Sequence[str]], people: Sequence[str], subject: str

@@ -30,8 +30,9 @@ def test_there_are_scenarios() -> None:
 
 
 def test_the_benchmark_suite_is_collected() -> None:
-    assert {"frontal_approach.hub", "overtaking.hub", "crossing.hub",
-            "doorway.hub"} <= {p.name for p in SCENARIOS if p.parent.name == "benchmark"}
+    assert {"frontal_approach.hub", "overtaking.hub", "being_overtaken.hub", "crossing.hub",
+            "doorway.hub", "narrow_corridor.hub", "crowd.hub",
+            "joining_group.hub"} <= {p.name for p in SCENARIOS if p.parent.name == "benchmark"}
 
 
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.name)

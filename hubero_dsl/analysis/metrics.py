@@ -37,7 +37,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from hubero_dsl.analysis.socialnav_log import robot_social_metrics
+from hubero_dsl.analysis.socialnav_log import (
+    collided_with,
+    robot_collisions,
+    robot_social_metrics,
+    robot_termination,
+)
 from hubero_dsl.sim.status import TaskStatus
 from hubero_dsl.world.personal_space import contains
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, Shape, ShapeArrays
@@ -85,6 +90,9 @@ class RobotMetrics:
     min_distance: dict[str, float]
     collisions: int
     social: dict[str, float]  # hubero_dsl.socialnav's metrics among the people, from the log
+    success: bool             # it reached its goal before any collision
+    termination: str          # what ended its run first: reached_goal, collision, timeout, ...
+    collided_with: dict[str, int]  # collisions per partner: a person's name, or "obstacle"
 
 
 @dataclass(frozen=True)
@@ -175,11 +183,14 @@ def compute_metrics(run: LoggedRun) -> RunMetrics:
         actor = actors[name]
         others = [a for a in actors.values() if a.name != name]
         speeds = _Motion.of(actor, [])
+        hits = robot_collisions(run, name)
+        ended = robot_termination(run, name, hits)
         robots[name] = RobotMetrics(
             name=name, path_length=speeds.path_length, duration=speeds.duration,
             mean_speed=speeds.mean_speed, max_speed=speeds.max_speed,
             min_distance=min_distances(actor, others), collisions=collisions(actor, others),
-            social=robot_social_metrics(run, name))
+            social=robot_social_metrics(run, name), success=ended.success,
+            termination=ended.cause, collided_with=collided_with(hits))
     return RunMetrics(humans, robots)
 
 

@@ -10,22 +10,37 @@ with obstacles). Robots' goals and plans are not logged: efficiency is against t
 line from a body's first to its last position, and `time_to_goal` is infinite. On top of
 `social_metrics`, `shape_intrusions` is the share of the time the subject's centre lay inside
 some person's own personal space, in its shape and turned to its heading.
+
+Per robot, too: its collisions, who hit whom (`robot_collisions`, `collided_with`), and how its
+run ended (`robot_termination`: reached its goal, collided, aborted, timed out, ...).
 """
 
 from __future__ import annotations
 
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from hubero_dsl.socialnav import FloatArray, Track, member_indices, social_metrics
+from hubero_dsl.sim.status import TaskStatus
+from hubero_dsl.socialnav import (
+    OBSTACLE,
+    FloatArray,
+    Track,
+    contacts,
+    member_indices,
+    social_metrics,
+)
 from hubero_dsl.world.personal_space import contains
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, Shape, ShapeArrays
 
 if TYPE_CHECKING:
     from hubero_dsl.log.reader import LoggedRun
 
+OBSTACLE_NAME = "obstacle"  # Collision.partner of a contact with the map
 DEFAULT_HUMAN_RADIUS = 0.2
 DEFAULT_ROBOT_RADIUS = 0.3
 NEAR = 6.0  # m between centres: beyond the social band (3.6 m) plus two bodies and a margin
@@ -50,6 +65,90 @@ def robot_social_metrics(run: LoggedRun, name: str,
     subject = Track(robot.time, robot.position, robot.radius or DEFAULT_ROBOT_RADIUS)
     return _metrics(run, subject, name, [h for h in run.humans if len(run.humans[h].time)],
                     headings)
+
+
+@dataclass(frozen=True, slots=True)
+class Collision:
+    """One collision of a robot: with whom, when, where, and who moved into whom."""
+
+    time: float                   # s, first sample in contact
+    end: float                    # s, last sample in contact
+    partner: str                  # the person's name, or OBSTACLE_NAME
+    point: tuple[float, float]    # the person's centre, or the obstacle's nearest point, then
+    hit_by: str                   # the robot's name, or the person's: who moved into whom
+
+
+@dataclass(frozen=True, slots=True)
+class Termination:
+    """How a robot's run ended (docs/analysis.md, "Success and termination")."""
+
+    cause: str      # one of CAUSES
+    time: float     # s: when
+    detail: str     # the task's reason, the run's, or whom it hit
+
+    @property
+    def success(self) -> bool:
+        return self.cause == "reached_goal"
+
+
+CAUSES = ("reached_goal", "done", "collision", "aborted", "timeout", "stopped", "no_task",
+          "unfinished")
+_DONE = {TaskStatus.SUCCEEDED, TaskStatus.PREEMPTED}
+
+
+def robot_collisions(run: LoggedRun, name: str) -> list[Collision]:
+    """The robot's collisions with the humans of the log and with the map, in time order."""
+    robot = run.robots[name]
+    subject = Track(robot.time, robot.position, robot.radius or DEFAULT_ROBOT_RADIUS)
+    others = [h for h in run.humans if len(run.humans[h].time)]
+    people = [Track(run.humans[h].time, run.humans[h].position, _radius(run, h)) for h in others]
+    found = contacts(subject, people, obstacles=run.grid.clearance_and_direction_at)
+    return [Collision(c.time, c.end, OBSTACLE_NAME if c.partner == OBSTACLE else others[c.partner],
+                      c.point, name if c.struck else others[c.partner]) for c in found]
+
+
+def collided_with(collisions: Sequence[Collision]) -> dict[str, int]:
+    """Collisions counted per partner (a person's name, or "obstacle"), names sorted."""
+    return dict(sorted(Counter(c.partner for c in collisions).items()))
+
+
+def robot_termination(run: LoggedRun, name: str,
+                      collisions: Sequence[Collision] | None = None) -> Termination:
+    """What ended the robot's run first: its first collision, or how its tasks ended (their
+    events) and, for a task still going at the end, how the run ended. A collision after the
+    robot's tasks ended (someone walking into it at its goal) does not count."""
+    ended = _tasks_ending(run, name)
+    hits = robot_collisions(run, name) if collisions is None else collisions
+    if hits and hits[0].time <= ended.time:
+        return Termination("collision", hits[0].time, f"with {hits[0].partner}")
+    return ended
+
+
+def _tasks_ending(run: LoggedRun, name: str) -> Termination:
+    last: dict[int, tuple[TaskStatus, float, str, str]] = {}
+    for event in run.events:
+        if event.human == name:
+            last[event.task_id] = (event.status, event.time, event.reason, event.kind)
+    end = run.result.time if run.result is not None else _last_time(run, name)
+    if not last:
+        return Termination("no_task", end, "")
+    finals = sorted(last.values(), key=lambda final: final[1])
+    aborted = [f for f in finals if f[0] is TaskStatus.ABORTED]
+    if aborted:
+        return Termination("aborted", aborted[0][1], aborted[0][2])
+    if any(f[0] not in _DONE for f in finals):   # a task still going when the run ended
+        if run.result is None:
+            return Termination("unfinished", end, "the log has no result: the run was cut off")
+        cause = "timeout" if run.result.state == "timed_out" else "stopped"
+        return Termination(cause, end, run.result.reason)
+    status, time, _, kind = finals[-1]
+    reached = status is TaskStatus.SUCCEEDED and kind == "move_to"
+    return Termination("reached_goal" if reached else "done", time, "")
+
+
+def _last_time(run: LoggedRun, name: str) -> float:
+    time = run.robots[name].time
+    return float(time[-1]) if len(time) else 0.0
 
 
 def human_social_metrics(run: LoggedRun, name: str, among: list[str] | None = None,

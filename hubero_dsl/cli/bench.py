@@ -2,9 +2,11 @@
 
     hubero bench scenarios/benchmark/ -o out/bench
     hubero bench scenarios/benchmark/ --controller cart=my_pkg:Planner -o out/bench --jobs 2
+    hubero bench scenarios/benchmark/ --seeds 1..3 -o out/bench
 
 Runs every scenario and variant of FOLDER with the reference controllers the scenarios name
-and, with --controller, with yours beside them. Writes OUT/NAME.csv, OUT/NAME.md and
+and, with --controller, with yours beside them; with --seeds, every variant with each seed
+(else with the scenario's own). Writes OUT/NAME.csv, OUT/NAME.md and
 OUT/NAME.png per scenario, OUT/summary.csv and OUT/summary.md, and the logs under OUT/runs/.
 
 Exit 0 when every run completed and met its expectations, 1 when any did not (a controller
@@ -28,6 +30,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                         default=[], help="drive robot ROBOT with your own controller class")
     parser.add_argument("-o", "--out-dir", metavar="DIR", type=Path, default=Path("bench"),
                         help="where the tables, plots and logs go (default: bench/)")
+    parser.add_argument("--seeds", metavar="SEEDS",
+                        help="run every variant with each of these seeds: 1..3, 7, 1,2,5 "
+                             "(default: each scenario's own seed)")
     parser.add_argument("--jobs", "-j", metavar="N", type=int,
                         help="worker processes (default: the cores)")
     return parser
@@ -45,9 +50,11 @@ def run(args: argparse.Namespace) -> int:
         write_tables,
     )
     from hubero_dsl.sweep.executors import available_cores, open_executor
+    from hubero_dsl.sweep.plan import parse_seeds
 
     if args.jobs is not None and args.jobs < 1:
         raise InputError(f"--jobs must be at least 1, got {args.jobs}")
+    seeds = parse_seeds(args.seeds) if args.seeds is not None else ()
     scenarios = find_suite(args.folder)
     controllers = handed_controllers(args)
     unknown = sorted(set(controllers) - robots_of(scenarios))
@@ -56,13 +63,15 @@ def run(args: argparse.Namespace) -> int:
                          f"{args.folder}")
     args.out_dir.mkdir(parents=True, exist_ok=True)
     with open_executor("process", jobs=args.jobs or available_cores()) as executor:
-        rows = run_bench(scenarios, args.out_dir, executor, controllers=controllers)
+        rows = run_bench(scenarios, args.out_dir, executor, controllers=controllers,
+                         seeds=seeds)
     written = write_tables(rows, args.out_dir) + plot_paths(rows, args.out_dir)
     console = make_console()
     for row in rows:
         if not row.succeeded:
-            console.print(f"{row.scenario} [{row.variant}] {row.controller}: {row.status}: "
-                          f"{row.reason}", highlight=False, soft_wrap=True, markup=False)
+            console.print(f"{row.scenario} [{row.variant}] seed {row.seed} {row.controller}: "
+                          f"{row.status}: {row.reason}", highlight=False, soft_wrap=True,
+                          markup=False)
     console.print(f"{len(rows)} runs; {sum(r.succeeded for r in rows)} ok; wrote "
                   f"{len(written)} files to {args.out_dir}", highlight=False, soft_wrap=True)
     return 0 if all(r.succeeded for r in rows) else 1

@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+from collections import Counter
 from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
@@ -27,7 +28,8 @@ from hubero_dsl.sweep.runner import prepare_out_dir, run_sweep
 REFERENCE, YOURS = "reference", "yours"
 METRICS = ("min_distance", "collisions", "intimate_intrusions", "personal_intrusions",
            "path_length")
-COLUMNS = ("scenario", "variant", "controller", "status", "succeeded", *METRICS, "reason")
+COLUMNS = ("scenario", "variant", "seed", "controller", "status", "succeeded", *METRICS,
+           "success", "termination", "collided_with", "reason")
 
 
 @dataclass(frozen=True, slots=True)
@@ -42,6 +44,10 @@ class BenchRow:
     reason: str
     metrics: Mapping[str, float] = field(default_factory=dict)
     log: str | None = None  # absolute
+    seed: int | None = None  # None in a summary row
+    termination: str = ""    # the robot's: socialnav_log.robot_termination's cause
+    success: str = ""        # true/false: it reached its goal before any collision (k/n: runs)
+    collided_with: Mapping[str, int] = field(default_factory=dict)  # partner -> collisions
 
 
 def find_suite(folder: str | Path) -> list[Path]:
@@ -62,16 +68,18 @@ def robots_of(scenarios: Sequence[Path]) -> set[str]:
 
 
 def run_bench(scenarios: Sequence[Path], out_dir: Path, executor: Executor, *,
-              controllers: Mapping[str, type]) -> list[BenchRow]:
-    """Every scenario's every variant with the reference, then (when given) the caller's
-    controllers; a run that goes wrong is a row, never an exception."""
+              controllers: Mapping[str, type], seeds: Sequence[int] = ()) -> list[BenchRow]:
+    """Every scenario's every variant (with each of `seeds`, else the scenario's own seed) with
+    the reference, then (when given) the caller's controllers; a run that goes wrong is a row,
+    never an exception."""
     rows: list[BenchRow] = []
     sides: list[tuple[str, dict[str, type]]] = [(REFERENCE, {})]
     if controllers:
         sides.append((YOURS, dict(controllers)))
     for path in scenarios:
         program = compile_file(path)
-        plan = plan_sweep(path, program, list(program.variants) or [None], (program.seed,))
+        plan = plan_sweep(path, program, list(program.variants) or [None],
+                          tuple(seeds) or (program.seed,))
         robots = sorted(robot.name for robot in program.robots)
         for side, handed in sides:
             folder = out_dir / "runs" / path.stem / side
@@ -79,22 +87,39 @@ def run_bench(scenarios: Sequence[Path], out_dir: Path, executor: Executor, *,
             outcome = run_sweep(plan, folder, executor, metrics=None, controllers=handed)
             for record in outcome.records:
                 log = str(folder / record.log) if record.log else None
+                metrics, ended, hits = _measure(log, robots)
                 rows.append(BenchRow(path.stem, record.variant, side, record.status,
-                                     record.succeeded, record.reason,
-                                     _measure(log, robots), log))
+                                     record.succeeded, record.reason, metrics, log,
+                                     record.seed, ended or _no_log_cause(record.status),
+                                     "true" if ended == "reached_goal" else "false", hits))
     return rows
 
 
-def _measure(log: str | None, robots: Sequence[str]) -> dict[str, float]:
-    """The first robot's social-navigation metrics; empty when there is no readable log."""
-    from hubero_dsl.analysis.socialnav_log import robot_social_metrics
+def _measure(log: str | None, robots: Sequence[str]
+             ) -> tuple[dict[str, float], str, dict[str, int]]:
+    """The first robot's social-navigation metrics, termination cause and collisions per
+    partner; empty when there is no readable log."""
+    from hubero_dsl.analysis.socialnav_log import (
+        collided_with,
+        robot_collisions,
+        robot_social_metrics,
+        robot_termination,
+    )
 
     if log is None or not robots or not Path(log).is_file():
-        return {}
+        return {}, "", {}
     try:
-        return robot_social_metrics(load_run(log), robots[0])
+        run = load_run(log)
+        hits = robot_collisions(run, robots[0])
+        return (robot_social_metrics(run, robots[0]),
+                robot_termination(run, robots[0], hits).cause, collided_with(hits))
     except Exception:  # a run that died mid-way may leave a log without the robot's track
-        return {}
+        return {}, "", {}
+
+
+def _no_log_cause(status: str) -> str:
+    """A run without a log ended by an error (its controller raised, its worker died)."""
+    return "error" if status == "error" else ""
 
 
 def table_csv(rows: Sequence[BenchRow]) -> str:
@@ -124,9 +149,17 @@ def summary_rows(rows: Sequence[BenchRow]) -> list[BenchRow]:
                 continue
             worst = {name: _worst(name, [r.metrics.get(name) for r in mine]) for name in METRICS}
             ok = sum(r.succeeded for r in mine)
+            causes = Counter(r.termination or "unknown" for r in mine)
+            hits: Counter[str] = Counter()
+            for row in mine:
+                hits.update(row.collided_with)
             summary.append(BenchRow(scenario, f"{ok}/{len(mine)} ok", side,
                                     "completed" if ok == len(mine) else "not ok",
-                                    ok == len(mine), "", worst))
+                                    ok == len(mine), "", worst,
+                                    termination=" ".join(f"{cause}:{count}" for cause, count
+                                                         in sorted(causes.items())),
+                                    success=f"{causes['reached_goal']}/{len(mine)}",
+                                    collided_with=dict(hits)))
     return summary
 
 
@@ -138,9 +171,13 @@ def _worst(name: str, values: list[float | None]) -> float:
 
 
 def _cells(row: BenchRow) -> list[str]:
-    return [row.scenario, row.variant or "(as written)", row.controller, row.status,
+    return [row.scenario, row.variant or "(as written)",
+            "" if row.seed is None else str(row.seed), row.controller, row.status,
             "true" if row.succeeded else "false",
-            *(_number(row.metrics.get(name)) for name in METRICS), row.reason]
+            *(_number(row.metrics.get(name)) for name in METRICS), row.success,
+            row.termination,
+            " ".join(f"{partner}:{count}" for partner, count in sorted(row.collided_with.items())),
+            row.reason]
 
 
 def _number(value: float | None) -> str:
@@ -182,7 +219,7 @@ def plot_paths(rows: Sequence[BenchRow], out_dir: Path) -> list[Path]:
             if not drawn_map:  # every run of a scenario is on its map
                 draw_map(axes, run.grid)
                 drawn_map = True
-            _draw_run(axes, run, f"{row.controller} {row.variant or ''}",
+            _draw_run(axes, run, f"{row.controller} {row.variant or ''} seed {row.seed}",
                       "-" if row.controller == REFERENCE else "--")
         axes.set_aspect("equal")
         axes.set_xlabel("x (m)")

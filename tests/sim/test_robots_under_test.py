@@ -20,6 +20,7 @@ from hubero_dsl.sim.loop import RunState, run_program
 from hubero_dsl.sim.robots import ControllerError
 from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.sim.status import TaskStatus
+from tests.plugin_controller import install_straight_drive
 from tests.sim.conftest import ScenarioFactory, room_grid
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
@@ -249,29 +250,7 @@ def test_a_user_controller_that_raises_is_exit_1_not_an_internal_error(tmp_path:
 def test_a_plugin_controller_registered_by_entry_point_runs(tmp_path: Path) -> None:
     """A package that declares `[hubero.controllers] straight_drive = ...` in its metadata
     (as `pip install` would write it) is found by name, its parameters are checked, it runs."""
-    site = tmp_path / "site"
-    (site / "straight_drive").mkdir(parents=True)
-    (site / "straight_drive" / "__init__.py").write_text(
-        "from pydantic import Field\n"
-        "from hubero_dsl.controllers.base import ControllerParams\n"
-        "class Params(ControllerParams):\n"
-        "    gain: float = Field(default=1.0, gt=0)\n"
-        "class StraightDrive:\n    Params = Params\n"
-        "    def __init__(self, body, params):\n"
-        "        self.body, self.gain = body, params.gain\n"
-        "    def command(self, observation):\n"
-        "        if observation.goal is None:\n            return (0.0, 0.0)\n"
-        "        dx = observation.goal[0] - observation.position[0]\n"
-        "        dy = observation.goal[1] - observation.position[1]\n"
-        "        d = max((dx * dx + dy * dy) ** 0.5, 1e-9)\n"
-        "        v = min(self.body.speed, self.gain * d)\n"
-        "        return (v * dx / d, v * dy / d)\n")
-    info = site / "straight_drive-0.1.dist-info"
-    info.mkdir()
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: straight-drive\n"
-                                   "Version: 0.1\n")
-    (info / "entry_points.txt").write_text(
-        "[hubero.controllers]\nstraight_drive = straight_drive:StraightDrive\n")
+    site = install_straight_drive(tmp_path / "site")
     good = _scenario_file(tmp_path, "robot r at (2, 4) { controller straight_drive; "
                                     "straight_drive.gain 2 }\n")
     checked = _hubero("check", str(good), cwd=tmp_path, pythonpath=site)

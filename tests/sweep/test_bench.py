@@ -13,6 +13,7 @@ from PIL import Image
 
 from hubero_dsl.cli.main import main
 from hubero_dsl.sweep.bench import COLUMNS
+from tests.plugin_controller import install_straight_drive
 
 ROOT = Path(__file__).resolve().parents[2]
 SUITE = ROOT / "scenarios" / "benchmark"
@@ -38,11 +39,15 @@ def _rows(path: Path) -> list[dict[str, str]]:
 
 def test_bench_with_a_controller_of_your_own(small_suite: Path, tmp_path: Path,
                                              monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.syspath_prepend(str(ROOT))  # worker processes inherit sys.path
+    """The plugin package of the plugin tests, `straight_drive` (straight at the goal, blind to
+    people), beside the reference navigator: both columns, and they differ where they must."""
+    site = install_straight_drive(tmp_path / "site")
+    monkeypatch.syspath_prepend(str(site))  # worker processes inherit sys.path
     out = tmp_path / "out"
     code = main(["bench", str(small_suite), "-o", str(out), "--jobs", "2",
-                 "--controller", f"cart={HERE}:SlowNavigator"])
-    assert code in (0, 1)
+                 "--controller", "cart=straight_drive:StraightDrive"])
+    assert code == 1  # the straight drive fails the doorway's expectations
+    runs = {}
     for name in ("crossing", "doorway"):
         rows = _rows(out / f"{name}.csv")
         assert tuple(rows[0]) == COLUMNS
@@ -52,14 +57,28 @@ def test_bench_with_a_controller_of_your_own(small_suite: Path, tmp_path: Path,
                       "robot_reaction=impassive" if name == "crossing" else
                       "robot_reaction=curious")]
         assert all(math.isfinite(float(r["min_distance"])) for r in rows)
-        assert all(r["succeeded"] == "true" for r in rows if r["controller"] == "reference")
+        for row in rows:
+            runs[name, row["variant"], row["controller"]] = row
         assert (out / f"{name}.md").read_text().startswith("| scenario |")
         with Image.open(out / f"{name}.png") as image:
             assert image.format == "PNG" and image.size[0] > 100
+    for (name, variant, side), row in runs.items():
+        if side == "reference":
+            assert (row["succeeded"], row["success"], row["termination"], row["collided_with"]
+                    ) == ("true", "true", "reached_goal", ""), (name, variant)
+        elif name == "doorway":  # it drives into the person in the door
+            assert row["succeeded"] == "false" and row["collided_with"].startswith("walker:")
+            assert float(row["min_distance"]) < float(
+                runs[name, variant, "reference"]["min_distance"])
+    # a surprised person stops in the junction: the navigator keeps away, the straight drive not
+    surprised = ("crossing", "robot_reaction=surprised")
+    assert float(runs[(*surprised, "yours")]["min_distance"]) < 0.5 * float(
+        runs[(*surprised, "reference")]["min_distance"])
     summary = _rows(out / "summary.csv")
     assert [(r["scenario"], r["controller"]) for r in summary] == [
         ("crossing", "reference"), ("crossing", "yours"),
         ("doorway", "reference"), ("doorway", "yours")]
+    assert summary[2]["success"] == "3/3" and summary[3]["collided_with"].startswith("walker:")
 
 
 def test_a_controller_that_raises_is_a_row_and_exit_1(small_suite: Path, tmp_path: Path,
@@ -75,6 +94,9 @@ def test_a_controller_that_raises_is_a_row_and_exit_1(small_suite: Path, tmp_pat
     mine = [r for r in rows if r["controller"] == "yours"]
     assert len(mine) == 3 and all(r["status"] == "error" for r in mine)
     assert all("bug in the controller" in r["reason"] for r in mine)
+    assert all((r["success"], r["termination"]) == ("false", "error") for r in mine)
+    (_, yours) = _rows(out / "summary.csv")
+    assert (yours["success"], yours["termination"]) == ("0/3", "error:3")
     assert "bug in the controller" in capsys.readouterr().out
 
 
@@ -84,6 +106,7 @@ def test_a_controller_that_raises_is_a_row_and_exit_1(small_suite: Path, tmp_pat
      "no robot named 'robot9'"),
     (["bench", "{suite}", "--controller", "cart=no_such_module_x:Planner"], "cannot be imported"),
     (["bench", "{suite}", "--controller", "cart"], "ROBOT=MODULE:CLASS"),
+    (["bench", "{suite}", "--seeds", "3..1"], "the range 3..1 is empty"),
 ])
 def test_bad_input_is_exit_2_with_a_message(args: list[str], message: str, small_suite: Path,
                                             tmp_path: Path, capsys: pytest.CaptureFixture[str]
@@ -94,6 +117,19 @@ def test_bad_input_is_exit_2_with_a_message(args: list[str], message: str, small
     assert main([*argv, "-o", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
+
+
+def test_seeds_run_every_variant_with_each(small_suite: Path, tmp_path: Path) -> None:
+    (small_suite / "doorway.hub").unlink()
+    out = tmp_path / "out"
+    assert main(["bench", str(small_suite), "-o", str(out), "--jobs", "2",
+                 "--seeds", "1,4"]) == 0
+    rows = _rows(out / "crossing.csv")
+    assert [(r["variant"], r["seed"]) for r in rows] == [
+        (f"robot_reaction={v}", s) for v in ("regular", "surprised", "impassive")
+        for s in ("1", "4")]
+    (summary,) = _rows(out / "summary.csv")
+    assert (summary["variant"], summary["seed"]) == ("6/6 ok", "")
 
 
 def test_the_documented_reference_table_is_what_the_command_writes(tmp_path: Path) -> None:

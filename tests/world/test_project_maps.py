@@ -171,7 +171,9 @@ def draw_maps() -> ModuleType:
 
 
 @pytest.mark.parametrize("name", ["living_room", "parking", "station", "benchmark/corridor",
-                                  "benchmark/crossing", "benchmark/doorway"])
+                                  "benchmark/crossing", "benchmark/doorway",
+                                  "benchmark/long_corridor", "benchmark/narrow_corridor",
+                                  "benchmark/hall", "benchmark/lounge"])
 def test_committed_maps_are_what_the_script_draws(draw_maps: ModuleType, name: str,
                                                   tmp_path: Path) -> None:
     written = draw_maps.draw(MAPS / f"{name}.shapes.yaml", tmp_path)
@@ -182,7 +184,8 @@ def test_committed_maps_are_what_the_script_draws(draw_maps: ModuleType, name: s
 def test_script_draws_every_description_including_the_benchmark_maps(
         draw_maps: ModuleType, tmp_path: Path) -> None:
     assert draw_maps.main(["--out", str(tmp_path)]) == 0
-    assert {"corridor.yaml", "crossing.yaml", "doorway.yaml",
+    assert {"corridor.yaml", "crossing.yaml", "doorway.yaml", "long_corridor.yaml",
+            "narrow_corridor.yaml", "hall.yaml", "lounge.yaml",
             "living_room.yaml"} <= {p.name for p in tmp_path.glob("*.yaml")}
 
 
