@@ -6,8 +6,10 @@
 
 What the log records is used: tracks, humans' radii and personal-space shapes (their resolved
 parameters), robots' radii (from /scene), groups (metadata `sets`), the map (for collisions
-with obstacles). Robots' goals and plans are not logged: efficiency is against the straight
-line from a body's first to its last position, and `time_to_goal` is infinite. On top of
+with obstacles), robots' goals and goal tolerances (their resolved parameters, in logs that
+record them): a robot's `time_to_goal` and `path_efficiency` are then those `expect` judges in
+the run. Without a goal (a human, a robot without `goal`, an older log) efficiency is against
+the straight line from the first to the last position, and `time_to_goal` is infinite. On top of
 `social_metrics`, `shape_intrusions` is the share of the time the subject's centre lay inside
 some person's own personal space, in its shape and turned to its heading.
 
@@ -63,8 +65,9 @@ def robot_social_metrics(run: LoggedRun, name: str,
     """A robot's metrics among every human of the log."""
     robot = run.robots[name]
     subject = Track(robot.time, robot.position, robot.radius or DEFAULT_ROBOT_RADIUS)
+    goal, tolerance = run.metadata.robot_goal(name)
     return _metrics(run, subject, name, [h for h in run.humans if len(run.humans[h].time)],
-                    headings)
+                    headings, goal=goal, goal_tolerance=tolerance)
 
 
 @dataclass(frozen=True, slots=True)
@@ -195,10 +198,13 @@ def _neighbours(run: LoggedRun) -> dict[str, list[str]]:
 
 
 def _metrics(run: LoggedRun, subject: Track, name: str, others: list[str],
-             headings: dict[str, FloatArray] | None) -> dict[str, float]:
+             headings: dict[str, FloatArray] | None, *,
+             goal: tuple[float, float] | None = None, goal_tolerance: float = 0.2
+             ) -> dict[str, float]:
     people = [Track(run.humans[h].time, run.humans[h].position, _radius(run, h)) for h in others]
     groups = [members for kind, members in run.metadata.sets.values() if kind == "group"]
     metrics = social_metrics(subject, people, groups=member_indices(groups, others, name),
+                             goal=goal, goal_tolerance=goal_tolerance,
                              clearance=run.grid.clearance_at if len(subject.time) else None)
     metrics["shape_intrusions"] = shape_intrusions(run, subject, others, headings)
     return metrics

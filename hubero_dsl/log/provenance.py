@@ -4,6 +4,7 @@ scenario's source, the map's YAML and image)."""
 from __future__ import annotations
 
 import hashlib
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -15,6 +16,7 @@ from hubero_dsl.log import schemas as s
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle
 
 if TYPE_CHECKING:
+    from hubero_dsl.model.program import RobotSpec
     from hubero_dsl.sim.simulation import Simulation
 
 MEDIA_TYPES = {".yaml": "application/yaml", ".yml": "application/yaml",
@@ -49,6 +51,9 @@ def provenance(sim: Simulation, rate_hz: float
         "robots": s.dumps(list(sim.engine.robots.names)),
         "attachments": s.dumps(names),
     }
+    if specs := sim.engine.robots.specs:  # only then, like sets
+        metadata["robot_params"] = s.dumps({spec.name: robot_params_json(spec)
+                                            for spec in specs})
     if sets := program.people_sets():  # only then: the logs of other scenarios keep their bytes
         metadata["sets"] = s.dumps({name: {"kind": kind, "members": list(members)}
                                     for name, (kind, members) in sorted(sets.items())})
@@ -83,3 +88,18 @@ def params_json(params: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
 
     return {human: {key: value(v) for key, v in values.items()}
             for human, values in params.items()}
+
+
+def robot_params_json(spec: RobotSpec) -> dict[str, Any]:
+    """A robot's resolved parameters as JSON values: what the metrics of a log need of it (its
+    goal, body and limits); an unset limit (infinite) is null."""
+    def finite(value: float) -> float | None:
+        return value if math.isfinite(value) else None
+
+    return {"radius": spec.radius, "speed": spec.speed, "kinematics": spec.kinematics,
+            "controller": spec.controller, "controller_params": dict(spec.controller_params),
+            "goal": list(spec.goal) if spec.goal is not None else None,
+            "goal_tolerance": spec.goal_tolerance, "max_speed": finite(spec.max_speed),
+            "max_acceleration": finite(spec.max_acceleration),
+            "max_angular_speed": finite(spec.max_angular_speed),
+            "sensor_range": finite(spec.sensor_range), "field_of_view": spec.field_of_view}

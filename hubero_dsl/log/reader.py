@@ -58,6 +58,16 @@ class RunMetadata:
     robots: tuple[str, ...]
     # crowds, flows and groups: name -> (kind, members); empty in a run without them
     sets: dict[str, tuple[str, tuple[str, ...]]] = field(default_factory=dict)
+    # per robot, its resolved parameters (radius, goal, goal_tolerance, limits, controller);
+    # empty in logs written before robots' parameters were recorded
+    robot_params: dict[str, dict[str, Any]] = field(default_factory=dict)
+
+    def robot_goal(self, robot: str) -> tuple[tuple[float, float] | None, float]:
+        """The robot's declared goal (None without one) and how near counts as reaching it."""
+        params = self.robot_params.get(robot, {})
+        goal = params.get("goal")
+        return (None if goal is None else (float(goal[0]), float(goal[1])),
+                float(params.get("goal_tolerance", 0.2)))
 
     def members(self, name: str) -> tuple[str, ...]:
         """The humans a name stands for: a crowd's, flow's or group's members, or the human."""
@@ -208,7 +218,8 @@ def _metadata(values: dict[str, str], attachments: dict[str, bytes]) -> RunMetad
         log_rate_hz=float(values["log_rate_hz"]), humans=tuple(json.loads(values["humans"])),
         robots=tuple(json.loads(values["robots"])),
         sets={name: (entry["kind"], tuple(entry["members"]))
-              for name, entry in json.loads(values.get("sets", "{}")).items()})
+              for name, entry in json.loads(values.get("sets", "{}")).items()},
+        robot_params=json.loads(values.get("robot_params", "{}")))
 
 
 def _outcome(values: dict[str, str]) -> RunOutcome:

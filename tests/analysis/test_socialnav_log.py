@@ -6,6 +6,7 @@ import math
 import warnings
 from collections.abc import Callable
 from dataclasses import replace
+from pathlib import Path
 
 import pytest
 
@@ -15,9 +16,14 @@ from hubero_dsl.analysis.socialnav_log import (
     log_social_metrics,
     robot_social_metrics,
 )
+from hubero_dsl.log.reader import load_run
+from hubero_dsl.pipeline import compile_file
+from hubero_dsl.sim.status import TaskStatus
+from hubero_dsl.simulate import simulate
 from hubero_dsl.socialnav import METRICS
 from hubero_dsl.world.shapes import Ellipse, Rectangle
 
+REPO_ROOT = Path(__file__).resolve().parents[2]
 TIMES = [float(t) for t in range(7)]
 WALK = [(float(x), 0.0) for x in range(-3, 4)]   # 1 m/s along y = 0, x = -3..3
 
@@ -74,6 +80,18 @@ def test_robots_metrics_reach_the_flat_row(build_run: Callable, track: Callable,
     assert "cart.social.time_to_goal" in flat  # infinite: no goal is logged
 
 
+def test_a_robots_logged_goal_gives_its_time_to_goal(build_run: Callable, track: Callable,
+                                                     robot: Callable) -> None:
+    run = build_run([track("ann", TIMES, [(0.0, 2.0)] * 7)],
+                    robots=[robot("cart", TIMES, WALK)])
+    metadata = replace(run.metadata, robot_params={
+        "cart": {"goal": [1.0, 0.0], "goal_tolerance": 0.2}})
+    metrics = robot_social_metrics(replace(run, metadata=metadata), "cart")
+    assert metrics["time_to_goal"] == pytest.approx(4.0)   # at x = 1 after 4 s
+    assert metrics["path_efficiency"] == pytest.approx(1.0)  # 4 m straight to it
+    assert math.isinf(robot_social_metrics(run, "cart")["time_to_goal"])
+
+
 @pytest.mark.parametrize("case", ["no humans", "robot without frames", "robot with one frame",
                                   "human without frames", "one human", "repeated times",
                                   "late arrival"])
@@ -101,3 +119,14 @@ def test_thin_logs_are_measured_without_warnings(build_run: Callable, track: Cal
         compute_metrics(run).flat()
     assert set(metrics["robots"]) == set(run.robots)
     assert set(metrics["humans"]) == set(run.humans)
+
+
+def test_a_logged_robot_reaches_its_goal_when_its_task_does(tmp_path: Path) -> None:
+    log = tmp_path / "lounge.mcap"
+    simulate(compile_file(REPO_ROOT / "scenarios" / "lounge_crowd.hub"), log=log)
+    run = load_run(log)
+    assert run.metadata.robot_goal("cart") == ((3.5, 0.5), 0.2)
+    reached = next(e.time for e in run.events
+                   if e.human == "cart" and e.status is TaskStatus.SUCCEEDED)
+    # the log samples every 0.1 s: the first frame at the goal is at most a frame later
+    assert reached <= robot_social_metrics(run, "cart")["time_to_goal"] <= reached + 0.1 + 1e-9
