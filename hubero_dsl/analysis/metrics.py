@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
+from hubero_dsl.analysis import pairs
 from hubero_dsl.analysis.socialnav_log import (
     collided_with,
     robot_collisions,
@@ -162,36 +163,76 @@ def compute_metrics(run: LoggedRun) -> RunMetrics:
     outline = _outline(run)
     actors = _actors(run, outline)
     spans = _label_spans(outline)
+    pairs = _pair_metrics(run, actors)
     humans = {}
     for name, track in sorted(run.humans.items()):
-        actor = actors[name]
-        others = [a for a in actors.values() if a.name != name]
         events = [e for e in run.events if e.human == name]
-        shape = run.metadata.params.get(name, {}).get("personal_space")
-        shape = shape if isinstance(shape, Circle | Ellipse | Rectangle) else Circle(actor.radius)
-        speeds = _Motion.of(actor, events)
+        speeds = _Motion.of(actors[name], events)
         humans[name] = HumanMetrics(
             name=name, path_length=speeds.path_length, duration=speeds.duration,
             task_finish_times=task_finish_times(events, spans),
             mean_speed=speeds.mean_speed, max_speed=speeds.max_speed,
-            min_distance=min_distances(actor, others),
-            personal_space_intrusion_time=intrusion_time(actor, track.heading, shape, others),
-            collisions=collisions(actor, others),
+            min_distance=pairs.min_distance[name],
+            personal_space_intrusion_time=pairs.intrusion_time[name],
+            collisions=pairs.collisions[name],
             final_status=str(track.status[-1]) if len(track.status) else NO_STATUS)
     robots = {}
     for name in sorted(run.robots):
-        actor = actors[name]
-        others = [a for a in actors.values() if a.name != name]
-        speeds = _Motion.of(actor, [])
+        speeds = _Motion.of(actors[name], [])
         hits = robot_collisions(run, name)
         ended = robot_termination(run, name, hits)
         robots[name] = RobotMetrics(
             name=name, path_length=speeds.path_length, duration=speeds.duration,
             mean_speed=speeds.mean_speed, max_speed=speeds.max_speed,
-            min_distance=min_distances(actor, others), collisions=collisions(actor, others),
+            min_distance=pairs.min_distance[name], collisions=pairs.collisions[name],
             social=robot_social_metrics(run, name), success=ended.success,
             termination=ended.cause, collided_with=collided_with(hits))
     return RunMetrics(humans, robots)
+
+
+@dataclass(frozen=True)
+class _PairMetrics:
+    """The metrics of each actor that depend on the others."""
+
+    min_distance: dict[str, dict[str, float]]
+    collisions: dict[str, int]
+    intrusion_time: dict[str, float]  # humans only
+
+
+def _pair_metrics(run: LoggedRun, actors: dict[str, _Actor]) -> _PairMetrics:
+    """For all actors at once on the log's frame grid (`pairs`), or pair by pair when the
+    tracks are sampled otherwise."""
+    names = sorted(actors)
+    humans = sorted(run.humans)
+    shapes = {name: _personal_space(run, actors[name]) for name in humans}
+    grid = pairs.on_grid([actors[n].time for n in names], [actors[n].position for n in names])
+    if grid is None:
+        return _pair_by_pair(run, actors, shapes)
+    closest = pairs.min_distances(grid)
+    counts = pairs.collision_counts(grid, np.array([actors[n].radius for n in names]))
+    owner = np.array([names.index(n) for n in humans], dtype=np.intp)
+    intrusion = pairs.intrusion_times(grid, owner, [shapes[n] for n in humans],
+                                      [run.humans[n].heading for n in humans])
+    return _PairMetrics(
+        min_distance={name: {other: float(closest[i, j]) for j, other in enumerate(names)
+                             if np.isfinite(closest[i, j])} for i, name in enumerate(names)},
+        collisions={name: int(counts[i]) for i, name in enumerate(names)},
+        intrusion_time={name: float(intrusion[k]) for k, name in enumerate(humans)})
+
+
+def _pair_by_pair(run: LoggedRun, actors: dict[str, _Actor], shapes: dict[str, Shape]
+                  ) -> _PairMetrics:
+    others = {name: [a for a in actors.values() if a.name != name] for name in actors}
+    return _PairMetrics(
+        min_distance={name: min_distances(actors[name], others[name]) for name in actors},
+        collisions={name: collisions(actors[name], others[name]) for name in actors},
+        intrusion_time={name: intrusion_time(actors[name], run.humans[name].heading,
+                                             shapes[name], others[name]) for name in shapes})
+
+
+def _personal_space(run: LoggedRun, actor: _Actor) -> Shape:
+    shape = run.metadata.params.get(actor.name, {}).get("personal_space")
+    return shape if isinstance(shape, Circle | Ellipse | Rectangle) else Circle(actor.radius)
 
 
 def _actors(run: LoggedRun, outline: Outline | None) -> dict[str, _Actor]:

@@ -6,10 +6,12 @@ import json
 import math
 from collections.abc import Callable
 from typing import Any
+from unittest.mock import patch
 
 import numpy as np
 import pytest
 
+from hubero_dsl.analysis import metrics
 from hubero_dsl.analysis.metrics import RunMetrics, compute_metrics
 from hubero_dsl.log.reader import load_run
 from hubero_dsl.sim.status import TaskStatus
@@ -205,3 +207,37 @@ def test_real_log(living_room_logs: dict[str, Any]) -> None:
     # the ellipse keeps the two further apart than the 0.3 m the scenario expects
     assert actor2.min_distance["actor1"] > 0.3
     assert metrics.to_dict() == compute_metrics(load_run(living_room_logs["ellipse"])).to_dict()
+
+
+def test_the_frame_grid_gives_the_pair_by_pair_metrics(build_run: Callable, track: Callable,
+                                                       robot: Callable) -> None:
+    # a crowd on one grid of frames: one arrives late and leaves early (a flow's member), one
+    # turns about, two brush past each other twice, a robot crosses them
+    rng = np.random.default_rng(3)
+    times = [0.1 * t for t in range(40)]
+    people = []
+    for i in range(12):
+        walk = np.cumsum(rng.normal(0.0, 0.15, (40, 2)), axis=0) + np.array([i % 4, i // 4])
+        people.append(track(f"p{i}", times, walk.tolist(),
+                            heading=float(rng.uniform(-3, 3))))
+    people.append(track("late", times[10:30], [(1.5, 1.0 + 0.05 * t) for t in range(20)]))
+    cart = robot("cart", times, [(-1.0 + 0.1 * t, 1.0) for t in range(40)])
+    params = {f"p{i}": {"personal_space": Ellipse(1.0, 0.5, 0.2), "radius": 0.25}
+              for i in range(0, 12, 2)}
+    run = build_run(people, robots=[cart], params=params)
+    fast = compute_metrics(run).to_dict()
+    with patch.object(metrics.pairs, "on_grid", return_value=None):
+        slow = compute_metrics(run).to_dict()
+    assert fast == slow
+    assert fast["humans"]["late"]["min_distance"]  # logged with the others for 20 frames
+    assert any(h["collisions"] for h in fast["humans"].values())
+    assert any(h["personal_space_intrusion_time"] for h in fast["humans"].values())
+
+
+def test_tracks_off_the_grid_are_compared_pair_by_pair(build_run: Callable,
+                                                       track: Callable) -> None:
+    a = track("a", [0.0, 1.0, 2.0], [(0.0, 0.0), (1.0, 0.0), (2.0, 0.0)])
+    b = track("b", [0.5, 1.5], [(0.5, 1.0), (1.5, 1.0)])   # sampled between a's frames
+    assert metrics.pairs.on_grid([a.time, b.time], [a.position, b.position]) is None
+    assert compute_metrics(build_run([a, b])).humans["a"].min_distance["b"] == \
+        pytest.approx(1.0)
