@@ -95,6 +95,7 @@ class Checker:
     def __init__(self, module: ast.Module) -> None:
         self.module = module
         self.diagnostics: list[Diagnostic] = []
+        self._reported: set[tuple[str, str, Span | None]] = set()
         self.values = ValueReader(self.diagnostics)
         self.symbols = SymbolTable(self.diagnostics)
         self.facts = Facts()
@@ -108,6 +109,11 @@ class Checker:
 
     def report(self, code: str, message: str, span: Span | None, hint: str | None = None,
                related: tuple[Related, ...] = ()) -> None:
+        """Add an error, once: a value checked again (each value of a sweep checks its
+        parameter's name) repeats the same error at the same place."""
+        if (code, message, span) in self._reported:
+            return
+        self._reported.add((code, message, span))
         self.diagnostics.append(error(code, message, span, hint, related))
 
     def run(self) -> Facts:
@@ -480,6 +486,11 @@ class Checker:
         return self._model_param(param, model, controller, name)
 
     def _sweep(self, sweep: ast.SweepDecl) -> None:
+        if sweep.param.path == ("seed",):  # the scenario's `seed`, not a human's parameter
+            self.report("E105", "a sweep varies humans' parameters, not the seed",
+                        sweep.param.name_span, "run each seed with `hubero run --seed N`, or "
+                        "every variant with several seeds with `hubero bench --seeds 1..3`")
+            return
         options: list[tuple[str, ParamLayer]] = []
         for value in sweep.values:
             param = ast.Param(sweep.param.path, value, value.span, sweep.param.name_span)

@@ -416,6 +416,17 @@ def test_a_sweep_value_listed_twice(check: Check) -> None:
     assert spans(result) == [("E102", 5, 33, 38)]
 
 
+def test_a_sweep_of_an_unknown_parameter_is_one_error(check: Check) -> None:
+    result = check("sweep sped in [1 m/s, 1.2 m/s, 1.4 m/s]")
+    assert spans(result) == [("E105", 5, 7, 11)]
+
+
+def test_a_sweep_of_the_seed_says_how_to_run_seeds(check: Check) -> None:
+    result = check("sweep seed in [1, 2]")
+    assert spans(result) == [("E105", 5, 7, 11)]
+    assert "--seeds" in (result.diagnostics[0].hint or "")
+
+
 def test_precedence_defaults_human_variant(check: Check) -> None:
     result = check("defaults { speed 1.0 m/s; radius 0.3 m }\n"
                    "human actor3 at (2.0, 3.0) { speed 1.1 m/s }\n"
