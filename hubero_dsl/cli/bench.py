@@ -70,7 +70,8 @@ def run(args: argparse.Namespace) -> int:
     for row in rows:
         if not row.succeeded:
             console.print(f"{row.scenario} [{row.variant}] seed {row.seed} {row.controller}: "
-                          f"{row.status}: {row.reason}", highlight=False, soft_wrap=True,
+                          f"{row.status}: {row.reason or 'an expectation failed'}",
+                          highlight=False, soft_wrap=True,
                           markup=False)
     console.print(f"{len(rows)} runs; {sum(r.succeeded for r in rows)} ok; wrote "
                   f"{len(written)} files to {args.out_dir}", highlight=False, soft_wrap=True)

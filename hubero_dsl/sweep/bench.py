@@ -181,7 +181,9 @@ def _cells(row: BenchRow) -> list[str]:
 
 
 def _number(value: float | None) -> str:
-    return "" if value is None or not math.isfinite(value) else f"{value:.3f}"
+    if value is None or not math.isfinite(value):
+        return ""
+    return f"{value + 0.0:.3f}".replace("-0.000", "0.000")  # a tiny negative gap is none
 
 
 def write_tables(rows: Sequence[BenchRow], out_dir: Path) -> list[Path]:
