@@ -4,12 +4,15 @@ It plans on the map with the navfn planner (the body radius is the robot's, plus
 margin from walls), follows the plan waypoint by waypoint, and avoids people locally: people
 near its way push its heading aside (a social-force-like repulsion that decays with the surface
 gap), and it slows down, then stops, rather than come closer to anyone than `safety_margin`,
-predicting both bodies' motion at constant velocity over `horizon` seconds. It re-plans when its
+predicting both bodies' motion at constant velocity over `horizon` seconds. When someone walks
+at it even as it stands, it steps aside or backs away (at `escape_speed`, clear of walls) rather
+than wait to be walked into. Kept waiting for `detour_after` seconds, it plans round the people
+standing still near it, as if they were obstacles, until its goal changes. It re-plans when its
 goal moves or every `replan_period`. A unicycle robot turns towards the wanted direction and
-drives forward only as far as it faces it.
+drives forward only as far as it faces it (it backs up to step out of someone's way).
 
 It is a baseline to compare a robot's own navigation against, not a tuned planner: it stops
-for people who cross its way, and waits there until they have passed.
+for people who cross its way, and waits there until they have passed or it can go round.
 """
 
 from __future__ import annotations
@@ -23,6 +26,13 @@ from pydantic import Field
 from hubero_dsl.controllers.base import ControllerParams, Observation, RobotBody
 from hubero_dsl.planners.base import NoPath
 from hubero_dsl.planners.navfn import NavfnParams, NavfnPlanner
+
+ESCAPE_ANGLES = np.linspace(0.0, 2.0 * math.pi, 16, endpoint=False)
+WALL_GAP = 0.02  # m the body keeps from walls (navfn plans keep its lethal margin, 0.05)
+BRUSH = 0.03  # m a body may brush a wall by (a plan between cell centres grazes corners)
+WALL_LOOKAHEAD = 0.5  # s ahead that the body's clearance from walls is checked
+STILL_SPEED = 0.2   # m/s: people slower than this are gone round, not waited for
+DETOUR_RANGE = 3.0  # m (surface gap): the people a detour goes round
 
 
 class NavigatorParams(ControllerParams):
@@ -44,6 +54,16 @@ class NavigatorParams(ControllerParams):
                                  description="how often it re-plans to its goal, s")
     turn_gain: float = Field(default=2.5, gt=0.0,
                              description="unicycle: turn rate per radian of heading error, 1/s")
+    detour_after: float = Field(default=3.0, gt=0.0, json_schema_extra={"dimension": "time"},
+                                description="after waiting this long for people in its way, it "
+                                            "plans round those standing still, s")
+    escape_distance: float = Field(default=1.0, ge=0.0,
+                                   json_schema_extra={"dimension": "length"},
+                                   description="how far it steps out of someone's way at most, "
+                                               "m")
+    escape_speed: float = Field(default=0.4, ge=0.0, json_schema_extra={"dimension": "speed"},
+                                description="speed at which it steps out of the way of someone "
+                                            "walking at it, m/s (0: it only stops)")
 
 
 class Navigator:
@@ -59,6 +79,10 @@ class Navigator:
         self.planned_goal: tuple[float, float] | None = None
         self.next_plan = 0.0
         self.problem: str | None = None   # why it cannot go on (read when its task is stuck)
+        self.escaping = False             # stepping out of someone's way this tick
+        self.escape_origin: np.ndarray | None = None  # where its steps out of the way began
+        self.blocked_for = 0.0            # s stopped for people in its way
+        self.detouring = False            # its plans go round people standing still
 
     def command(self, observation: Observation) -> tuple[float, float]:
         goal = observation.goal
@@ -67,29 +91,78 @@ class Navigator:
         here = np.asarray(observation.position)
         if float(np.hypot(*(np.asarray(goal) - here))) <= observation.stop_distance:
             return (0.0, 0.0)
+        if self.blocked_for >= self.params.detour_after:
+            self.detouring, self.blocked_for, self.next_plan = True, 0.0, observation.time
         if self._must_plan(goal, observation.time):
-            self._plan(observation.position, goal, observation.time)
+            self._plan(observation, goal)
         if self.problem is not None or len(self.waypoints) == 0:
             return (0.0, 0.0)
-        wanted = self._along_plan(here, observation)
-        wanted = self._avoid(here, wanted, observation)
-        return self._as_command(wanted, observation.heading)
+        planned = self._along_plan(here, observation)
+        self.escaping = False
+        wanted = self._avoid(here, planned, observation)
+        stopped = float(np.hypot(*wanted)) < 1e-9 < float(np.hypot(*planned))
+        self.blocked_for = self.blocked_for + self.body.dt if stopped else 0.0
+        if not (self.escaping or stopped):
+            self.escape_origin = None  # on its way again
+        forward, turn = self._as_command(wanted, observation.heading, reverse=self.escaping)
+        if self.body.kinematics == "unicycle" and forward != 0.0 and not self.escaping:
+            # a unicycle drives along its heading, not along `wanted`: check that motion too
+            heading = observation.heading + turn * self.body.dt
+            moving = forward * np.array([math.cos(heading), math.sin(heading)])
+            if self._unsafe_among(here, moving, observation) or self._into_wall(here, moving):
+                forward = 0.0  # turn on the spot first
+        return forward, turn
+
+    def _unsafe_among(self, here: np.ndarray, moving: np.ndarray,
+                      observation: Observation) -> bool:
+        others = observation.people + observation.robots
+        if not others:
+            return False
+        return self._unsafe(here, moving, np.array([o.position for o in others]),
+                            np.array([o.velocity for o in others]),
+                            np.array([o.radius for o in others]) + self.body.radius)
 
     # ---- the plan ----------------------------------------------------------------------------
 
     def _must_plan(self, goal: tuple[float, float], time: float) -> bool:
         moved = self.planned_goal is None or math.dist(goal, self.planned_goal) > 0.25
+        if moved:
+            self.detouring = False  # a new goal: the people in the old way may not matter
         return moved or time >= self.next_plan
 
-    def _plan(self, start: tuple[float, float], goal: tuple[float, float], time: float) -> None:
-        self.planned_goal, self.next_plan = goal, time + self.params.replan_period
+    def _plan(self, observation: Observation, goal: tuple[float, float]) -> None:
+        self.planned_goal = goal
+        self.next_plan = observation.time + self.params.replan_period
+        start = observation.position
         try:
-            plan = self.planner.plan(start, goal, body_radius=self.body.radius,
-                                     comfort_radius=self.body.radius + self.params.comfort)
+            plan = self._detour(observation, goal) if self.detouring else None
+            if plan is None:
+                plan = self.planner.plan(
+                    start, goal, body_radius=self.body.radius,
+                    comfort_radius=self.body.radius + self.params.comfort).waypoints
         except NoPath as exc:
             self.problem, self.waypoints = exc.reason, np.zeros((0, 2))
             return
-        self.problem, self.waypoints, self.cursor = None, plan.waypoints, 0
+        self.problem, self.waypoints, self.cursor = None, plan, 0
+
+    def _detour(self, observation: Observation, goal: tuple[float, float]
+                ) -> np.ndarray | None:
+        """A plan round the people standing (nearly) still near it, as if they were obstacles
+        of their size plus the safety margin; None when there are none or no such plan (it then
+        takes the map's plan and waits)."""
+        still = [p for p in observation.people
+                 if math.hypot(*p.velocity) < STILL_SPEED
+                 and p.gap(observation.position, self.body.radius) < DETOUR_RANGE]
+        if not still:
+            return None
+        grid = self.body.grid.with_discs([p.position for p in still],
+                                         [p.radius + self.params.safety_margin for p in still])
+        try:
+            return NavfnPlanner(grid, NavfnParams()).plan(
+                observation.position, goal, body_radius=self.body.radius,
+                comfort_radius=self.body.radius + self.params.comfort).waypoints
+        except NoPath:
+            return None
 
     def _along_plan(self, here: np.ndarray, observation: Observation) -> np.ndarray:
         """The velocity along the plan: towards the next waypoint not yet passed, slowing down
@@ -111,9 +184,11 @@ class Navigator:
 
     def _avoid(self, here: np.ndarray, wanted: np.ndarray,
                observation: Observation) -> np.ndarray:
+        """`wanted` pushed aside by people near, kept off walls, then slowed or stopped (or
+        turned into a step out of someone's way) so that no gap closes below the margin."""
         others = observation.people + observation.robots
         if not others:
-            return wanted
+            return self._off_walls(here, wanted)
         position = np.array([o.position for o in others])
         velocity = np.array([o.velocity for o in others])
         reach = np.array([o.radius for o in others]) + self.body.radius
@@ -129,34 +204,113 @@ class Navigator:
             norm = float(np.hypot(*wanted))
             if norm > speed:
                 wanted = wanted / norm * speed
-        return wanted * self._safe_fraction(here, wanted, position, velocity, reach)
+        wanted = self._off_walls(here, wanted)
+        for scale in (1.0, 0.75, 0.5, 0.25):
+            if not self._unsafe(here, wanted * scale, position, velocity, reach):
+                return wanted * scale
+        if not self._unsafe(here, np.zeros(2), position, velocity, reach):
+            return np.zeros(2)  # stop and let them pass
+        # someone walks at the robot even as it stands: standing would end in contact
+        return self._escape(here, wanted, position, velocity, reach, observation)
 
-    def _safe_fraction(self, here: np.ndarray, wanted: np.ndarray, position: np.ndarray,
-                       velocity: np.ndarray, reach: np.ndarray) -> float:
-        """How much of `wanted` keeps every gap at least `safety_margin` over the horizon
-        (bodies moving at constant velocity); 0 stops the robot where it is."""
+    def _unsafe(self, here: np.ndarray, moving: np.ndarray, position: np.ndarray,
+                velocity: np.ndarray, reach: np.ndarray) -> bool:
+        """Whether, at velocity `moving`, some gap would fall below `safety_margin` within the
+        horizon and below what it is now (bodies moving at constant velocity)."""
+        relative = velocity - moving          # others' motion seen from the robot
+        offset = position - here
+        speed2 = np.maximum((relative ** 2).sum(axis=1), 1e-12)
+        t = np.clip(-(offset * relative).sum(axis=1) / speed2, 0.0, self.params.horizon)
+        closest = offset + relative * t[:, None]
+        closest_distance = np.hypot(closest[:, 0], closest[:, 1])
+        now = np.hypot(offset[:, 0], offset[:, 1])
         margin = reach + self.params.safety_margin
-        for scale in (1.0, 0.75, 0.5, 0.25, 0.0):
-            relative = velocity - wanted * scale          # others' motion seen from the robot
-            offset = position - here
-            speed2 = np.maximum((relative ** 2).sum(axis=1), 1e-12)
-            t = np.clip(-(offset * relative).sum(axis=1) / speed2, 0.0, self.params.horizon)
-            closest = offset + relative * t[:, None]
-            closest_distance = np.hypot(closest[:, 0], closest[:, 1])
-            now = np.hypot(offset[:, 0], offset[:, 1])
-            # unsafe: it comes closer than the margin, and closer than it is now
-            unsafe = (closest_distance < margin) & (closest_distance < now - 1e-6)
-            if not unsafe.any():
-                return scale
-        return 0.0
+        return bool(((closest_distance < margin) & (closest_distance < now - 1e-6)).any())
+
+    def _escape(self, here: np.ndarray, wanted: np.ndarray, position: np.ndarray,
+                velocity: np.ndarray, reach: np.ndarray, observation: Observation
+                ) -> np.ndarray:
+        """A step out of the way of whoever comes closest: preferably sideways to their
+        motion, then away from them, then along the plan; clear of walls, and keeping every
+        gap or at least widening the narrowest. At most `escape_distance` from where it began
+        (herded along a corridor, it would only block the way further on); standing still when
+        there is no such step. (A person walking at a stopped robot may not go round it.)"""
+        speed = min(self.params.escape_speed, self.body.max_speed, observation.speed)
+        if self.escape_origin is None:
+            self.escape_origin = here.copy()
+        if speed <= 0.0:
+            return np.zeros(2)
+        directions = np.column_stack([np.cos(ESCAPE_ANGLES), np.sin(ESCAPE_ANGLES)])
+        gaps = np.hypot(*(here - position).T) - reach
+        nearest = int(np.argmin(gaps))
+        threat = _unit(here - position[nearest])
+        coming = _unit(velocity[nearest]) if np.hypot(*velocity[nearest]) > 0.05 else -threat
+        score = np.abs(directions @ np.array([-coming[1], coming[0]])) \
+            + 0.5 * (directions @ threat) + 0.25 * (directions @ _unit(wanted))
+        standing = self._narrowest(here, np.zeros(2), position, velocity, reach)
+        for k in np.argsort(-score, kind="stable").tolist():
+            step = directions[k] * speed
+            if float(np.hypot(*(here + step * self.body.dt - self.escape_origin))) \
+                    > self.params.escape_distance:
+                continue
+            if self._clear_of_walls(here, step) and (
+                    not self._unsafe(here, step, position, velocity, reach)
+                    or self._narrowest(here, step, position, velocity, reach) > standing + 0.05):
+                self.escaping = True
+                return step
+        return np.zeros(2)
+
+    def _narrowest(self, here: np.ndarray, moving: np.ndarray, position: np.ndarray,
+                   velocity: np.ndarray, reach: np.ndarray) -> float:
+        """The smallest surface gap to anyone over the horizon, moving at `moving`."""
+        relative = velocity - moving
+        offset = position - here
+        speed2 = np.maximum((relative ** 2).sum(axis=1), 1e-12)
+        t = np.clip(-(offset * relative).sum(axis=1) / speed2, 0.0, self.params.horizon)
+        closest = offset + relative * t[:, None]
+        return float((np.hypot(closest[:, 0], closest[:, 1]) - reach).min())
+
+    def _off_walls(self, here: np.ndarray, wanted: np.ndarray) -> np.ndarray:
+        """`wanted` without the part that would bring the body within `WALL_GAP` of a wall in
+        the next `WALL_LOOKAHEAD` seconds (following a plan cuts corners; a push from people
+        may point at a wall)."""
+        ahead = here + wanted * WALL_LOOKAHEAD
+        clearance, away = self.body.grid.clearance_and_direction_at(np.stack([here, ahead]))
+        for gap, normal in zip(clearance.tolist(), away, strict=True):
+            into = -float(wanted @ normal)
+            if gap < self.body.radius + WALL_GAP and into > 0.0:
+                wanted = wanted + normal * into
+        return wanted
+
+    def _into_wall(self, here: np.ndarray, moving: np.ndarray) -> bool:
+        """Whether moving so would press the body into a wall by more than `BRUSH` (and
+        nearer than it is) within `WALL_LOOKAHEAD` seconds."""
+        ahead = here + moving * np.linspace(0.0, WALL_LOOKAHEAD, 6)[:, None]
+        clearance = self.body.grid.clearance_at(ahead)
+        return bool((clearance[1:] < np.minimum(self.body.radius - BRUSH, clearance[0])).any())
+
+    def _clear_of_walls(self, here: np.ndarray, step: np.ndarray) -> bool:
+        """Whether the body keeps off walls moving at `step` for the horizon."""
+        ahead = here + step * np.linspace(0.0, self.params.horizon, 5)[1:, None]
+        return bool((self.body.grid.clearance_at(ahead) > self.body.radius + WALL_GAP).all())
 
     # ---- kinematics --------------------------------------------------------------------------
 
-    def _as_command(self, wanted: np.ndarray, heading: float) -> tuple[float, float]:
+    def _as_command(self, wanted: np.ndarray, heading: float, *, reverse: bool = False
+                    ) -> tuple[float, float]:
+        """A unicycle turns towards `wanted` and drives as far as it faces it; when `reverse`
+        (stepping back out of someone's way) it may back up instead of turning round."""
         if self.body.kinematics == "holonomic":
             return (float(wanted[0]), float(wanted[1]))
         speed = float(np.hypot(*wanted))
         if speed < 1e-9:
             return (0.0, 0.0)
         error = math.remainder(math.atan2(wanted[1], wanted[0]) - heading, math.tau)
+        if reverse and abs(error) > math.pi / 2:
+            back = math.remainder(error - math.pi, math.tau)
+            return (-speed * math.cos(back), self.params.turn_gain * back)
         return (speed * max(0.0, math.cos(error)), self.params.turn_gain * error)
+
+
+def _unit(vector: np.ndarray) -> np.ndarray:
+    return vector / max(float(np.hypot(*vector)), 1e-9)

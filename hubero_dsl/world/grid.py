@@ -250,6 +250,26 @@ class OccupancyGrid:
         rows, cols = self.shape
         return np.clip(cells[..., 0], 0, rows - 1), np.clip(cells[..., 1], 0, cols - 1)
 
+    def with_discs(self, centres: ArrayLike, radii: ArrayLike) -> OccupancyGrid:
+        """A copy with the cells whose centres lie within each disc made occupied (people
+        standing in the way, for a plan around them)."""
+        occupied = self.occupied.copy()
+        discs = zip(_points(centres).reshape(-1, 2).tolist(),
+                    np.asarray(radii, dtype=np.float64).reshape(-1).tolist(), strict=True)
+        for (x, y), radius in discs:
+            low = self.world_to_cell((x - radius, y - radius))
+            high = self.world_to_cell((x + radius, y + radius)) + 1
+            r0, c0 = np.maximum(low, 0)
+            r1, c1 = np.minimum(high, occupied.shape)
+            if r0 >= r1 or c0 >= c1:
+                continue
+            rows, cols = np.mgrid[r0:r1, c0:c1]
+            centres_xy = self.cell_to_world(np.stack([rows, cols], axis=-1))
+            inside = np.hypot(centres_xy[..., 0] - x, centres_xy[..., 1] - y) <= radius
+            occupied[r0:r1, c0:c1] |= inside
+        return OccupancyGrid(occupied, self.resolution, self.origin, source=self.source,
+                             unknown=self.unknown)
+
     def contains(self, xy: ArrayLike) -> BoolArray:
         """Whether each point lies inside the map rectangle."""
         return self._locate(_points(xy))[2]

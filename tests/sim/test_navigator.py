@@ -1,0 +1,91 @@
+"""The reference navigator among people who do not give way: it steps out of the way of someone
+walking at it, goes round people standing in its way, and keeps off walls."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from hubero_dsl.pipeline import compile_file
+from hubero_dsl.sim.loop import RunState, run_program
+from hubero_dsl.sim.simulation import Simulation
+from tests.sim.conftest import ScenarioFactory
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.parametrize("seed", range(1, 9))
+def test_among_the_guests_the_cart_never_touches_anyone_and_always_arrives(seed: int) -> None:
+    # with seed 5 a wandering guest used to walk into the stopped cart and pin it there
+    sim = Simulation(compile_file(REPO_ROOT / "scenarios" / "robot_among_guests.hub"),
+                     seed=seed)
+    gaps: list[float] = []
+    radius = float(sim.engine.robots.radius[0])
+
+    def observe(s: Simulation) -> None:
+        cart = s.robot("cart").position
+        gaps.append(min(math.dist(cart, s.human(n).position) - radius
+                        - float(s.engine.humans.radius[s.engine.index_of(n)])
+                        for n in s.engine.humans.names))
+
+    result = run_program(sim, [observe])
+    assert result.state is RunState.COMPLETED, result.reason
+    assert result.robots[0].tasks_done == 3
+    assert min(gaps) > 0.05
+
+
+def test_it_steps_aside_for_someone_walking_at_it(scenario: ScenarioFactory) -> None:
+    """bob ignores robots and walks the cart's line head-on: standing would end in contact."""
+    program = scenario("""
+    human bob at (8, 4) heading 180 deg { robot_reaction impassive }
+    robot cart at (2, 4) { controller navigator; speed 0.6 m/s }
+    activity { bob move_to (1, 4) }
+    activity { cart move_to (9, 4) within 40 s }
+    """)
+    sim = Simulation(program)
+    gaps: list[float] = []
+    result = run_program(sim, [lambda s: gaps.append(
+        math.dist(s.robot("cart").position, s.human("bob").position) - 0.3 - 0.2)])
+    assert result.state is RunState.COMPLETED, result.reason
+    assert min(gaps) > 0.0
+
+
+def test_it_goes_round_someone_standing_in_its_way(scenario: ScenarioFactory) -> None:
+    program = scenario("""
+    human bob at (5, 4) heading 90 deg
+    robot cart at (1, 4) { controller navigator; speed 0.8 m/s; navigator.detour_after 2 s }
+    activity { bob stand for 60 s }
+    activity { cart move_to (9, 4) within 40 s }
+    """)
+    sim = Simulation(program)
+    gaps: list[float] = []
+    result = run_program(sim, [lambda s: gaps.append(
+        math.dist(s.robot("cart").position, s.human("bob").position) - 0.3 - 0.2)])
+    cart_task = [e for e in result.events if e.human == "cart"]
+    assert cart_task[-1].status.value == "SUCCEEDED", result.reason
+    assert min(gaps) >= 0.3 - 0.05   # round him at its safety margin
+
+
+def test_it_keeps_off_the_walls_of_a_corridor(scenario: ScenarioFactory, tmp_path: Path) -> None:
+    from hubero_dsl.world.mapfile import save_map
+    from tests.sim.conftest import room_grid
+
+    corridor = tmp_path / "corridor.yaml"  # 1.2 m wide, with a bend
+    save_map(room_grid(walls=((0.0, 0.0, 10.0, 3.4), (0.0, 4.6, 6.0, 8.0),
+                              (7.2, 4.6, 10.0, 8.0))), corridor)
+    program = scenario("""
+    human bob at (9.3, 4)
+    robot cart at (0.5, 4) heading 0 deg {
+        controller navigator; kinematics unicycle; speed 0.8 m/s; max_angular_speed 2.0
+    }
+    activity { bob stand for 1 s }
+    activity { cart move_to (6.6, 7.5) within 40 s }
+    """, map_path=corridor)
+    sim = Simulation(program)
+    clearance: list[float] = []
+    result = run_program(sim, [lambda s: clearance.append(
+        float(s.engine.grid.clearance_at([s.robot("cart").position])[0]))])
+    assert result.robots[0].last_status == "SUCCEEDED", result.reason
+    assert min(clearance) >= 0.3 - 0.03   # it may brush a corner by a few centimetres
