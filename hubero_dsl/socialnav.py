@@ -42,6 +42,7 @@ METRICS: dict[str, MetricSpec] = {spec.name: spec for spec in (
     MetricSpec("path_length", "length", "m", "distance travelled"),
     MetricSpec("path_efficiency", "ratio", "%", "straight-line distance over path length"),
     MetricSpec("path_irregularity", "number", "rad/m", "turning per metre travelled"),
+    MetricSpec("plan_efficiency", "ratio", "%", "global plan's length over path length"),
     MetricSpec("time_to_goal", "time", "s", "when the goal was first reached"),
     MetricSpec("min_distance", "length", "m", "smallest surface gap to a person"),
     MetricSpec("avg_distance", "length", "m", "mean surface gap to the nearest person"),
@@ -101,12 +102,15 @@ def social_metrics(subject: Track, people: Sequence[Track], *,
                    goal: tuple[float, float] | None = None,
                    goal_tolerance: float = 0.2,
                    groups: Sequence[Sequence[int]] = (),
-                   clearance: Clearance | None = None) -> dict[str, float]:
+                   clearance: Clearance | None = None,
+                   plan_length: float | None = None) -> dict[str, float]:
     """Every metric of METRICS for `subject` among `people` (sampled at the subject's times).
 
     `groups` lists groups of people as indices into `people`; `clearance` gives the distance
     from points to the nearest obstacle (`OccupancyGrid.clearance_at`): without it there are
-    no obstacle collisions.
+    no obstacle collisions. `plan_length` is the length of the global plan from the subject's
+    first position to its goal (`planners.navfn.reference_plan_length`); without it
+    `plan_efficiency` is `path_efficiency`.
     """
     time, position = subject.time, subject.position
     weights = _durations(time)
@@ -120,6 +124,7 @@ def social_metrics(subject: Track, people: Sequence[Track], *,
     return {
         "path_length": float(lengths.sum()),
         "path_efficiency": _efficiency(position, lengths, goal, arrived, time),
+        "plan_efficiency": _efficiency(position, lengths, goal, arrived, time, plan_length),
         "path_irregularity": _irregularity(step, lengths),
         "time_to_goal": arrived if arrived is not None else math.inf,
         "min_distance": float(nearest.min()) if len(nearest) else math.inf,
@@ -187,7 +192,9 @@ def _at(track: Track, times: FloatArray) -> FloatArray:
 
 
 def _efficiency(position: FloatArray, lengths: FloatArray, goal: tuple[float, float] | None,
-                arrived: float | None, time: FloatArray) -> float:
+                arrived: float | None, time: FloatArray, shortest: float | None = None
+                ) -> float:
+    """The shortest way to the goal (`shortest`, or the straight line) over the path taken."""
     if not len(position):
         return 1.0
     end = np.asarray(goal) if goal is not None else position[-1]
@@ -195,7 +202,7 @@ def _efficiency(position: FloatArray, lengths: FloatArray, goal: tuple[float, fl
     if goal is not None and arrived is not None:  # count the path up to the arrival
         travelled = lengths[:int(np.searchsorted(time, arrived, side="right")) - 1]
     path = float(travelled.sum())
-    straight = float(np.hypot(*(end - position[0])))
+    straight = float(np.hypot(*(end - position[0]))) if shortest is None else shortest
     if path < 1e-9:
         return 1.0 if straight < 1e-9 else 0.0
     return min(1.0, straight / path)

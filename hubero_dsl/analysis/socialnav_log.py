@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.spatial import cKDTree
 
+from hubero_dsl.planners.navfn import reference_plan_length
 from hubero_dsl.sim.status import TaskStatus
 from hubero_dsl.socialnav import (
     OBSTACLE,
@@ -66,8 +67,12 @@ def robot_social_metrics(run: LoggedRun, name: str,
     robot = run.robots[name]
     subject = Track(robot.time, robot.position, robot.radius or DEFAULT_ROBOT_RADIUS)
     goal, tolerance = run.metadata.robot_goal(name)
+    plan_length = None
+    if goal is not None and len(robot.time):
+        start = (float(robot.position[0, 0]), float(robot.position[0, 1]))
+        plan_length = reference_plan_length(run.grid, start, goal, subject.radius)
     return _metrics(run, subject, name, [h for h in run.humans if len(run.humans[h].time)],
-                    headings, goal=goal, goal_tolerance=tolerance)
+                    headings, goal=goal, goal_tolerance=tolerance, plan_length=plan_length)
 
 
 @dataclass(frozen=True, slots=True)
@@ -199,12 +204,12 @@ def _neighbours(run: LoggedRun) -> dict[str, list[str]]:
 
 def _metrics(run: LoggedRun, subject: Track, name: str, others: list[str],
              headings: dict[str, FloatArray] | None, *,
-             goal: tuple[float, float] | None = None, goal_tolerance: float = 0.2
-             ) -> dict[str, float]:
+             goal: tuple[float, float] | None = None, goal_tolerance: float = 0.2,
+             plan_length: float | None = None) -> dict[str, float]:
     people = [Track(run.humans[h].time, run.humans[h].position, _radius(run, h)) for h in others]
     groups = [members for kind, members in run.metadata.sets.values() if kind == "group"]
     metrics = social_metrics(subject, people, groups=member_indices(groups, others, name),
-                             goal=goal, goal_tolerance=goal_tolerance,
+                             goal=goal, goal_tolerance=goal_tolerance, plan_length=plan_length,
                              clearance=run.grid.clearance_at if len(subject.time) else None)
     metrics["shape_intrusions"] = shape_intrusions(run, subject, others, headings)
     return metrics

@@ -236,3 +236,16 @@ def _farthest_shortcut(points: FloatArray, to_go: FloatArray, cost: FloatArray,
         beyond = candidates[candidates > best]
         limit = int(beyond[0]) - 1 if beyond.size else best
     return best
+
+
+def reference_plan_length(grid: OccupancyGrid, start: Point, goal: Point,
+                          body_radius: float) -> float | None:
+    """The length of navfn's plan (default parameters, no comfort margin) for a body from
+    `start` to `goal`: the shortest way the metrics compare a path with (`plan_efficiency`).
+    None when there is no such plan."""
+    try:
+        plan = NavfnPlanner(grid, NavfnParams()).plan(start, goal, body_radius=body_radius,
+                                                      comfort_radius=body_radius)
+    except NoPath:
+        return None
+    return float(np.hypot(*np.diff(plan.waypoints, axis=0).T).sum())

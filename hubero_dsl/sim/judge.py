@@ -19,6 +19,7 @@ import numpy as np
 
 from hubero_dsl.model.activities import Expectation, ExpectMode
 from hubero_dsl.model.conditions import MetricCompare
+from hubero_dsl.planners.navfn import reference_plan_length
 from hubero_dsl.socialnav import Track, member_indices, social_metrics
 
 if TYPE_CHECKING:
@@ -68,6 +69,7 @@ class Tracks:
     time: list[float] = field(default_factory=list)
     humans: list[np.ndarray] = field(default_factory=list)
     robots: list[np.ndarray] = field(default_factory=list)
+    plan_lengths: dict[str, float | None] = field(default_factory=dict)
 
     def record(self, sim: Simulation) -> None:
         self.time.append(sim.time)
@@ -95,15 +97,27 @@ class Tracks:
         names = [other] if other is not None else [
             h for h in sim.engine.humans.names if h != subject]
         people = [t for t in (self.track(sim, n) for n in names) if t is not None]
-        goal, tolerance = None, 0.2
+        goal, tolerance, plan_length = None, 0.2, None
         if subject in sim.engine.robots.names:
             spec = sim.engine.robots.specs[sim.engine.robots.index_of(subject)]
             goal, tolerance = spec.goal, spec.goal_tolerance
+            plan_length = self._plan_length(sim, subject, track, goal)
         present = [n for n in names if self.track(sim, n) is not None]
         return social_metrics(track, people, goal=goal, goal_tolerance=tolerance,
                               groups=member_indices(sim.program.groups.values(), present,
                                                     subject),
-                              clearance=sim.engine.grid.clearance_at)
+                              clearance=sim.engine.grid.clearance_at, plan_length=plan_length)
+
+    def _plan_length(self, sim: Simulation, subject: str, track: Track,
+                     goal: tuple[float, float] | None) -> float | None:
+        """The reference plan's length from the subject's start to its goal, planned once."""
+        if goal is None:
+            return None
+        if subject not in self.plan_lengths:
+            start = (float(track.position[0, 0]), float(track.position[0, 1]))
+            self.plan_lengths[subject] = reference_plan_length(sim.engine.grid, start, goal,
+                                                               track.radius)
+        return self.plan_lengths[subject]
 
 
 class Judge:

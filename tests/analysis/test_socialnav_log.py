@@ -130,3 +130,32 @@ def test_a_logged_robot_reaches_its_goal_when_its_task_does(tmp_path: Path) -> N
                    if e.human == "cart" and e.status is TaskStatus.SUCCEEDED)
     # the log samples every 0.1 s: the first frame at the goal is at most a frame later
     assert reached <= robot_social_metrics(run, "cart")["time_to_goal"] <= reached + 0.1 + 1e-9
+
+
+def test_plan_efficiency_measures_the_path_against_the_way_round_a_wall(tmp_path: Path) -> None:
+    from hubero_dsl.planners.navfn import reference_plan_length
+    from hubero_dsl.world.mapfile import save_map
+    from tests.sim.conftest import room_grid
+
+    walled = tmp_path / "wall.yaml"  # a wall at x = 5 with a gap at the top
+    grid = room_grid(walls=((4.9, 0.0, 5.1, 6.0),))
+    save_map(grid, walled)
+    shortest = reference_plan_length(grid, (2.0, 2.0), (8.0, 2.0), 0.3)
+    assert shortest is not None and shortest > 2 * math.hypot(2.9, 4.0)  # up round the wall
+    text = f"""scenario "round a wall"
+map "{walled}"
+human alice at (1, 1)
+robot cart at (2, 2) {{ controller navigator; speed 0.8 m/s; goal (8.0, 2.0) }}
+activity {{ alice stand for 1 s }}
+activity {{ cart move_to (8, 2) within 60 s }}
+expect plan_efficiency(cart) >= 80 %
+"""
+    scenario = tmp_path / "wall.hub"
+    scenario.write_text(text, encoding="utf-8")
+    log = tmp_path / "wall.mcap"
+    result = simulate(compile_file(scenario), log=log)
+    assert result.succeeded
+    metrics = robot_social_metrics(load_run(log), "cart")
+    assert metrics["plan_efficiency"] == pytest.approx(
+        shortest / metrics["path_length"], rel=0.05)
+    assert metrics["path_efficiency"] < 0.6 < metrics["plan_efficiency"] <= 1.0
