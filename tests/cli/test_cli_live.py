@@ -80,8 +80,19 @@ def started(tmp_path: Path) -> Iterator[Callable[..., subprocess.Popen[str]]]:
                 stream.close()
 
 
-def _channels(ws: ClientConnection) -> dict[int, dict[str, Any]]:
-    """serverInfo, then the advertised channels by id."""
+LIVING_ROOM_TOPICS = frozenset({"/log", "/humans/actor1/pose", "/humans/actor1/state",
+                                "/humans/actor2/pose", "/humans/actor2/state"})
+
+
+STATION_TOPICS = frozenset({"/map", "/scene", "/tf", "/tasks", "/log", "/humans/guard/pose",
+                            "/humans/guard/state", "/crowds/alighting/poses",
+                            "/crowds/alighting/state", "/crowds/boarding/poses",
+                            "/crowds/boarding/state"})
+
+
+def _channels(ws: ClientConnection, topics: frozenset[str] = LIVING_ROOM_TOPICS
+              ) -> dict[int, dict[str, Any]]:
+    """serverInfo, then the advertised channels by id, once `topics` are among them."""
     info = json.loads(ws.recv(timeout=TIMEOUT))
     assert info["op"] == "serverInfo"
     assert "time" in info["capabilities"]
@@ -90,19 +101,19 @@ def _channels(ws: ClientConnection) -> dict[int, dict[str, Any]]:
         advertise = json.loads(ws.recv(timeout=TIMEOUT))
         assert advertise["op"] == "advertise"
         channels.update({c["id"]: c for c in advertise["channels"]})
-        if any(c["topic"] == "/log" for c in channels.values()) and \
-                sum(c["topic"].startswith("/humans/") for c in channels.values()) == 4:
+        if topics <= {c["topic"] for c in channels.values()}:
             return channels
 
 
-def _watch(address: str) -> tuple[dict[int, dict[str, Any]], dict[str, list[tuple[int, bytes]]],
-                                  list[float]]:
+def _watch(address: str, topics: frozenset[str] = LIVING_ROOM_TOPICS
+           ) -> tuple[dict[int, dict[str, Any]], dict[str, list[tuple[int, bytes]]],
+                      list[float]]:
     """Subscribe to every channel; receive until the run has reported its end on /log."""
     received: dict[str, list[tuple[int, bytes]]] = defaultdict(list)
     arrivals: list[float] = []
     with connect(address, subprotocols=PROTOCOLS, open_timeout=TIMEOUT) as ws:
         assert ws.subprotocol == PROTOCOL
-        channels = _channels(ws)
+        channels = _channels(ws, topics)
         topic_of = {}
         subscriptions = []
         for number, channel in enumerate(sorted(channels), start=1):
@@ -165,6 +176,23 @@ def test_a_live_run_streams_what_the_log_holds(started: Callable[..., subprocess
     # and the log is the one a run without --live writes, byte for byte
     assert cli("run", LIVING_ROOM, "--quiet", "-o", str(tmp_path / "plain.mcap")).status == 0
     assert (tmp_path / "live.mcap").read_bytes() == (tmp_path / "plain.mcap").read_bytes()
+
+
+@pytest.mark.slow  # a whole run in a subprocess
+def test_a_live_run_streams_the_crowd_topics_the_log_holds(
+        started: Callable[..., subprocess.Popen[str]], tmp_path: Path) -> None:
+    process = started(str(REPO_ROOT / "scenarios" / "station.hub"), "--live", "--live-wait",
+                      "--port", "0", "--pace", "20x", "-o", "live.mcap")
+    _, received, _ = _watch(_address(process), STATION_TOPICS)
+    assert process.wait(TIMEOUT) == 0
+    logged = _logged(tmp_path / "live.mcap")
+    crowds = {topic for topic in logged if topic.startswith("/crowds/")}
+    assert crowds == {"/crowds/alighting/poses", "/crowds/alighting/state",
+                      "/crowds/boarding/poses", "/crowds/boarding/state"}
+    for topic in crowds:
+        assert received[topic] == logged[topic], topic
+    assert max(len(json.loads(data)["names"]) for _, data in received["/crowds/alighting/state"]
+               ) > 5
 
 
 @pytest.mark.slow  # a whole run in a subprocess
