@@ -180,12 +180,25 @@ def jupedsim_rate(count: int) -> float:
     chunk, agent_steps = 50, 0
     iterations = round((window_end(count) - START) / JUPEDSIM_DT)
     began = time.perf_counter()
-    for _ in range(iterations // chunk):
-        if sim.agent_count() == 0:
+    for done in range(iterations // chunk):
+        alive = sim.agent_count()
+        if alive == 0:
             break
-        agent_steps += sim.agent_count() * chunk
-        sim.iterate(chunk)
+        try:
+            sim.iterate(chunk)
+        except RuntimeError as exc:  # an agent thrown out of the geometry ends its run
+            raise PeerStoppedError(agent_steps / (time.perf_counter() - began),
+                                   START + done * chunk * JUPEDSIM_DT, str(exc)) from None
+        agent_steps += alive * chunk
     return agent_steps / (time.perf_counter() - began)
+
+
+class PeerStoppedError(RuntimeError):
+    """A peer's simulation ended with its own error part way: its rate until then."""
+
+    def __init__(self, rate: float, reached: float, reason: str) -> None:
+        super().__init__(reason)
+        self.rate, self.reached = rate, reached
 
 
 @contextlib.contextmanager
@@ -271,6 +284,12 @@ def main(argv: list[str]) -> int:
         for name, rate in peers.items():
             try:
                 theirs = max(rate(count) for _ in range(args.repeat))
+            except PeerStoppedError as stop:  # measured up to its failure, said so
+                line += f" {stop.rate:>13,.0f}* {ours.rate / stop.rate:>9.2f}x"
+                print(f"* {name} at N = {count} stopped at t = {stop.reached:g} s with its own "
+                      f"error ({stop}): its rate is over {START:g}-{stop.reached:g} s",
+                      file=sys.stderr)
+                continue
             except RuntimeError as exc:  # the peer's own failure, said and skipped
                 line += f" {'failed':>14} {'-':>10}"
                 print(f"{name} at N = {count} failed: {exc}", file=sys.stderr)
