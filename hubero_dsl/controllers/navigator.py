@@ -27,7 +27,8 @@ from hubero_dsl.controllers.base import ControllerParams, Observation, RobotBody
 from hubero_dsl.planners.base import NoPath
 from hubero_dsl.planners.navfn import NavfnParams, NavfnPlanner
 
-ESCAPE_ANGLES = np.linspace(0.0, 2.0 * math.pi, 16, endpoint=False)
+_ESCAPE_ANGLES = np.linspace(0.0, 2.0 * math.pi, 16, endpoint=False)
+ESCAPE_DIRECTIONS = np.column_stack([np.cos(_ESCAPE_ANGLES), np.sin(_ESCAPE_ANGLES)])
 WALL_GAP = 0.02  # m the body keeps from walls (navfn plans keep its lethal margin, 0.05)
 BRUSH = 0.03  # m a body may brush a wall by (a plan between cell centres grazes corners)
 WALL_LOOKAHEAD = 0.5  # s ahead that the body's clearance from walls is checked
@@ -115,12 +116,18 @@ class Navigator:
 
     def _unsafe_among(self, here: np.ndarray, moving: np.ndarray,
                       observation: Observation) -> bool:
+        others = self._others(observation)
+        return others is not None and self._unsafe(here, moving, *others)
+
+    def _others(self, observation: Observation
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """The people and robots it senses: positions, velocities, and the centre distance
+        at which each would touch it; None when there are none."""
         others = observation.people + observation.robots
         if not others:
-            return False
-        return self._unsafe(here, moving, np.array([o.position for o in others]),
-                            np.array([o.velocity for o in others]),
-                            np.array([o.radius for o in others]) + self.body.radius)
+            return None
+        return (np.array([o.position for o in others]), np.array([o.velocity for o in others]),
+                np.array([o.radius for o in others]) + self.body.radius)
 
     # ---- the plan ----------------------------------------------------------------------------
 
@@ -186,12 +193,10 @@ class Navigator:
                observation: Observation) -> np.ndarray:
         """`wanted` pushed aside by people near, kept off walls, then slowed or stopped (or
         turned into a step out of someone's way) so that no gap closes below the margin."""
-        others = observation.people + observation.robots
-        if not others:
+        others = self._others(observation)
+        if others is None:
             return self._off_walls(here, wanted)
-        position = np.array([o.position for o in others])
-        velocity = np.array([o.velocity for o in others])
-        reach = np.array([o.radius for o in others]) + self.body.radius
+        position, velocity, reach = others
         away = here - position
         distance = np.maximum(np.hypot(away[:, 0], away[:, 1]), 1e-9)
         gap = distance - reach
@@ -217,15 +222,20 @@ class Navigator:
                 velocity: np.ndarray, reach: np.ndarray) -> bool:
         """Whether, at velocity `moving`, some gap would fall below `safety_margin` within the
         horizon and below what it is now (bodies moving at constant velocity)."""
+        closest, now = self._closest_approach(here, moving, position, velocity)
+        margin = reach + self.params.safety_margin
+        return bool(((closest < margin) & (closest < now - 1e-6)).any())
+
+    def _closest_approach(self, here: np.ndarray, moving: np.ndarray, position: np.ndarray,
+                          velocity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each other's centre distance at the closest approach within the horizon (both at
+        constant velocity, the robot at `moving`), and now."""
         relative = velocity - moving          # others' motion seen from the robot
         offset = position - here
         speed2 = np.maximum((relative ** 2).sum(axis=1), 1e-12)
         t = np.clip(-(offset * relative).sum(axis=1) / speed2, 0.0, self.params.horizon)
         closest = offset + relative * t[:, None]
-        closest_distance = np.hypot(closest[:, 0], closest[:, 1])
-        now = np.hypot(offset[:, 0], offset[:, 1])
-        margin = reach + self.params.safety_margin
-        return bool(((closest_distance < margin) & (closest_distance < now - 1e-6)).any())
+        return np.hypot(closest[:, 0], closest[:, 1]), np.hypot(offset[:, 0], offset[:, 1])
 
     def _escape(self, here: np.ndarray, wanted: np.ndarray, position: np.ndarray,
                 velocity: np.ndarray, reach: np.ndarray, observation: Observation
@@ -240,7 +250,7 @@ class Navigator:
             self.escape_origin = here.copy()
         if speed <= 0.0:
             return np.zeros(2)
-        directions = np.column_stack([np.cos(ESCAPE_ANGLES), np.sin(ESCAPE_ANGLES)])
+        directions = ESCAPE_DIRECTIONS
         gaps = np.hypot(*(here - position).T) - reach
         nearest = int(np.argmin(gaps))
         threat = _unit(here - position[nearest])
@@ -263,12 +273,8 @@ class Navigator:
     def _narrowest(self, here: np.ndarray, moving: np.ndarray, position: np.ndarray,
                    velocity: np.ndarray, reach: np.ndarray) -> float:
         """The smallest surface gap to anyone over the horizon, moving at `moving`."""
-        relative = velocity - moving
-        offset = position - here
-        speed2 = np.maximum((relative ** 2).sum(axis=1), 1e-12)
-        t = np.clip(-(offset * relative).sum(axis=1) / speed2, 0.0, self.params.horizon)
-        closest = offset + relative * t[:, None]
-        return float((np.hypot(closest[:, 0], closest[:, 1]) - reach).min())
+        closest, _ = self._closest_approach(here, moving, position, velocity)
+        return float((closest - reach).min())
 
     def _off_walls(self, here: np.ndarray, wanted: np.ndarray) -> np.ndarray:
         """`wanted` without the part that would bring the body within `WALL_GAP` of a wall in
@@ -285,14 +291,20 @@ class Navigator:
     def _into_wall(self, here: np.ndarray, moving: np.ndarray) -> bool:
         """Whether moving so would press the body into a wall by more than `BRUSH` (and
         nearer than it is) within `WALL_LOOKAHEAD` seconds."""
-        ahead = here + moving * np.linspace(0.0, WALL_LOOKAHEAD, 6)[:, None]
-        clearance = self.body.grid.clearance_at(ahead)
+        clearance = self._clearance_along(here, moving, WALL_LOOKAHEAD, 6)
         return bool((clearance[1:] < np.minimum(self.body.radius - BRUSH, clearance[0])).any())
 
     def _clear_of_walls(self, here: np.ndarray, step: np.ndarray) -> bool:
         """Whether the body keeps off walls moving at `step` for the horizon."""
-        ahead = here + step * np.linspace(0.0, self.params.horizon, 5)[1:, None]
-        return bool((self.body.grid.clearance_at(ahead) > self.body.radius + WALL_GAP).all())
+        clearance = self._clearance_along(here, step, self.params.horizon, 5)
+        return bool((clearance[1:] > self.body.radius + WALL_GAP).all())
+
+    def _clearance_along(self, here: np.ndarray, moving: np.ndarray, seconds: float,
+                         samples: int) -> np.ndarray:
+        """The body's clearance from walls at `samples` evenly spaced times from now to
+        `seconds` ahead, moving at `moving` (the first is here)."""
+        ahead = here + moving * np.linspace(0.0, seconds, samples)[:, None]
+        return self.body.grid.clearance_at(ahead)
 
     # ---- kinematics --------------------------------------------------------------------------
 
