@@ -19,6 +19,7 @@ tables of padded JSON strings), like the per-person rows; JSON allows the paddin
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -27,7 +28,7 @@ import numpy.typing as npt
 
 from hubero_dsl.log import schemas as s
 from hubero_dsl.log.digits import METRES, UNIT, FixedFormat
-from hubero_dsl.log.frames import TaskTracker
+from hubero_dsl.log.frames import TaskTracker, yaw_text
 
 if TYPE_CHECKING:
     from hubero_dsl.log.frames import FrameState
@@ -44,6 +45,16 @@ def pose_row(metres: FixedFormat) -> tuple[bytes | FixedFormat, ...]:
 
 
 NARROW = FixedFormat(head_groups=1, decimals=4)  # |x| < 1000: metres, m/s and radians
+
+
+def members_of_crowds(count: int, crowds: Sequence[tuple[str, Sequence[int]]]
+                      ) -> npt.NDArray[np.bool_]:
+    """Which of `count` humans belong to a crowd or flow (and so have no topics, frame or
+    scene entity of their own)."""
+    member = np.zeros(count, dtype=bool)
+    for _, rows in crowds:
+        member[list(rows)] = True
+    return member
 
 
 def crowd_poses_topic(name: str) -> str:
@@ -141,8 +152,7 @@ class CrowdEncoder:
         here = rows[present]
         stamp = s.timestamp_json(frame.tick * self._dt_ns).encode()
         heading = frame.heading[here]
-        half = heading / 2.0
-        w, z = np.split(UNIT.text(np.concatenate([np.cos(half), np.sin(half)])), 2)
+        w, z = yaw_text(heading)
         x, y, vx, vy, heading_text = _columns(
             [frame.position[here, 0], frame.position[here, 1], frame.velocity[here, 0],
              frame.velocity[here, 1], heading])
@@ -150,7 +160,7 @@ class CrowdEncoder:
         poses_json = (b'{"frame_id":"map","poses":[' + poses + b'],"timestamp":' + stamp
                       + b"}")
         state_json = b"".join([
-            b'{"fsm_state":[', self._strings([frame.fsm[row] for row in here.tolist()]),
+            b'{"fsm_state":[', self._strings([frame.fsm[row] for row in here.tolist()]).encode(),
             b'],"heading":', json_array(heading_text),
             b',"names":', self._names_of(present),
             b',"posture":', json_array(POSTURE_TEXT[frame.posture[here]]),
@@ -165,15 +175,13 @@ class CrowdEncoder:
         if self._present is None or not np.array_equal(present, self._present):
             self._present = present.copy()
             members = self.crowd.members
-            self._names = ("[" + self._strings_text([members[i] for i in
-                                                      np.flatnonzero(present).tolist()])
+            self._names = ("[" + self._strings([members[i] for i in
+                                                 np.flatnonzero(present).tolist()])
                            + "]").encode()
         return self._names
 
-    def _strings(self, values: list[str]) -> bytes:
-        return self._strings_text(values).encode()
-
-    def _strings_text(self, values: list[str]) -> str:
+    def _strings(self, values: list[str]) -> str:
+        """The values as JSON strings, comma-separated (each encoded once per run)."""
         quoted = self._quoted
         for value in set(values) - quoted.keys():
             quoted[value] = s.dumps(value)

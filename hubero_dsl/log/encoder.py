@@ -29,6 +29,7 @@ from hubero_dsl.log.crowds import (
     CrowdEncoder,
     crowd_poses_topic,
     crowd_state_topic,
+    members_of_crowds,
 )
 from hubero_dsl.log.frames import FrameEncoder, FrameState
 from hubero_dsl.log.scene import TIME_MARK, SceneBuilder
@@ -93,10 +94,8 @@ class LogEncoder:
         if not sinks:
             raise ValueError("a log needs a file or a live server to write to")
         self._out: MessageSink = sinks[0] if len(sinks) == 1 else Fanout(sinks)
-        in_crowd = {row for _, rows in setup.crowds for row in rows}
         # the humans with topics of their own: everyone not in a crowd or flow
-        self._named = np.array([row for row in range(len(setup.humans)) if row not in in_crowd],
-                               dtype=np.intp)
+        self._named = np.flatnonzero(~members_of_crowds(len(setup.humans), setup.crowds))
         named = self._named.tolist()
         self._scene = SceneBuilder([setup.humans[i] for i in named],
                                    [setup.radius[i] for i in named],

@@ -37,6 +37,7 @@ if TYPE_CHECKING:
     from hubero_dsl.sim.status import TaskEvent
 
 FloatArray = npt.NDArray[np.float64]
+ByteArray = npt.NDArray[np.uint8]
 
 TIMESTAMP = b'{"nsec":%9d,"sec":%10d}'  # fixed width, so records keep their length
 TIME = Stamp(len(TIMESTAMP % (0, 0)))
@@ -52,6 +53,13 @@ POSE_PIECES = (b'{"frame_id":"map","pose":{"orientation":{"w":', b',"x":0,"y":0,
                b'},"position":{"x":', b',"y":', b',"z":0}},"timestamp":', b"}")
 TRANSFORM_SLOTS = (UNIT, UNIT, TIME, METRES, METRES)
 STATE_SLOTS = (RECORD_LENGTH, RECORD_FIELDS, RADIANS, METRES, METRES, TIME, METRES, METRES)
+
+
+def yaw_text(heading: FloatArray) -> tuple[ByteArray, ByteArray]:
+    """The w and z components of each heading's rotation about z, as quaternion text."""
+    half = heading / 2.0
+    w, z = np.split(UNIT.text(np.concatenate([np.cos(half), np.sin(half)])), 2)
+    return w, z
 
 
 def frame_timestamp(ns: int) -> bytes:
@@ -246,8 +254,7 @@ class FrameEncoder:
         if not humans + robots:  # everyone is in a crowd or flow
             return b'{"transforms":[]}', []
         # one call per format: humans' and robots' numbers side by side, each column a slice
-        half = np.concatenate([frame.heading, frame.robot_heading]) / 2.0
-        w, z = np.split(UNIT.text(np.concatenate([np.cos(half), np.sin(half)])), 2)
+        w, z = yaw_text(np.concatenate([frame.heading, frame.robot_heading]))
         metres = METRES.text(np.concatenate([frame.position.T.ravel(),
                                              frame.robot_position.T.ravel(),
                                              frame.velocity.T.ravel()]))

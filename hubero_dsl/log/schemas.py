@@ -226,7 +226,6 @@ HUMAN_STATE_SCHEMA: dict[str, Any] = {
 }
 
 
-
 def _column(items: dict[str, Any], description: str) -> dict[str, Any]:
     return {"type": "array", "items": items, "description": description}
 

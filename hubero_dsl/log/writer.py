@@ -41,12 +41,11 @@ from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, Protocol
 
-import numpy as np
-
 from hubero_dsl import __version__
 from hubero_dsl.errors import LogError
 from hubero_dsl.files import check_output
 from hubero_dsl.log import schemas as s
+from hubero_dsl.log.crowds import members_of_crowds
 from hubero_dsl.log.encoder import LogEncoder, LogSetup, Update, discard_file
 from hubero_dsl.log.frames import Capturer
 from hubero_dsl.log.provenance import provenance
@@ -83,10 +82,8 @@ class RunLog:
         self._sink: _Sink | None = None
         self._closed = False
         self._crowds = _crowds(sim)
-        drawn = np.ones(sim.engine.humans.count, dtype=bool)
-        for _, rows in self._crowds:
-            drawn[rows] = False
-        self._capturer = Capturer(sim.engine.humans.count, drawn)
+        count = sim.engine.humans.count
+        self._capturer = Capturer(count, ~members_of_crowds(count, self._crowds))
         self._events_sent = 0
         self._last_sample = -1
         self._last_frame_tick = -1
