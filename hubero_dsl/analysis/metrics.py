@@ -38,12 +38,7 @@ import numpy as np
 import numpy.typing as npt
 
 from hubero_dsl.analysis import pairs
-from hubero_dsl.analysis.socialnav_log import (
-    collided_with,
-    robot_collisions,
-    robot_social_metrics,
-    robot_termination,
-)
+from hubero_dsl.analysis.socialnav_log import robot_outcome
 from hubero_dsl.sim.status import TaskStatus
 from hubero_dsl.world.personal_space import contains
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, Shape, ShapeArrays
@@ -179,14 +174,13 @@ def compute_metrics(run: LoggedRun) -> RunMetrics:
     robots = {}
     for name in sorted(run.robots):
         speeds = _Motion.of(actors[name], [])
-        hits = robot_collisions(run, name)
-        ended = robot_termination(run, name, hits)
+        outcome = robot_outcome(run, name)
         robots[name] = RobotMetrics(
             name=name, path_length=speeds.path_length, duration=speeds.duration,
             mean_speed=speeds.mean_speed, max_speed=speeds.max_speed,
             min_distance=pairs.min_distance[name], collisions=pairs.collisions[name],
-            social=robot_social_metrics(run, name), success=ended.success,
-            termination=ended.cause, collided_with=collided_with(hits))
+            social=outcome.social, success=outcome.termination.success,
+            termination=outcome.termination.cause, collided_with=outcome.collided_with)
     return RunMetrics(humans, robots)
 
 

@@ -115,6 +115,24 @@ def robot_collisions(run: LoggedRun, name: str) -> list[Collision]:
                       c.point, name if c.struck else others[c.partner]) for c in found]
 
 
+@dataclass(frozen=True, slots=True)
+class RobotOutcome:
+    """What a log says of a robot's run: its metrics among the people, how it ended, and its
+    collisions per partner."""
+
+    social: dict[str, float]
+    termination: Termination
+    collided_with: dict[str, int]
+
+
+def robot_outcome(run: LoggedRun, name: str) -> RobotOutcome:
+    """`robot_social_metrics`, `robot_termination` and `collided_with` of one robot, its
+    collisions found once for both."""
+    hits = robot_collisions(run, name)
+    return RobotOutcome(robot_social_metrics(run, name), robot_termination(run, name, hits),
+                        collided_with(hits))
+
+
 def collided_with(collisions: Sequence[Collision]) -> dict[str, int]:
     """Collisions counted per partner (a person's name, or "obstacle"), names sorted."""
     return dict(sorted(Counter(c.partner for c in collisions).items()))

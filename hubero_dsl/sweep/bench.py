@@ -99,20 +99,13 @@ def _measure(log: str | None, robots: Sequence[str]
              ) -> tuple[dict[str, float], str, dict[str, int]]:
     """The first robot's social-navigation metrics, termination cause and collisions per
     partner; empty when there is no readable log."""
-    from hubero_dsl.analysis.socialnav_log import (
-        collided_with,
-        robot_collisions,
-        robot_social_metrics,
-        robot_termination,
-    )
+    from hubero_dsl.analysis.socialnav_log import robot_outcome
 
     if log is None or not robots or not Path(log).is_file():
         return {}, "", {}
     try:
-        run = load_run(log)
-        hits = robot_collisions(run, robots[0])
-        return (robot_social_metrics(run, robots[0]),
-                robot_termination(run, robots[0], hits).cause, collided_with(hits))
+        outcome = robot_outcome(load_run(log), robots[0])
+        return outcome.social, outcome.termination.cause, outcome.collided_with
     except Exception:  # a run that died mid-way may leave a log without the robot's track
         return {}, "", {}
 
