@@ -29,15 +29,13 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-import numpy as np
+from crossing import write_open_map
 
 from hubero_dsl.log.reader import load_run
 from hubero_dsl.log.writer import can_fork
 from hubero_dsl.model.program import Program
 from hubero_dsl.pipeline import compile_file
 from hubero_dsl.simulate import simulate
-from hubero_dsl.world.grid import OccupancyGrid
-from hubero_dsl.world.mapfile import save_map
 
 SPACING = 0.8  # m between neighbours on the circle
 
@@ -45,12 +43,7 @@ SPACING = 0.8  # m between neighbours on the circle
 def crossing_scenario(folder: Path, humans: int, time_limit: float) -> Path:
     """Write the open map and the crossing scenario into `folder`; return the scenario."""
     radius = max(4.0, SPACING * humans / (2 * math.pi))
-    half = radius + 3.0
-    resolution = 0.1 if half < 60 else 0.5
-    cells = math.ceil(2 * half / resolution)
-    occupied = np.zeros((cells, cells), dtype=bool)
-    occupied[[0, -1], :] = occupied[:, [0, -1]] = True
-    save_map(OccupancyGrid(occupied, resolution, (-half, -half)), folder / "open.yaml")
+    write_open_map(folder, radius)
     lines = [f'scenario "crossing {humans}"', 'map "open.yaml"', "seed 1", "step 50 ms",
              f"time_limit {time_limit:g} s",
              "defaults { global_planner straight; personal_space circle(radius: 0.3 m) }"]
@@ -71,12 +64,7 @@ def crowd_scenario(folder: Path, humans: int, time_limit: float) -> Path:
     """The same open map with one `crowd` of N people wandering in a square at about one
     person per 4 m^2 (their log is the crowd's two topics, not two topics per person)."""
     half_side = math.sqrt(4.0 * humans) / 2
-    resolution = 0.1 if half_side < 55 else 0.5
-    half = half_side + 3.0
-    cells = math.ceil(2 * half / resolution)
-    occupied = np.zeros((cells, cells), dtype=bool)
-    occupied[[0, -1], :] = occupied[:, [0, -1]] = True
-    save_map(OccupancyGrid(occupied, resolution, (-half, -half)), folder / "open.yaml")
+    write_open_map(folder, half_side)
     area = f"rect(({-half_side:.2f}, {-half_side:.2f}), ({half_side:.2f}, {half_side:.2f}))"
     text = "\n".join([
         f'scenario "crowd {humans}"', 'map "open.yaml"', "seed 1", "step 50 ms",
