@@ -34,6 +34,7 @@ from hubero_dsl.sim.status import Posture, TaskEvent, TaskStatus
 from hubero_dsl.world.grid import OccupancyGrid
 
 FloatArray = npt.NDArray[np.float64]
+POSTURE_VALUE = {posture.name: posture.value for posture in Posture}  # as the log names them
 
 
 @dataclass(frozen=True)
@@ -301,11 +302,10 @@ def _human_track(name: str, rows: list[dict[str, Any]]) -> HumanTrack:
     numbers = np.array([(_seconds(r["timestamp"]), r["position"]["x"], r["position"]["y"],
                          r["velocity"]["x"], r["velocity"]["y"], r["heading"]) for r in rows],
                        dtype=np.float64).reshape(-1, 6)
-    postures = {posture.name: posture.value for posture in Posture}
     return HumanTrack(
         name=name, time=numbers[:, 0], position=numbers[:, 1:3], velocity=numbers[:, 3:5],
         heading=numbers[:, 5],
-        posture=np.array([postures[r["posture"]] for r in rows], dtype=np.int8),
+        posture=np.array([POSTURE_VALUE[r["posture"]] for r in rows], dtype=np.int8),
         status=np.array([r["status"] for r in rows], dtype=np.str_),
         fsm_state=np.array([r["fsm_state"] for r in rows], dtype=np.str_),
         task_id=np.array([r["task"]["id"] if r["task"] else 0 for r in rows], dtype=np.int64))
@@ -320,8 +320,8 @@ def _crowd_tracks(messages: list[dict[str, Any]]) -> dict[str, HumanTrack]:
                      [len(m["names"]) for m in messages])
     numbers = np.array([[value for m in messages for value in m[key]]
                         for key in ("x", "y", "vx", "vy", "heading")], dtype=np.float64).T
-    postures = {posture.name: posture.value for posture in Posture}
-    posture = np.array([postures[p] for m in messages for p in m["posture"]], dtype=np.int8)
+    posture = np.array([POSTURE_VALUE[p] for m in messages for p in m["posture"]],
+                       dtype=np.int8)
     status = np.array([v for m in messages for v in m["status"]], dtype=np.str_)
     fsm_state = np.array([v for m in messages for v in m["fsm_state"]], dtype=np.str_)
     task_id = np.array([v for m in messages for v in m["task_id"]], dtype=np.int64)
