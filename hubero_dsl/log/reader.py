@@ -66,9 +66,7 @@ class RunMetadata:
     def robot_goal(self, robot: str) -> tuple[tuple[float, float] | None, float]:
         """The robot's declared goal (None without one) and how near counts as reaching it."""
         params = self.robot_params.get(robot, {})
-        goal = params.get("goal")
-        return (None if goal is None else (float(goal[0]), float(goal[1])),
-                float(params.get("goal_tolerance", 0.2)))
+        return params.get("goal"), params.get("goal_tolerance", 0.2)
 
     def members(self, name: str) -> tuple[str, ...]:
         """The humans a name stands for: a crowd's, flow's or group's members, or the human."""
@@ -220,7 +218,20 @@ def _metadata(values: dict[str, str], attachments: dict[str, bytes]) -> RunMetad
         robots=tuple(json.loads(values["robots"])),
         sets={name: (entry["kind"], tuple(entry["members"]))
               for name, entry in json.loads(values.get("sets", "{}")).items()},
-        robot_params=json.loads(values.get("robot_params", "{}")))
+        robot_params=_robot_params(values.get("robot_params", "{}")))
+
+
+def _robot_params(text: str) -> dict[str, dict[str, Any]]:
+    """Each robot's logged parameters, its goal as a point and its tolerance as a number
+    (ValueError, TypeError or AttributeError for a log that says otherwise)."""
+    params: dict[str, dict[str, Any]] = json.loads(text)
+    for entry in params.values():
+        goal = entry.get("goal")
+        if goal is not None:
+            x, y = goal
+            entry["goal"] = (float(x), float(y))
+        entry["goal_tolerance"] = float(entry.get("goal_tolerance", 0.2))
+    return params
 
 
 def _outcome(values: dict[str, str]) -> RunOutcome:

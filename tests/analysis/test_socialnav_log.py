@@ -85,7 +85,7 @@ def test_a_robots_logged_goal_gives_its_time_to_goal(build_run: Callable, track:
     run = build_run([track("ann", TIMES, [(0.0, 2.0)] * 7)],
                     robots=[robot("cart", TIMES, WALK)])
     metadata = replace(run.metadata, robot_params={
-        "cart": {"goal": [1.0, 0.0], "goal_tolerance": 0.2}})
+        "cart": {"goal": (1.0, 0.0), "goal_tolerance": 0.2}})
     metrics = robot_social_metrics(replace(run, metadata=metadata), "cart")
     assert metrics["time_to_goal"] == pytest.approx(4.0)   # at x = 1 after 4 s
     assert metrics["path_efficiency"] == pytest.approx(1.0)  # 4 m straight to it
