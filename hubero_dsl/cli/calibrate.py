@@ -9,11 +9,15 @@ Minimises the mean squared relative error of the simulated mean speed per densit
 recordings in parallel (--jobs, default the cores; --executor serial runs them inline). Prints
 the fitted values as a `defaults { }` block (-o writes it to a file, to paste into a scenario)
 and the errors with hubero's defaults and with the fitted values, on the training runs and on
-the held-out ones. Deterministic per --seed. Needs PedPy (pip install 'hubero[validate]').
+the held-out ones. --seeds N runs every recording N times per parameter set (seeds S, S+1,
+...) and takes the error over all of them, so that the fit follows the model rather than one
+draw of its noise. Deterministic per --seed and --seeds. Needs PedPy (pip install
+'hubero[validate]').
 
 Parameters that can be fitted: relaxation_time, social_force.A, social_force.B,
-social_force.B_wall, personal_space (the radius of a circle), speed_scale (a factor on the
-measured desired speeds). Exit 0 when fitted, 2 for bad input or a missing PedPy.
+social_force.B_wall, social_force.space_at_rest, personal_space (the radius of a circle),
+speed_scale (a factor on the measured desired speeds). Exit 0 when fitted, 2 for bad input or
+a missing PedPy.
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ if TYPE_CHECKING:
 DEFAULT_TRAIN = ("uo-050-180-180", "uo-145-180-180", "uo-180-180-120")
 DEFAULT_TEST = ("uo-100-180-180", "uo-180-180-070")
 MAX_EVALUATIONS = 10_000
+MAX_SEEDS = 100
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -49,6 +54,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                         help="parameter sets tried at most (default 30)")
     parser.add_argument("--seed", metavar="S", type=int, default=1,
                         help="seed of every run (default 1)")
+    parser.add_argument("--seeds", metavar="N", type=int, default=1,
+                        help="runs of each recording per parameter set, with the seeds S, "
+                             "S+1, ...: the error is taken over all of them (default 1)")
     parser.add_argument("--executor", choices=("process", "serial"), default="process",
                         help="where the runs of a parameter set execute (default: process)")
     parser.add_argument("--jobs", "-j", metavar="N", type=int,
@@ -77,6 +85,8 @@ def run(args: argparse.Namespace) -> int:
                          f"got {args.evaluations}")
     if args.seed < 0:
         raise InputError(f"--seed must be a whole number of at least 0, got {args.seed}")
+    if not 1 <= args.seeds <= MAX_SEEDS:
+        raise InputError(f"--seeds must be from 1 to {MAX_SEEDS}, got {args.seeds}")
     train = args.train or [shipped_path(n) for n in DEFAULT_TRAIN]
     test = args.test if args.test is not None else (
         [] if args.train else [shipped_path(n) for n in DEFAULT_TEST])
@@ -93,14 +103,14 @@ def run(args: argparse.Namespace) -> int:
     measure([experiment_for(Path(p)) for p in (*train, *test)])  # unreadable files: exit 2
     jobs = args.jobs if args.jobs is not None else min(available_cores(), len(train))
     with open_executor(args.executor, jobs=jobs) as executor:
-        result = calibrate(train, test, fit=fit, seed=args.seed,
+        result = calibrate(train, test, fit=fit, seed=args.seed, seeds=args.seeds,
                            evaluations=args.evaluations, executor=executor,
                            progress=None if args.quiet else _progress)
     block = result.defaults_block([r.name for r in result.train])
     if args.output is not None:
         _write(args.output, block)
     if args.json:
-        print(json.dumps(_as_json(result, args.seed), indent=2))
+        print(json.dumps(_as_json(result, args.seed, args.seeds), indent=2))
     else:
         _print(result, block)
     return 0
@@ -122,8 +132,9 @@ def _report(report: FileReport) -> dict[str, Any]:
             "fitted_worst_relative_error": num(report.fitted_worst)}
 
 
-def _as_json(result: Calibration, seed: int) -> dict[str, Any]:
-    return {"seed": seed, "fitted": result.fitted, "train_loss": round(result.train_loss, 6),
+def _as_json(result: Calibration, seed: int, seeds: int) -> dict[str, Any]:
+    return {"seed": seed, "seeds": seeds, "fitted": result.fitted,
+            "train_loss": round(result.train_loss, 6),
             "evaluations": result.evaluations,
             "train": [_report(r) for r in result.train],
             "test": [_report(r) for r in result.test]}

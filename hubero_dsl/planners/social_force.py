@@ -136,6 +136,11 @@ class SocialForceParams(PlannerParams):
         "Horizon of collision prediction, s: people and robots push from where they will be "
         "closest within it at the current velocities (0 = the plain distance of Helbing & "
         "Molnar)."))
+    space_at_rest: float = Field(default=1.0, ge=0.0, le=1.0, description=(
+        "Share of the personal space beyond the body that someone standing still keeps; it "
+        "grows with speed to the whole at the desired speed (1 = always whole; below 1, "
+        "people in a slow, dense crowd close up, as in Chraibi et al.'s 2010 speed-dependent "
+        "body)."))
 
 
     @classmethod
@@ -160,6 +165,7 @@ class _RowParams:
     arrival_radius: Column
     side_preference: Column
     anticipation: Column
+    space_at_rest: Column
 
     @staticmethod
     def from_models(models: list[SocialForceParams]) -> _RowParams:
@@ -176,7 +182,8 @@ class _RowParams:
             k=_column(values("k")), kappa=_column(values("kappa")),
             arrival_radius=_column(values("arrival_radius")),
             side_preference=_column(values("side_preference")),
-            anticipation=_column(values("anticipation")))
+            anticipation=_column(values("anticipation")),
+            space_at_rest=_column(values("space_at_rest")))
 
     def padded(self, rows: int) -> _RowParams:
         """Columns long enough for `rows` bodies; bodies without a model get the defaults.
@@ -407,10 +414,12 @@ class _PairPush:
             self.ahead = closest_approach(pairs, crowd.velocity, horizon)
         space = crowd.personal_space
         self.circles = shapes.circles
+        self.space_scale = _space_scale(crowd, drive, params.space_at_rest)
         radius = shapes.radius
         # with circles of one size, one radius and one decay, the closeness term is symmetric
         self.shared_closeness: FloatArray | None = None
-        same_circles = self.circles and isinstance(shapes.extent, float)
+        same_circles = (self.circles and isinstance(shapes.extent, float)
+                        and self.space_scale is None)
         if (same_circles and self.shared_horizon and isinstance(radius, float)
                 and isinstance(params.inverse_decay, float) and isinstance(self.strength, float)):
             comfort = float(space.a[0]) + radius
@@ -490,9 +499,30 @@ class _PairPush:
     def _extent(self, receiver: IntArray, forward: FloatArray, left: FloatArray) -> Column:
         space = self.crowd.personal_space
         if self.circles:  # the radius is the extent in every direction
-            return np.asarray(space.a[receiver], dtype=np.float64)
-        return extent_in_body_frame(space.kind[receiver], space.a[receiver], space.b[receiver],
-                                    space.offset[receiver], forward, left)
+            extent = np.asarray(space.a[receiver], dtype=np.float64)
+        else:
+            extent = extent_in_body_frame(space.kind[receiver], space.a[receiver],
+                                          space.b[receiver], space.offset[receiver], forward,
+                                          left)
+        if self.space_scale is None:
+            return extent
+        body = self.crowd.radius[receiver]
+        return body + (extent - body) * self.space_scale[receiver]
+
+
+def _space_scale(crowd: Crowd, drive: Drive, at_rest: Column) -> FloatArray | None:
+    """Per Crowd row, the share of the personal space beyond the body kept at the current
+    speed: `at_rest` standing still, rising linearly to 1 at the desired speed; None when
+    everyone keeps the whole (the default), and 1 for rows nobody steers (robots)."""
+    if isinstance(at_rest, float) and at_rest >= 1.0:
+        return None
+    rows = drive.index
+    speed = np.hypot(crowd.velocity[rows, 0], crowd.velocity[rows, 1])
+    pace = np.minimum(speed / np.maximum(drive.desired_speed, 1e-9), 1.0)
+    scale = np.ones(crowd.count)
+    kept = _at(at_rest, rows)
+    scale[rows] = kept + (1.0 - kept) * pace
+    return scale
 
 
 def _product(first: Column, second: Column) -> Column:

@@ -147,9 +147,10 @@ def test_a_larger_personal_space_keeps_people_further_apart() -> None:
     assert pair_distance(small).min() > 0.4
 
 
-def stop_distance_behind(space: Shape) -> float:
+def stop_distance_behind(space: Shape, space_at_rest: float = 1.0) -> float:
     """How far from a standing person someone stops whose target lies just beyond them."""
-    no_sidestep = [SocialForceParams(side_preference=0.0)] * 2  # stay on the line of centres
+    no_sidestep = [SocialForceParams(side_preference=0.0,  # stay on the line of centres
+                                     space_at_rest=space_at_rest)] * 2
     scene = Scene(position=[[0.0, 0.0], [4.0, 0.0]], target=[[4.5, 0.0], [4.0, 0.0]],
                   shapes=[space, Circle(0.2)], radius=np.array([0.2, 0.2]),
                   speed=np.array([SPEED, 0.0]), params=no_sidestep)
@@ -174,6 +175,25 @@ def test_an_ellipse_keeps_people_further_away_in_front_than_beside() -> None:
     assert pushes["ellipse", "ahead"] > 3.0 * pushes["ellipse", "beside"]
     assert pushes["ellipse", "beside"] == pytest.approx(pushes["circle", "beside"], rel=0.25)
     assert pushes["ellipse", "ahead"] > 3.0 * pushes["circle", "ahead"]
+
+
+def test_a_personal_space_that_shrinks_at_rest_lets_people_close_up() -> None:
+    whole = stop_distance_behind(Circle(0.6))
+    shrunk = stop_distance_behind(Circle(0.6), space_at_rest=0.2)
+    assert shrunk < whole - 0.1
+    assert shrunk > 0.4  # bodies still do not touch
+
+
+def test_at_the_desired_speed_the_whole_personal_space_counts() -> None:
+    def first_velocities(space_at_rest: float) -> np.ndarray:
+        scene = head_on(Circle(0.6))
+        scene.position = np.array([[-0.6, 0.0], [0.6, 0.0]])
+        scene.velocity = np.array([[SPEED, 0.0], [-SPEED, 0.0]])
+        scene.params = [SocialForceParams(space_at_rest=space_at_rest)] * 2
+        return SocialForcePlanner(OPEN, scene.params).velocities(scene.crowd(), scene.drive(),
+                                                                 DT)
+
+    np.testing.assert_array_equal(first_velocities(0.0), first_velocities(1.0))
 
 
 def test_a_human_walking_at_a_wall_does_not_enter_it() -> None:

@@ -13,9 +13,12 @@ pytest.importorskip("pedpy")
 
 from hubero_dsl.errors import InputError
 from hubero_dsl.pipeline import compile_source
+from hubero_dsl.sweep.executors import SerialExecutor
+from hubero_dsl.validation import calibrate as calibration
 from hubero_dsl.validation.calibrate import (
     FITTABLE,
     Calibration,
+    calibrate,
     chosen,
     loss,
 )
@@ -51,6 +54,38 @@ def test_the_defaults_block_is_valid_language() -> None:
     assert set(FITTABLE) >= set(fitted)
 
 
+def test_the_block_holds_the_values_exactly_as_they_were_run() -> None:
+    fitted = {"relaxation_time": 0.2318, "social_force.space_at_rest": 0.7951,
+              "personal_space": 0.4432}
+    block = Calibration(fitted, 0.01, 5, (), ()).defaults_block(["uo-050-180-180"])
+    assert "relaxation_time 0.2318 s" in block and "circle(radius: 0.4432 m)" in block
+    map_yaml = Path(__file__).resolve().parents[2] / "maps" / "rimea_corridor.yaml"
+    program = compile_source(f'scenario "x"\nmap "{map_yaml}"\n{block}'
+                             'human a at (1.0, 1.0)\n')
+    params = program.resolved_params()["a"]
+    assert params["relaxation_time"] == 0.2318
+    assert params["social_force.space_at_rest"] == 0.7951
+
+
+def test_with_several_seeds_the_error_is_taken_over_all_their_runs(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    runs: list[tuple[str, int]] = []
+
+    def errors(path: str, seed: int, values: tuple[tuple[str, float], ...]) -> list[float]:
+        runs.append((path, seed))
+        value = dict(values)["relaxation_time"]
+        return [value - 0.6 + 0.2 * (seed - 3)]  # seed 3 fits best at 0.6, seed 4 at 0.4
+
+    monkeypatch.setattr(calibration, "file_errors", errors)
+    result = calibrate([Path("a.txt")], [], fit=chosen(["relaxation_time"]), seed=3, seeds=2,
+                       evaluations=12, executor=SerialExecutor())
+    assert {seed for _, seed in runs} == {3, 4}
+    best = result.fitted["relaxation_time"]
+    assert 0.45 < best < 0.55  # the compromise between the two seeds, not either's optimum
+    (report,) = result.train
+    assert report.fitted_loss == pytest.approx(loss([[best - 0.6, best - 0.4]]))
+
+
 def test_a_small_fit_is_deterministic_and_reports_held_out_errors(cli: Cli,
                                                                   tmp_path: Path) -> None:
     out = tmp_path / "fitted.hub"
@@ -73,6 +108,7 @@ def test_a_small_fit_is_deterministic_and_reports_held_out_errors(cli: Cli,
     (("--fit", "nonsense"), "can be fitted are"),
     (("--evaluations", "0"), "--evaluations must be"),
     (("--seed", "-2"), "--seed must be"),
+    (("--seeds", "0"), "--seeds must be"),
     (("--train", "corridor.txt"), "cannot tell which experiment"),
     (("--train", "uo-050-180-180.txt"), "trajectory file not found"),
     (("--train", FREE_FLOW, "-o", "no/such/dir/f.hub"), "cannot be written"),
