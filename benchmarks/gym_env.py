@@ -1,17 +1,29 @@
-"""Environment steps per second of `hubero/Scenario-v0`, single and vectorised.
+"""Environment steps per second of `hubero/Scenario-v0`, single and vectorised, beside SocNavGym.
 
-    python benchmarks/gym_env.py [--steps 3000] [--copies 64]
+    python benchmarks/gym_env.py [--steps 3000] [--copies 64] [--socnavgym PYTHON]
 
 Two workloads: the paper's living room (two humans walking their dinner scenario) with an
 external robot added, and a 20-person room where everyone wanders. Each is timed through
 `gymnasium.make` / `gymnasium.make_vec` with random actions, resets included, after a warm-up
 episode step. Targets (issue 12): single env >= 5,000 steps/s on the living room; 64 copies
 >= 50,000 env-steps/s on the living room and >= 10,000 on the crowd.
+
+`--socnavgym PYTHON` also times SocNavGym-v1 (a CrowdNav-style Gym environment, on PyPI as
+`socnavgym`) in that interpreter, in the same run: a 10 m x 10 m room with 2 and with 20
+people walking by its social force policy, 50 ms steps, random actions, resets included. It
+needs its own environment, for it pins gym 0.26 and needs torch and Python-RVO2 (built from its
+repository): `python -m venv peer && peer/bin/pip install socnavgym pyyaml matplotlib pandas
+torch`, then `peer/bin/pip install --no-build-isolation .` in a clone of
+sybrenstuvel/Python-RVO2 (with Cython and wheel installed). SocNavGym imports dgl for a reward
+model this benchmark does not use; the run gives it a stand-in module instead.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
+import subprocess
 import tempfile
 import time
 from pathlib import Path
@@ -86,22 +98,116 @@ def vector_rate(scenario: Path, steps: int, copies: int) -> float:
     return rounds * copies / (time.perf_counter() - start)
 
 
+# A module named dgl that imports and has whatever is asked of it: SocNavGym builds a graph
+# network reward model from dgl at every reset, which the DSRNN reward timed here never uses.
+DGL_STAND_IN = """
+import importlib.abc, importlib.machinery, sys, types
+class _Anything(types.ModuleType):
+    def __getattr__(self, name):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        return type(name, (), {"__init__": lambda self, *a, **k: None})
+class _Finder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+    def find_spec(self, name, path, target=None):
+        if name == "dgl" or name.startswith("dgl."):
+            return importlib.machinery.ModuleSpec(name, self, is_package=True)
+        return None
+    def create_module(self, spec):
+        module = _Anything(spec.name)
+        module.__path__ = []
+        return module
+    def exec_module(self, module):
+        pass
+sys.meta_path.insert(0, _Finder())
+"""
+
+SOCNAVGYM_RATE = """
+import json, sys, time, warnings
+warnings.filterwarnings("ignore")
+import numpy as np
+np.bool8 = np.bool_  # gym 0.26 still names it so
+import gym, socnavgym
+import socnavgym.envs.rewards.reward_api as reward_api
+reward_api.SocNavAPI = lambda *a, **k: None  # the graph network reward model, unused
+env = gym.make("SocNavGym-v1", config=sys.argv[1])
+env.reset(seed=0)
+env.action_space.seed(0)
+steps = int(sys.argv[2])
+start = time.perf_counter()
+for _ in range(steps):
+    _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+    if terminated or truncated:
+        env.reset()
+print(json.dumps(steps / (time.perf_counter() - start)))
+"""
+
+
+def socnavgym_config(people: int) -> dict[str, object]:
+    """SocNavGym's own example configuration (exp1), with `people` dynamic humans walking by
+    its social force policy, no furniture, 50 ms steps, a square 10 m room."""
+    zero = ("static_humans", "tables", "plants", "laptops", "h_h_dynamic_interactions",
+            "h_h_dynamic_interactions_non_dispersing", "h_h_static_interactions",
+            "h_h_static_interactions_non_dispersing", "human_in_h_h_interactions",
+            "h_l_interactions", "h_l_interactions_non_dispersing")
+    env: dict[str, object] = {
+        "margin": 0.5, "max_advance_human": 0.1, "max_rotation_human": 1.57,
+        "max_advance_robot": 0.1, "max_rotation": 0.387596899, "wall_segment_size": 1.0,
+        "speed_threshold": 0.005, "crowd_dispersal_probability": 0.0,
+        "human_laptop_dispersal_probability": 0.0, "crowd_formation_probability": 0.0,
+        "human_laptop_formation_probability": 0.0, "reward_file": "dsrnn", "cuda_device": 0,
+        "min_dynamic_humans": people, "max_dynamic_humans": people,
+        "get_padded_observations": False, "set_shape": "square", "add_corridors": False,
+        "min_map_x": 10, "max_map_x": 10, "min_map_y": 10, "max_map_y": 10}
+    env.update({f"{bound}_{name}": 0 for name in zero for bound in ("min", "max")})
+    return {
+        "rendering": {"resolution_view": 1000, "milliseconds": 30},
+        "episode": {"episode_length": 400, "time_step": 0.05, "end_with_collision": True},
+        "robot": {"robot_radius": 0.25, "goal_radius": 0.35, "robot_type": "diff-drive"},
+        "human": {"human_diameter": 0.72, "human_goal_radius": 0.25, "human_policy": "sfm",
+                  "gaze_angle": 3.14159, "fov_angle": 6.2831853, "prob_to_avoid_robot": 0.0},
+        "laptop": {"laptop_width": 0.4, "laptop_length": 0.6}, "plant": {"plant_radius": 0.4},
+        "table": {"table_width": 1.5, "table_length": 3.0}, "wall": {"wall_thickness": 0.2},
+        "human-human-interaction": {"interaction_radius": 0.72, "interaction_goal_radius": 1.44,
+                                    "noise_variance": 0.005},
+        "human-laptop-interaction": {"human_laptop_distance": 0.3},
+        "env": env}
+
+
+def socnavgym_rate(python: str, folder: Path, people: int, steps: int) -> float:
+    """SocNavGym-v1's steps per second, in the interpreter `python` (JSON is YAML)."""
+    config = folder / f"socnavgym_{people}.yaml"
+    config.write_text(json.dumps(socnavgym_config(people)), encoding="utf-8")
+    (folder / "sitecustomize.py").write_text(DGL_STAND_IN, encoding="utf-8")
+    done = subprocess.run([python, "-c", SOCNAVGYM_RATE, str(config), str(steps)],
+                          capture_output=True, text=True, check=False,
+                          env={**os.environ, "PYTHONPATH": str(folder)})
+    if done.returncode != 0:
+        raise SystemExit(f"SocNavGym could not be timed:\n{done.stderr[-2000:]}")
+    return float(done.stdout.strip().splitlines()[-1])
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--steps", type=int, default=3000)
     parser.add_argument("--copies", type=int, default=64)
+    parser.add_argument("--socnavgym", metavar="PYTHON",
+                        help="an interpreter with SocNavGym installed, to time it alongside")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as name:
         folder = Path(name)
-        for label, scenario, single_target, vector_target in (
-                ("living room (2 people)", living_room(folder), 5_000, 50_000),
-                ("crowd (20 people)", crowd(folder), None, 10_000)):
+        for label, people, scenario, single_target, vector_target in (
+                ("living room (2 people)", 2, living_room(folder), 5_000, 50_000),
+                ("crowd (20 people)", 20, crowd(folder), None, 10_000)):
             single = single_rate(scenario, args.steps)
             vector = vector_rate(scenario, args.steps, args.copies)
             targets = (f"target {single_target:,}" if single_target else "no target")
             print(f"{label}: single env {single:,.0f} steps/s ({targets}); "
                   f"{args.copies} copies {vector:,.0f} env-steps/s (target {vector_target:,})")
+            if args.socnavgym:
+                peer = socnavgym_rate(args.socnavgym, folder, people, max(args.steps // 10, 100))
+                print(f"  SocNavGym-v1, {people} people: {peer:,.0f} steps/s; hubero's single "
+                      f"env {single / peer:.1f}x, {args.copies} copies {vector / peer:.1f}x")
 
 
 if __name__ == "__main__":

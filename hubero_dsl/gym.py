@@ -29,6 +29,9 @@ observations.
 `HuberoVectorEnv` (`gymnasium.make_vec(..., vectorization_mode="vector_entry_point")`) steps
 `num_envs` episodes of one scenario in one process, with batched observations and automatic
 resets (gymnasium's next-step autoreset).
+
+Episodes and copies share the global planners (`GlobalPlanners`): a goal's cost field is
+searched once for all of them, and each episode still plans as it would alone.
 """
 
 from __future__ import annotations
@@ -48,7 +51,7 @@ from hubero_dsl.controllers.base import ControllerParams, Observation, RobotBody
 from hubero_dsl.errors import InputError
 from hubero_dsl.model.program import Program, RobotSpec
 from hubero_dsl.sim.judge import Judge
-from hubero_dsl.sim.simulation import Simulation
+from hubero_dsl.sim.simulation import GlobalPlanners, Simulation
 
 ENV_ID = "hubero/Scenario-v0"
 INTIMATE, PERSONAL = 0.45, 1.2   # m, surface gaps (HuNavSim's bands)
@@ -135,6 +138,8 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         self._judge: Judge | None = None
         self._log: Any = None
         self._gap_min = math.inf
+        # episodes (and a vector env's copies) share the planners' cached fields
+        self._planners = GlobalPlanners()
 
     # ---- the Env API -------------------------------------------------------------------------
 
@@ -145,7 +150,8 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         run_seed = seed if seed is not None else int(self.np_random.integers(2**31))
         self._controller = ActionController()
         sim = Simulation(self.program, variant=self.variant, seed=run_seed,
-                         controllers={self.robot_name: self._controller})
+                         controllers={self.robot_name: self._controller},
+                         planners=self._planners)
         self._sim = sim
         self._judge = Judge(sim)
         self._gap_min = math.inf
@@ -318,6 +324,9 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
         program, _ = load_scenario(scenario, robot)
         self.num_envs = num_envs
         self.envs = [ScenarioEnv(program, robot, **options) for _ in range(num_envs)]
+        planners = self.envs[0]._planners
+        for env in self.envs[1:]:
+            env._planners = planners
         self.single_action_space = self.envs[0].action_space
         self.single_observation_space = self.envs[0].observation_space
         self.action_space = batch_space(self.single_action_space, num_envs)

@@ -97,6 +97,51 @@ def test_driving_into_a_person_is_a_collision(tmp_path: Path) -> None:
     assert info["outcome"] == "collision" and reward < 0
 
 
+def _people_seen(env: gymnasium.Env, seed: int, steps: int = 120) -> np.ndarray:
+    observation, _ = env.reset(seed=seed)
+    seen = [observation["people"].copy()]
+    for _ in range(steps):
+        observation, *_ = env.step(np.array([0.3, 0.2], np.float32))
+        seen.append(observation["people"].copy())
+    return np.stack(seen)
+
+
+ZIGZAG = """\
+scenario "gym zigzag"
+map "zigzag.yaml"
+time_limit 30 s
+human alice at (1.5, 6)
+human bob at (8, 2)
+human carol at (4.5, 7)
+robot cart at (1, 1) { controller external; goal (8, 6); radius 0.3 m; speed 0.8 m/s }
+activity { parallel {
+    alice move_to (9, 6.5)
+    bob move_around in rect((1, 1), (9, 7)) for 30 s
+    { carol move_to (1.5, 1.5); carol move_to (9, 1.5) }
+} }
+"""
+
+
+def test_episodes_share_plans_and_each_plans_as_if_alone(tmp_path: Path) -> None:
+    # two partitions: every walk but the shortest goes round one of them (a search)
+    save_map(room_grid(walls=((3.0, 2.5, 3.3, 8.0), (6.5, 0.0, 6.8, 5.5))),
+             tmp_path / "zigzag.yaml")
+    (tmp_path / "zigzag.hub").write_text(ZIGZAG, encoding="utf-8")
+    file = str(tmp_path / "zigzag.hub")
+    alone = _people_seen(gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=file, robot="cart"), 11)
+    env = gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=file, robot="cart")
+    _people_seen(env, 12)
+    _people_seen(env, 13)
+    navfn = env.unwrapped._planners._kept["navfn", ()]
+    remembered, known = navfn.remembered_plans, len(navfn._plans)
+    assert np.array_equal(_people_seen(env, 11), alone)  # after other episodes' plans
+    assert len(navfn._plans) > known  # bob wanders elsewhere with another seed
+    remembered, known = navfn.remembered_plans, len(navfn._plans)
+    assert np.array_equal(_people_seen(env, 11), alone)
+    # the same episode again asks the same questions: every plan is remembered, none searched
+    assert navfn.remembered_plans >= remembered + 3 and len(navfn._plans) == known
+
+
 def test_an_episode_is_saved_as_a_log(tmp_path: Path) -> None:
     log = tmp_path / "episode.mcap"
     env = gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(_scenario(tmp_path)), robot="cart",

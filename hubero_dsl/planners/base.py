@@ -59,7 +59,14 @@ class Plan:
 
 @runtime_checkable
 class GlobalPlanner(Protocol):
-    """Plans a path over the static map. One instance serves every human of a run."""
+    """Plans a path over the static map. One instance serves every human of a run.
+
+    A class may also offer `for_sharing(grid, params)`, a classmethod returning an instance
+    whose plans do not depend on the queries it answered before; such an instance (and what
+    it caches) then serves many runs of one program, as a gym environment's episodes and
+    copies are (`hubero_dsl.sim.simulation.GlobalPlanners`). Without it, every run builds its
+    own.
+    """
 
     name: ClassVar[str]
     Params: ClassVar[type[PlannerParams]]

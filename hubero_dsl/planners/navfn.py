@@ -14,6 +14,7 @@ the straight segment replacing it crosses no lethal cell and costs no more than 
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
@@ -47,6 +48,7 @@ _ENTRY_SEARCH = 0.5     # m beyond the lethal radius searched for a way out of t
 _BATCH = 32             # shortcut candidates tested per vectorised round
 _COST_SLACK = 1e-9      # relative: a shortcut may cost this much more (float noise) than its path
 _MAX_GRIDS = 4          # cost grids kept: one per distinct (body, comfort) pair of a run
+_MAX_PLANS = 4096       # plans an independent planner remembers (least recently used go)
 
 
 class NavfnParams(PlannerParams):
@@ -75,8 +77,17 @@ class NavfnPlanner:
     name: ClassVar[str] = "navfn"
     Params: ClassVar[type[PlannerParams]] = NavfnParams
 
-    def __init__(self, grid: OccupancyGrid, params: PlannerParams) -> None:
+    def __init__(self, grid: OccupancyGrid, params: PlannerParams, *,
+                 independent: bool = False) -> None:
         self.grid = grid
+        # A first plan to a goal searches only the region that proves its path optimal; a
+        # later plan to that goal reuses that field when it covers the start. Of paths of equal
+        # cost, which one a field holds depends on the region searched, so a plan can depend
+        # on the plans before it. An independent planner searches each query's own region and
+        # remembers whole plans by their query instead: every plan is a function of its query.
+        self.independent = independent
+        self._plans: OrderedDict[tuple[Point, Point, float, float], Plan] = OrderedDict()
+        self.remembered_plans = 0  # plans an independent planner answered from memory
         self.params = (params if isinstance(params, NavfnParams)
                        else NavfnParams.model_validate(params.model_dump()))
         self._cache = FieldCache(np.asarray(grid.clearance, dtype=np.float64), grid.resolution,
@@ -86,6 +97,12 @@ class NavfnPlanner:
         # pass through one.
         self._walls: FloatArray = np.where(np.asarray(grid.occupied, dtype=bool), np.inf, 0.0)
         self.straight_plans = 0  # plans that were a free straight segment: no search
+
+    @classmethod
+    def for_sharing(cls, grid: OccupancyGrid, params: PlannerParams) -> NavfnPlanner:
+        """A planner whose plans do not depend on the queries before them, so that runs can
+        share it (and its cached fields) and each still plans as if it were alone."""
+        return cls(grid, params, independent=True)
 
     @property
     def cache_stats(self) -> CacheStats:
@@ -97,6 +114,23 @@ class NavfnPlanner:
 
         Raises NoPath when the goal is off the map, in or too near an obstacle, or cut off.
         """
+        if not self.independent:
+            return self._plan(start, goal, body_radius, comfort_radius)
+        query = (start, goal, body_radius, comfort_radius)
+        plan = self._plans.get(query)
+        if plan is not None:
+            self.remembered_plans += 1
+        else:
+            plan = self._plan(start, goal, body_radius, comfort_radius)
+            plan.waypoints.setflags(write=False)  # handed out again: nobody may change it
+            self._plans[query] = plan
+            if len(self._plans) > _MAX_PLANS:
+                self._plans.popitem(last=False)
+        self._plans.move_to_end(query)
+        return plan
+
+    def _plan(self, start: Point, goal: Point, body_radius: float,
+              comfort_radius: float) -> Plan:
         key = self._key(body_radius, comfort_radius)
         costs = self._cache.cost_grid(key)
         goal_cell = self._goal_cell(goal, body_radius, costs)
@@ -112,7 +146,8 @@ class NavfnPlanner:
             # shorter or cheaper, so no search is needed (a crowd's thousand plans in the open)
             self.straight_plans += 1
             return self._to_world(np.vstack([start_uv, goal_uv]), start, goal)
-        field = self._cache.field(key, goal_cell, entry)
+        field = (costs.search(int(costs.labels[goal_cell])).solve_between(goal_cell, entry)
+                 if self.independent else self._cache.field(key, goal_cell, entry))
         cells = _turns(field.descend(entry))
         forced = entry != cell_at(start_uv, costs.cost.shape)
         points, to_go = self._polyline(start_uv, goal_uv, cells, field, costs,

@@ -34,6 +34,11 @@ class StraightLinePlanner:
         self.grid = grid
         self.params = params
 
+    @classmethod
+    def for_sharing(cls, grid: OccupancyGrid, params: PlannerParams) -> StraightLinePlanner:
+        """The planner itself: it keeps nothing between plans, so runs can share it."""
+        return cls(grid, params)
+
     def plan(self, start: tuple[float, float], goal: tuple[float, float], *,
              body_radius: float, comfort_radius: float) -> Plan:
         """[start, goal]; raises NoPath when the goal is off the map or the body does not fit

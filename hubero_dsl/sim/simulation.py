@@ -75,12 +75,46 @@ def _draw(distribution: Distribution, rng: np.random.Generator, key: str) -> flo
     return value
 
 
+PlannerKey = tuple[str, tuple[tuple[str, float], ...]]
+
+
+class GlobalPlanners:
+    """Global planners kept across the runs of one program (a gym environment's episodes and
+    copies), so that a goal's cost field is searched once, not once a run.
+
+    Only planners whose class offers `for_sharing` are kept: their plans do not depend on the
+    queries before them, so every run plans exactly as it would alone. Other planners are
+    built afresh for each run.
+    """
+
+    def __init__(self) -> None:
+        self._kept: dict[PlannerKey, GlobalPlanner] = {}
+        self._grid: object = None
+
+    def build(self, program: Program, key: PlannerKey) -> GlobalPlanner:
+        if program.grid is not self._grid:  # planners serve the map they were built on
+            self._kept.clear()
+            self._grid = program.grid
+        kept = self._kept.get(key)
+        if kept is not None:
+            return kept
+        cls = global_planner(key[0])
+        params = cls.Params.model_validate(dict(key[1]))
+        share = getattr(cls, "for_sharing", None)
+        if share is None:
+            return cls(program.grid, params)
+        planner: GlobalPlanner = share(program.grid, params)
+        self._kept[key] = planner
+        return planner
+
+
 class Simulation:
     """A run of one program variant with one seed. Deterministic: same inputs, same run."""
 
     def __init__(self, program: Program, *, variant: str | None = None, seed: int | None = None,
                  activities: bool = True,
-                 controllers: Mapping[str, type | RobotController] | None = None) -> None:
+                 controllers: Mapping[str, type | RobotController] | None = None,
+                 planners: GlobalPlanners | None = None) -> None:
         if variant is not None and variant not in program.variants:
             known = ", ".join(program.variants) or "none"
             raise SimulationError(f"unknown variant '{variant}' (variants: {known})")
@@ -88,6 +122,7 @@ class Simulation:
         self.variant = variant
         self.seed = program.seed if seed is None else seed
         self.params = draw_params(program, variant, self.seed)
+        self._shared_planners = planners
         self.engine = self._build_engine(build_controllers(program, controllers or {}))
         self._ids = itertools.count(1)
         places = {name: pose.xy for name, pose in program.places.items()}
@@ -200,15 +235,14 @@ class Simulation:
         program, params = self.program, self.params
         names = program.human_names
         humans = _human_arrays(program, params)
-        planners_by_key: dict[tuple[str, tuple[tuple[str, float], ...]], GlobalPlanner] = {}
+        planners_by_key: dict[PlannerKey, GlobalPlanner] = {}
         global_of: list[GlobalPlanner] = []
         for name in names:
             planner_name = str(params[name]["global_planner"])
             own = _planner_values(params[name], planner_name)
             key = (planner_name, tuple(sorted(own.items())))
             if key not in planners_by_key:
-                cls = global_planner(planner_name)
-                planners_by_key[key] = cls(program.grid, cls.Params.model_validate(own))
+                planners_by_key[key] = self._global_planner(key)
             global_of.append(planners_by_key[key])
         robots = Robots(program.robots, program.grid, program.step, controllers)
         local_of = [str(params[n]["local_planner"]) for n in names]
@@ -223,6 +257,13 @@ class Simulation:
                               for name, members in program.groups.items()},
                       rng_for=lambda purpose, i: np.random.default_rng(
                           stable_seed(seed, purpose, names[i])))
+
+
+    def _global_planner(self, key: PlannerKey) -> GlobalPlanner:
+        if self._shared_planners is not None:
+            return self._shared_planners.build(self.program, key)
+        cls = global_planner(key[0])
+        return cls(self.program.grid, cls.Params.model_validate(dict(key[1])))
 
 
 def build_controllers(program: Program, given: Mapping[str, type | RobotController]
