@@ -313,6 +313,15 @@ def _patch(sim: Simulation, centre: tuple[float, float], size: int) -> npt.NDArr
     return out[::-1]  # grid row 0 is the lowest y; the patch's first row is the northmost
 
 
+def copy_log(log: str | Path | None, index: int, copies: int) -> Path | None:
+    """Where copy `index` of a vector env writes its episodes: `run.mcap` becomes
+    `run-0.mcap`, `run-1.mcap`, ... (one copy keeps the name as given)."""
+    if log is None:
+        return None
+    path = Path(log)
+    return path if copies == 1 else path.with_name(f"{path.stem}-{index}{path.suffix}")
+
+
 class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
     """`num_envs` episodes of one scenario in one process, batched, with next-step autoreset."""
 
@@ -323,7 +332,9 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
                  **options: Any) -> None:
         program, _ = load_scenario(scenario, robot)
         self.num_envs = num_envs
-        self.envs = [ScenarioEnv(program, robot, **options) for _ in range(num_envs)]
+        log = options.pop("log", None)
+        self.envs = [ScenarioEnv(program, robot, log=copy_log(log, i, num_envs), **options)
+                     for i in range(num_envs)]
         planners = self.envs[0]._planners
         for env in self.envs[1:]:
             env._planners = planners

@@ -171,6 +171,20 @@ def test_the_vector_env_batches_and_resets_by_itself(tmp_path: Path) -> None:
     envs.close()
 
 
+def test_each_copy_of_a_vector_env_writes_its_own_log(tmp_path: Path) -> None:
+    envs = gymnasium.make_vec(hubero_dsl.gym.ENV_ID, num_envs=2,
+                              vectorization_mode="vector_entry_point",
+                              scenario=str(_scenario(tmp_path)), robot="cart",
+                              log=str(tmp_path / "run.mcap"))
+    envs.reset(seed=[1, 2])
+    for _ in range(401):  # the 20 s limit: both episodes end and are written
+        envs.step(np.tile([0.1, 0.0], (2, 1)).astype(np.float32))
+    envs.close()
+    first, second = load_run(tmp_path / "run-0.mcap"), load_run(tmp_path / "run-1.mcap")
+    assert not (tmp_path / "run.mcap").exists()
+    assert (first.metadata.seed, second.metadata.seed) == (1, 2)
+
+
 def test_a_robot_the_environment_cannot_drive_is_refused(tmp_path: Path) -> None:
     file = tmp_path / "nav.hub"
     save_map(room_grid(), tmp_path / "room.yaml")
