@@ -151,6 +151,8 @@ class CrowdEncoder:
             else frame.present[rows]
         here = rows[present]
         stamp = s.timestamp_json(frame.tick * self._dt_ns).encode()
+        if not here.size:  # a flow before its first arrival or after its last departure
+            return self._nobody(stamp)
         heading = frame.heading[here]
         w, z = yaw_text(heading)
         x, y, vx, vy, heading_text = _columns(
@@ -169,6 +171,15 @@ class CrowdEncoder:
             b'],"timestamp":', stamp, b',"vx":', json_array(vx), b',"vy":', json_array(vy),
             b',"x":', json_array(x), b',"y":', json_array(y), b"}"])
         return poses_json, state_json
+
+    @staticmethod
+    def _nobody(stamp: bytes) -> tuple[bytes, bytes]:
+        """The two messages of a frame without members: what `encode` writes for them, with
+        none of its array work (a validation rebuild is hundreds of flows of one person)."""
+        return (b'{"frame_id":"map","poses":[],"timestamp":' + stamp + b"}",
+                b'{"fsm_state":[],"heading":[],"names":[],"posture":[],"status":[],'
+                b'"task_id":[],"timestamp":' + stamp
+                + b',"vx":[],"vy":[],"x":[],"y":[]}')
 
     def _names_of(self, present: npt.NDArray[np.bool_]) -> bytes:
         """The JSON array of the present members' names (rebuilt only when they change)."""
