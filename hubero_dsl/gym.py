@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any
 
 import gymnasium
 import numpy as np
@@ -47,7 +47,6 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from hubero_dsl.controllers.base import ControllerParams, Observation, RobotBody
 from hubero_dsl.errors import InputError
 from hubero_dsl.model.program import Program, RobotSpec
 from hubero_dsl.sim.judge import Judge
@@ -55,18 +54,6 @@ from hubero_dsl.sim.simulation import GlobalPlanners, Simulation
 
 ENV_ID = "hubero/Scenario-v0"
 INTIMATE, PERSONAL = 0.45, 1.2   # m, surface gaps (HuNavSim's bands)
-
-
-class ActionController:
-    """The robot's controller in an episode: it answers the last action given."""
-
-    Params: ClassVar[type[ControllerParams]] = ControllerParams
-
-    def __init__(self, body: RobotBody | None = None, params: object = None) -> None:
-        self.action = (0.0, 0.0)
-
-    def command(self, observation: Observation) -> tuple[float, float]:
-        return self.action
 
 
 class Reward:
@@ -134,7 +121,6 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         self.action_space = self.action_box
         self.observation_space = observation_space(self.program, max_people, map_patch)
         self._sim: Simulation | None = None
-        self._controller: ActionController | None = None
         self._judge: Judge | None = None
         self._log: Any = None
         self._gap_min = math.inf
@@ -148,10 +134,10 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         super().reset(seed=seed)
         self._close_log(None)
         run_seed = seed if seed is not None else int(self.np_random.integers(2**31))
-        self._controller = ActionController()
         sim = Simulation(self.program, variant=self.variant, seed=run_seed,
-                         controllers={self.robot_name: self._controller},
                          planners=self._planners)
+        self._robot = sim.robot(self.robot_name)
+        self._row = sim.engine.robots.index_of(self.robot_name)
         self._sim = sim
         self._judge = Judge(sim)
         self._gap_min = math.inf
@@ -165,12 +151,12 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
 
     def step(self, action: npt.NDArray[np.float32]
              ) -> tuple[dict[str, npt.NDArray[Any]], float, bool, bool, dict[str, Any]]:
-        sim, controller = self._sim, self._controller
-        if sim is None or controller is None:
+        sim = self._sim
+        if sim is None:
             raise gymnasium.error.ResetNeeded("call reset() before step()")
         low, high = self.action_box.low, self.action_box.high
         clipped = np.clip(np.asarray(action, dtype=np.float64), low, high)
-        controller.action = (float(clipped[0]), float(clipped[1]))
+        self._robot.drive(float(clipped[0]), float(clipped[1]))  # the controller is not asked
         sim.step()
         if self._log is not None:
             self._log.observe(sim)
@@ -205,15 +191,15 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
 
     def _goal_distance(self) -> float:
         assert self._sim is not None and self.robot_spec.goal is not None
-        return math.dist(self._sim.robot(self.robot_name).position, self.robot_spec.goal)
+        return math.dist(self._sim.engine.robots.position[self._row], self.robot_spec.goal)
 
     def _nearest_gap(self) -> float:
         assert self._sim is not None
         humans = self._sim.engine.humans
         if not humans.count:
             return math.inf
-        here = np.asarray(self._sim.robot(self.robot_name).position)
-        gaps = np.hypot(*(humans.position - here).T) - humans.radius - self.robot_spec.radius
+        offset = humans.position - self._sim.engine.robots.position[self._row]
+        gaps = np.hypot(offset[:, 0], offset[:, 1]) - humans.radius - self.robot_spec.radius
         return float(gaps.min())
 
     # ---- the end of an episode ---------------------------------------------------------------
@@ -284,14 +270,15 @@ def observe(sim: Simulation, spec: RobotSpec, max_people: int,
     assert spec.goal is not None
     robot = np.array([x, y, robots.velocity[i, 0], robots.velocity[i, 1], robots.heading[i],
                       spec.goal[0] - x, spec.goal[1] - y], dtype=np.float32)
+    humans = sim.engine.humans
     people = np.zeros((max_people, 5), dtype=np.float32)
     mask = np.zeros(max_people, dtype=np.int8)
-    seen = robots.seen_by(i, sim.engine.humans.names, sim.engine.humans.position,
-                        sim.engine.humans.velocity, sim.engine.humans.radius)[:max_people]
-    for row, person in enumerate(seen):
-        people[row] = (person.position[0] - x, person.position[1] - y, *person.velocity,
-                       person.radius)
-        mask[row] = 1
+    seen = robots.seen_rows(i, humans.position, humans.radius)[:max_people]
+    count = len(seen)
+    people[:count, 0:2] = humans.position[seen] - robots.position[i]
+    people[:count, 2:4] = humans.velocity[seen]
+    people[:count, 4] = humans.radius[seen]
+    mask[:count] = 1
     observation: dict[str, npt.NDArray[Any]] = {"robot": robot, "people": people, "mask": mask}
     if map_patch is not None:
         observation["map"] = _patch(sim, (float(x), float(y)), map_patch)

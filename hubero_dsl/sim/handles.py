@@ -18,6 +18,7 @@ towards the goal a task gives.
 from __future__ import annotations
 
 import itertools
+import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -254,8 +255,19 @@ class RobotHandle(_Actor):
             raise SimulationError(f"{self.name}: a velocity must be finite, got ({vx}, {vy})")
         self._engine.robots.set_velocity(self.name, (float(vx), float(vy)))
 
+    def drive(self, first: float, second: float) -> None:
+        """Give the robot the command its controller would give, from now on: (vx, vy) m/s
+        for a holonomic robot, (v m/s, omega rad/s) for a unicycle. Its kinematics, limits and
+        the walls apply as to a controller's command; `release()` hands it back."""
+        if not (math.isfinite(first) and math.isfinite(second)):
+            raise SimulationError(f"{self.name}: a command must be finite, got "
+                                  f"({first}, {second})")
+        self._engine.robots.drive(self.name, (float(first), float(second)))
+
     def release(self) -> None:
+        """Back to the robot's controller: undo `set_velocity` and `drive`."""
         self._engine.robots.set_velocity(self.name, None)
+        self._engine.robots.drive(self.name, None)
 
     def _kind(self, name: str) -> TaskKind:
         kind = super()._kind(name)

@@ -89,12 +89,15 @@ def keep_out_of_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
     only the others pay for interpolated clearances. Returns `new` itself when nobody is
     stopped.
     """
+    step = lengths(new - old)
+    moved = step > 0
+    if not moved.any():  # nobody moves: there is nothing to stop (the common tick at rest)
+        return new
     needed = 0.5 * radius + WALL_MARGIN
     near_wall = ~grid.surely_clear(new, needed)
     # a move longer than the clearance it starts from might pass through a thin wall: check it
     # too (a push from a robot, or a large step), not just where it ends
-    step = lengths(new - old)
-    long_moves = (step > 0) & ~grid.surely_clear(old, step + needed)
+    long_moves = moved & ~grid.surely_clear(old, step + needed)
     check = (near_wall | long_moves).nonzero()[0]
     if check.size == 0:
         return new

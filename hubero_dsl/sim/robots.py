@@ -3,7 +3,9 @@
 Every tick each robot's controller is asked for a velocity command given what its sensors
 report (`hubero_dsl.controllers.base.Observation`); the command is shaped by the robot's
 kinematics and limits (speed, acceleration, turn rate) and the robot moves, never through a
-wall. A velocity set through the API overrides the controller until it is cleared.
+wall. A velocity set through the API overrides the controller until it is cleared; a command
+given through the API (`drive`, as the Gym environment does each step) takes the controller's
+place and goes through the kinematics like the controller's answer would.
 
 Robots take tasks from activities like humans (`move_to`, `stand`, `follow`): a task sets the
 goal the controller is given and ends as a human's would (arrived, time up, stuck, the target
@@ -24,7 +26,7 @@ from hubero_dsl.controllers.base import Neighbour, Observation, RobotBody, Robot
 from hubero_dsl.errors import SimulationError
 from hubero_dsl.model.tasks import Target, Task
 from hubero_dsl.sim import physics
-from hubero_dsl.sim.arrays import FloatArray, HumanArrays
+from hubero_dsl.sim.arrays import FloatArray, HumanArrays, IntArray
 from hubero_dsl.sim.status import TaskHandle, TaskStatus
 from hubero_dsl.world.shapes import Circle, ShapeArrays
 
@@ -68,6 +70,9 @@ class Robots:
         self.path_length: FloatArray = np.zeros(count)
         self.personal_space = ShapeArrays.from_shapes([Circle(s.radius) for s in specs])
         self.commanded: dict[int, tuple[float, float]] = {}
+        self.driven: dict[int, tuple[float, float]] = {}
+        self._holonomic = np.array([i for i, s in enumerate(specs) if s.kinematics == "holonomic"],
+                                   dtype=np.intp)
         self.controllers: list[RobotController] = [
             (controllers or {})[s.name] for s in specs] if count else []
         self.tasks: list[RobotTask | None] = [None] * count
@@ -110,6 +115,16 @@ class Robots:
         else:
             self.commanded[index] = velocity
 
+    def drive(self, name: str, command: tuple[float, float] | None) -> None:
+        """Answer for the robot's controller from now on: `command` is what a controller would
+        return, (vx, vy) or (v, omega) by the robot's kinematics (None: ask the controller
+        again). The controller is not asked, so no observation is built for it."""
+        index = self.names.index(name)
+        if command is None:
+            self.driven.pop(index, None)
+        else:
+            self.driven[index] = command
+
     # ---- one tick ----------------------------------------------------------------------------
 
     def advance(self, dt: float, tick: int, humans: HumanArrays,
@@ -121,20 +136,23 @@ class Robots:
             if i in self.commanded:
                 wanted[i] = self._limited(i, np.asarray(self.commanded[i], float), dt)
             else:
-                command = self._ask(i, self._observe(i, time, humans, position_of), time)
+                command = self.driven.get(i)
+                if command is None:
+                    command = self._ask(i, self._observe(i, time, humans, position_of), time)
                 wanted[i] = self._move(i, command, dt)
         old = self.position
-        moved = physics.keep_out_of_walls(self.grid, old, old + wanted * dt, self.radius)
+        proposed = old + wanted * dt
+        moved = physics.keep_out_of_walls(self.grid, old, proposed, self.radius)
         step = moved - old
-        self.velocity = step / dt if not np.array_equal(moved, old + wanted * dt) else wanted
+        stopped = moved is not proposed and not np.array_equal(moved, proposed)
+        self.velocity = step / dt if stopped else wanted
         self.path_length += np.hypot(step[:, 0], step[:, 1])
         self.position = moved
-        turning = [i for i, s in enumerate(self.specs) if s.kinematics == "holonomic"]
-        moving = np.hypot(self.velocity[:, 0], self.velocity[:, 1]) > 1e-6
-        if turning:
-            rows = np.array(turning)
-            self.heading[rows] = np.where(moving[rows], np.arctan2(self.velocity[rows, 1],
-                                                                   self.velocity[rows, 0]),
+        rows = self._holonomic  # a holonomic robot faces where it goes
+        if len(rows):
+            velocity = self.velocity[rows]
+            moving = np.hypot(velocity[:, 0], velocity[:, 1]) > 1e-6
+            self.heading[rows] = np.where(moving, np.arctan2(velocity[:, 1], velocity[:, 0]),
                                           self.heading[rows])
 
     def _observe(self, i: int, time: float, humans: HumanArrays,
@@ -158,9 +176,16 @@ class Robots:
     def seen_by(self, i: int, names: list[str], position: FloatArray, velocity: FloatArray,
               radius: FloatArray) -> tuple[Neighbour, ...]:
         """Bodies within the robot's sensor range and field of view, nearest first."""
-        spec = self.specs[i]
         if not len(names):
             return ()
+        rows = self.seen_rows(i, position, radius)
+        return tuple(Neighbour(names[r], (float(position[r, 0]), float(position[r, 1])),
+                               (float(velocity[r, 0]), float(velocity[r, 1])), float(radius[r]))
+                     for r in rows)
+
+    def seen_rows(self, i: int, position: FloatArray, radius: FloatArray) -> IntArray:
+        """The rows of the bodies at `position` that robot `i` sees, nearest first."""
+        spec = self.specs[i]
         offset = position - self.position[i]
         distance = np.hypot(offset[:, 0], offset[:, 1])
         visible = distance - radius <= spec.sensor_range
@@ -169,11 +194,8 @@ class Robots:
         if spec.field_of_view < 2 * math.pi:
             bearing = np.arctan2(offset[:, 1], offset[:, 0]) - self.heading[i]
             visible &= np.abs(physics.wrap_angle(bearing)) <= spec.field_of_view / 2
-        rows = np.flatnonzero(visible)
-        rows = rows[np.argsort(distance[rows], kind="stable")]
-        return tuple(Neighbour(names[r], (float(position[r, 0]), float(position[r, 1])),
-                               (float(velocity[r, 0]), float(velocity[r, 1])), float(radius[r]))
-                     for r in rows)
+        rows = visible.nonzero()[0]
+        return rows[np.argsort(distance[rows], kind="stable")]
 
     def _ask(self, i: int, observation: Observation, time: float) -> tuple[float, float]:
         controller = self.controllers[i]

@@ -49,6 +49,17 @@ def test_keep_out_of_walls_returns_the_moves_when_all_are_clear() -> None:
     assert physics.keep_out_of_walls(grid, old, new, np.full(2, 0.2)) is new
 
 
+def test_keep_out_of_walls_leaves_bodies_at_rest_where_they_are() -> None:
+    grid = furnished_room()
+    # at rest against the table and inside it (where a push may once have left a body): a
+    # tick without motion stops nobody and moves nobody, without a clearance lookup
+    old = np.array([[2.0, 1.47], [2.0, 1.75], [5.0, 1.0]])
+    new = old.copy()
+    assert physics.keep_out_of_walls(grid, old, new, np.full(3, 0.25)) is new
+    exact = physics._slide_along_walls(grid, old, new, np.full(3, 0.125 + physics.WALL_MARGIN))
+    np.testing.assert_array_equal(exact, new)
+
+
 def test_body_separation_equals_separate_bodies_tick_after_tick() -> None:
     rng = np.random.default_rng(7)
     separation = physics.BodySeparation()

@@ -143,6 +143,30 @@ def test_a_unicycle_turns_at_most_its_rate_and_drives_along_its_heading(
     assert math.atan2(vy, vx) == pytest.approx(headings[-1])
 
 
+def test_a_driven_robot_moves_as_its_controller_would_and_release_hands_it_back(
+        scenario: ScenarioFactory) -> None:
+    text = """robot r at (5, 4) heading 0 deg {
+        controller external; kinematics unicycle; max_angular_speed 1.0; max_speed 0.5 m/s
+    }\n"""
+    recorder = Recorder(None, None, (0.4, 0.8))
+    asked = Simulation(scenario(text), activities=False, controllers={"r": recorder})
+    recorder_unused = Recorder(None, None, (0.0, 0.0))
+    driven = Simulation(scenario(text), activities=False, controllers={"r": recorder_unused})
+    driven.robot("r").drive(0.4, 0.8)
+    for _ in range(15):
+        asked.step()
+        driven.step()
+    # the same command through the same kinematics: the same motion, bit for bit
+    assert driven.robot("r").position == asked.robot("r").position
+    assert driven.robot("r").heading == asked.robot("r").heading
+    assert recorder_unused.seen == []  # a driven robot's controller is not asked
+    driven.robot("r").release()
+    driven.step()
+    assert len(recorder_unused.seen) == 1
+    with pytest.raises(SimulationError, match="must be finite"):
+        driven.robot("r").drive(math.nan, 0.0)
+
+
 def test_acceleration_is_limited(scenario: ScenarioFactory) -> None:
     program = scenario("robot r at (2, 4) { controller external; max_acceleration 0.5 }\n")
     sim = Simulation(program, activities=False)
