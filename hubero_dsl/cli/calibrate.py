@@ -11,8 +11,9 @@ the fitted values as a `defaults { }` block (-o writes it to a file, to paste in
 and the errors with hubero's defaults and with the fitted values, on the training runs and on
 the held-out ones. --seeds N runs every recording N times per parameter set (seeds S, S+1,
 ...) and takes the error over all of them, so that the fit follows the model rather than one
-draw of its noise. Deterministic per --seed and --seeds. Needs PedPy (pip install
-'hubero[validate]').
+draw of its noise. --start NAME=VALUE,... starts the search from those values (an earlier
+fit's, to refine it over more seeds) rather than from hubero's defaults. Deterministic per
+--seed and --seeds. Needs PedPy (pip install 'hubero[validate]').
 
 Parameters that can be fitted: relaxation_time, social_force.A, social_force.B,
 social_force.B_wall, social_force.space_at_rest, personal_space (the radius of a circle),
@@ -57,6 +58,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     parser.add_argument("--seeds", metavar="N", type=int, default=1,
                         help="runs of each recording per parameter set, with the seeds S, "
                              "S+1, ...: the error is taken over all of them (default 1)")
+    parser.add_argument("--start", metavar="NAME=VALUE,...",
+                        help="start the search from these values of the fitted parameters, "
+                             "in their units (default: hubero's defaults)")
     parser.add_argument("--executor", choices=("process", "serial"), default="process",
                         help="where the runs of a parameter set execute (default: process)")
     parser.add_argument("--jobs", "-j", metavar="N", type=int,
@@ -96,14 +100,15 @@ def run(args: argparse.Namespace) -> int:
         check_output(args.output, (*train, *test))
     pedpy()
     from hubero_dsl.sweep.executors import available_cores, open_executor
-    from hubero_dsl.validation.calibrate import calibrate, chosen
+    from hubero_dsl.validation.calibrate import calibrate, chosen, starting_values
     from hubero_dsl.validation.validate import measure
 
     fit = chosen([n.strip() for n in args.fit.split(",") if n.strip()])
+    start = starting_values(fit, args.start) if args.start is not None else None
     measure([experiment_for(Path(p)) for p in (*train, *test)])  # unreadable files: exit 2
     jobs = args.jobs if args.jobs is not None else min(available_cores(), len(train))
     with open_executor(args.executor, jobs=jobs) as executor:
-        result = calibrate(train, test, fit=fit, seed=args.seed, seeds=args.seeds,
+        result = calibrate(train, test, fit=fit, seed=args.seed, seeds=args.seeds, start=start,
                            evaluations=args.evaluations, executor=executor,
                            progress=None if args.quiet else _progress)
     block = result.defaults_block([r.name for r in result.train])

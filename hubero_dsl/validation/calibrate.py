@@ -5,6 +5,8 @@ density bins, of the squared relative error of the simulated mean speed (`compar
 recording with no counted bin adds 1. With the parameters scaled to [0, 1], a Latin hypercube
 of points (scipy.stats.qmc, with hubero's defaults) surveys the box, and scipy's Nelder-Mead
 (with bounds) goes on from the best of them, for at most `evaluations` parameter sets in all.
+Given `start` values (an earlier fit's, say, to refine it over more seeds), the search starts
+from them instead and spends the whole budget there, without a survey.
 Each set's recordings run in parallel on a sweep executor (`hubero_dsl.sweep.executors`); the
 workers load and analyse each recording once. After the fit, the held-out recordings are run
 with the defaults and with the fitted values, and their errors reported.
@@ -81,6 +83,30 @@ def chosen(names: Sequence[str]) -> list[Fittable]:
     return [FITTABLE[n] for n in names]
 
 
+def starting_values(fit: Sequence[Fittable], text: str) -> dict[str, float]:
+    """`NAME=VALUE,...` as the values the search starts from (InputError if unfit): each
+    NAME one of those fitted, each VALUE a number within its bounds, in its unit."""
+    by_name = {f.name: f for f in fit}
+    values: dict[str, float] = {}
+    for item in (part.strip() for part in text.split(",")):
+        name, equals, number = (piece.strip() for piece in item.partition("="))
+        if not equals or name not in by_name:
+            raise InputError(f"--start takes NAME=VALUE for the parameters fitted "
+                             f"({', '.join(by_name)}), got '{item}'")
+        try:
+            value = float(number)
+        except ValueError:
+            value = math.nan
+        bounds = by_name[name]
+        if not bounds.low <= value <= bounds.high:
+            raise InputError(f"--start {name} must be a number from {bounds.low:g} to "
+                             f"{bounds.high:g}, got '{number}'")
+        if name in values:
+            raise InputError(f"--start names {name} twice")
+        values[name] = value
+    return values
+
+
 def program_params(values: Mapping[str, float]) -> tuple[dict[str, ParamValue], float]:
     """Fitted values as program parameters, and the factor on the desired speeds."""
     params = {name: FITTABLE[name].value(v) for name, v in values.items() if name != SPEED_SCALE}
@@ -147,9 +173,11 @@ def _worst(errors: Sequence[float]) -> float:
 
 def calibrate(train: Sequence[Path], test: Sequence[Path], *, fit: Sequence[Fittable],
               seed: int, evaluations: int, executor: Executor, seeds: int = 1,
+              start: Mapping[str, float] | None = None,
               progress: Callable[[int, float], None] | None = None) -> Calibration:
     """Fit `fit` to the `train` recordings, then report on `train` and `test`; every set runs
-    each recording with the seeds `seed` .. `seed + seeds - 1`."""
+    each recording with the seeds `seed` .. `seed + seeds - 1`. The search starts from
+    hubero's defaults, or from `start` (for the parameters it names)."""
     from scipy.optimize import minimize
     from scipy.stats import qmc
 
@@ -180,10 +208,13 @@ def calibrate(train: Sequence[Path], test: Sequence[Path], *, fit: Sequence[Fitt
         return cache[_key(x)]
 
     # A first look over the whole box (a Latin hypercube, with the defaults), measured in
-    # parallel, then Nelder-Mead from the best point with what is left of the budget.
-    start = np.array([(f.default - f.low) / (f.high - f.low) for f in fit])
-    survey = min(max(evaluations // 2, 1), 4 * len(fit))
-    points = [start, *qmc.LatinHypercube(d=len(fit), seed=seed).random(survey - 1)]
+    # parallel, then Nelder-Mead from the best point with what is left of the budget; from a
+    # given start, Nelder-Mead from there with all of it.
+    origin = {f.name: f.default for f in fit} | dict(start or {})
+    points = [np.array([(origin[f.name] - f.low) / (f.high - f.low) for f in fit])]
+    if not start:
+        survey = min(max(evaluations // 2, 1), 4 * len(fit))
+        points += list(qmc.LatinHypercube(d=len(fit), seed=seed).random(survey - 1))
     measure_points(points)
     best = min(points, key=lambda p: cache[_key(p)])
     simplex = [best] + [np.clip(best + SIMPLEX_STEP * np.sign(0.5 - best[i] + 1e-9)

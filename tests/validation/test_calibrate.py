@@ -21,6 +21,7 @@ from hubero_dsl.validation.calibrate import (
     calibrate,
     chosen,
     loss,
+    starting_values,
 )
 from hubero_dsl.validation.experiments import shipped_path
 
@@ -86,6 +87,25 @@ def test_with_several_seeds_the_error_is_taken_over_all_their_runs(
     assert report.fitted_loss == pytest.approx(loss([[best - 0.6, best - 0.4]]))
 
 
+def test_a_search_from_given_values_starts_there_and_spends_its_budget_there(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    tried: list[dict[str, float]] = []
+
+    def errors(path: str, seed: int, values: tuple[tuple[str, float], ...]) -> list[float]:
+        tried.append(dict(values))
+        return [dict(values)["relaxation_time"] - 0.9]
+
+    monkeypatch.setattr(calibration, "file_errors", errors)
+    fit = chosen(["relaxation_time", "social_force.A"])
+    start = starting_values(fit, "relaxation_time=0.8")
+    result = calibrate([Path("a.txt")], [], fit=fit, seed=1, evaluations=10,
+                       executor=SerialExecutor(), start=start)
+    # the given value and the default of the one not given; then the search, no survey
+    assert tried[0] == {"relaxation_time": 0.8, "social_force.A": 2.1}
+    assert all(abs(t["relaxation_time"] - 0.8) <= 0.15 * 1.0 + 1e-9 for t in tried[:3])
+    assert abs(result.fitted["relaxation_time"] - 0.9) < 0.1
+
+
 def test_a_small_fit_is_deterministic_and_reports_held_out_errors(cli: Cli,
                                                                   tmp_path: Path) -> None:
     out = tmp_path / "fitted.hub"
@@ -109,6 +129,11 @@ def test_a_small_fit_is_deterministic_and_reports_held_out_errors(cli: Cli,
     (("--evaluations", "0"), "--evaluations must be"),
     (("--seed", "-2"), "--seed must be"),
     (("--seeds", "0"), "--seeds must be"),
+    (("--train", FREE_FLOW, "--start", "relaxation_time=9"), "must be a number from 0.2 to 1.2"),
+    (("--train", FREE_FLOW, "--start", "relaxation_time=fast"), "must be a number from"),
+    (("--train", FREE_FLOW, "--start", "social_force.B_wall=0.1"), "--start takes NAME=VALUE"),
+    (("--train", FREE_FLOW, "--start", "relaxation_time"), "--start takes NAME=VALUE"),
+    (("--train", FREE_FLOW, "--start", "relaxation_time=0.3,relaxation_time=0.4"), "twice"),
     (("--train", "corridor.txt"), "cannot tell which experiment"),
     (("--train", "uo-050-180-180.txt"), "trajectory file not found"),
     (("--train", FREE_FLOW, "-o", "no/such/dir/f.hub"), "cannot be written"),
