@@ -43,6 +43,7 @@ class World(Protocol):
     def walking_speed(self, index: int, running: bool = False) -> float: ...
     def walk_to(self, index: int, goal: tuple[float, float], speed: float, stop_distance: float,
                 *, abort: bool = True) -> str | None: ...
+    def standing_at_goal(self, index: int) -> str | None: ...
     def halt(self, index: int) -> None: ...
     def face(self, index: int, heading: float) -> None: ...
     def face_point(self, index: int, point: tuple[float, float]) -> None: ...
@@ -180,6 +181,19 @@ class MoveTo(Behaviour):
     def on_aligned(self, engine: World) -> None:
         engine.finish(self.index, TaskStatus.SUCCEEDED)
 
+    def on_stuck(self, engine: World) -> None:
+        # a goal others stand on (a counter, a door, a group talking there) is reached as
+        # people reach it: as near as those standing there allow, not after pushing through
+        blocker = engine.standing_at_goal(self.index)
+        if blocker is None:
+            super().on_stuck(engine)
+        elif self.heading is None:
+            engine.finish(self.index, TaskStatus.SUCCEEDED,
+                          f"stopped short of a goal taken by {blocker}")
+        else:
+            engine.halt(self.index)
+            self.on_arrived(engine)
+
 
 class Posed(MoveTo):
     """sit_down / lie_down: go there (if told where), then hold the posture for the time."""
@@ -198,6 +212,9 @@ class Posed(MoveTo):
             self.on_arrived(engine)
         else:
             super().start(engine)
+
+    def on_stuck(self, engine: World) -> None:
+        Behaviour.on_stuck(self, engine)  # a seat someone else takes is not taken beside it
 
     def on_arrived(self, engine: World) -> None:
         if self.heading is not None and self.state != "aligning":

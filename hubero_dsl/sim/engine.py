@@ -37,6 +37,8 @@ LOOKAHEAD = 0.6         # m: a waypoint this close counts as passed
 ALIGNED = math.radians(3.0)
 PROGRESS = 0.5          # m a walking human must make within `stuck_time`
 GROUP_SPACING = 0.7     # m between neighbours of a walking group
+CROWDED_GOAL = 1.5      # m from its goal within which a stuck walker settles beside those there
+STILL = 0.1             # m/s below which a body counts as standing
 GROUP_PULL = 1.0        # 1/s: m/s towards the group's centre per metre too far from it
 _STANDING = int(Posture.STANDING)  # an int compares with the posture array faster than an enum
 
@@ -153,6 +155,30 @@ class Engine:
         self.anchor[index] = humans.position[index]
         self.anchor_tick[index] = self.tick
         return None
+
+    def standing_at_goal(self, index: int) -> str | None:
+        """Who stands between walker `index` and its goal, if the walker is within
+        CROWDED_GOAL of it: the nearest body to the goal that is nearer to it than the walker
+        and standing (a human not walking, or a robot at rest). None when there is none."""
+        h = self.humans
+        goal = h.goal[index]
+        if not np.isfinite(goal).all():
+            return None
+        mine = math.dist(h.position[index], goal)
+        if mine > CROWDED_GOAL + h.stop_distance[index]:
+            return None
+        names, position, still = list(h.names), h.position, ~h.moving
+        if h.present is not None:
+            still &= h.present
+        if self.robots.count:
+            names += self.robots.names
+            position = np.concatenate([position, self.robots.position])
+            still = np.concatenate([still, physics.lengths(self.robots.velocity) < STILL])
+        distance = physics.lengths(position - goal)
+        ahead = (still & (distance < mine)).nonzero()[0]
+        if not len(ahead):
+            return None
+        return names[int(ahead[np.argmin(distance[ahead])])]
 
     def halt(self, index: int) -> None:
         humans = self.humans

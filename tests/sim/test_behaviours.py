@@ -216,6 +216,53 @@ def test_a_boxed_in_human_is_aborted_as_stuck(scenario: ScenarioFactory) -> None
     assert task.reason.startswith("stuck")
 
 
+GROUP_AT_GOAL = """
+human alice at (1, 4)
+human bob at (5.5, 4)
+human carol at (5, 4.5)
+human dave at (5, 3.5)
+human erin at (4.5, 4)
+"""
+
+
+def _group_talking_at(sim: Simulation, centre: tuple[float, float]) -> None:
+    for name in ("bob", "carol", "dave", "erin"):
+        sim.human(name).stand(facing=centre, duration=200.0)
+
+
+def test_a_walker_stuck_at_a_goal_others_stand_on_stops_beside_them(
+        scenario: ScenarioFactory) -> None:
+    sim = Simulation(scenario(GROUP_AT_GOAL), activities=False)
+    sim.engine.stuck_time = 5.0
+    _group_talking_at(sim, (5.0, 4.0))  # four people stand facing each other round (5, 4)
+    task = sim.human("alice").move_to((5.0, 4.0))
+    sim.run_until(lambda: task.done, time_limit=60)
+    assert task.status is TaskStatus.SUCCEEDED
+    assert task.reason.startswith("stopped short of a goal taken by ")
+    assert math.dist(sim.human("alice").position, (5.0, 4.0)) < 1.5
+
+
+def test_stopping_beside_a_taken_goal_still_turns_to_the_heading_asked(
+        scenario: ScenarioFactory) -> None:
+    sim = Simulation(scenario(GROUP_AT_GOAL), activities=False)
+    sim.engine.stuck_time = 5.0
+    _group_talking_at(sim, (5.0, 4.0))
+    task = sim.human("alice").move_to((5.0, 4.0), heading=math.pi / 2)
+    sim.run_until(lambda: task.done, time_limit=60)
+    assert task.status is TaskStatus.SUCCEEDED
+    assert sim.human("alice").heading == pytest.approx(math.pi / 2, abs=0.06)
+
+
+def test_a_seat_someone_sits_on_is_not_taken_beside_them(scenario: ScenarioFactory) -> None:
+    sim = Simulation(scenario(GROUP_AT_GOAL), activities=False)
+    sim.engine.stuck_time = 5.0
+    _group_talking_at(sim, (5.0, 4.0))
+    task = sim.human("alice").sit_down(at=(5.0, 4.0), duration=10.0)
+    sim.run_until(lambda: task.done, time_limit=60)
+    assert task.status is TaskStatus.ABORTED
+    assert task.reason.startswith("stuck")
+
+
 def _corridor(scenario: ScenarioFactory) -> Path:
     from hubero_dsl.world.mapfile import save_map
     from tests.sim.conftest import room_grid
