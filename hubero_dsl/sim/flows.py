@@ -58,6 +58,7 @@ class FlowState:
     arrived: int = 0          # members brought in so far
     stopped: bool = False     # no more arrivals: the duration passed or `until` held
     walking: dict[int, TaskHandle] = field(default_factory=dict)  # row -> its walk
+    ended: list[int] = field(default_factory=list)  # rows whose walk ended since the last tick
 
     @property
     def spawning(self) -> bool:
@@ -109,11 +110,12 @@ class Flows:
         return any(s.spec.keeps_alive and (s.spawning or s.walking) for s in self.states)
 
     def _see_off(self, state: FlowState) -> None:
-        ended = [row for row, handle in state.walking.items() if handle.status.is_final]
+        if not state.ended:
+            return
+        ended, state.ended = state.ended, []
         for row in ended:
             del state.walking[row]
-        if ended:
-            self._leave(np.array(ended, dtype=np.intp))
+        self._leave(np.array(ended, dtype=np.intp))
 
     def _bring_in(self, state: FlowState) -> bool:
         row = int(state.rows[state.arrived])
@@ -132,7 +134,11 @@ class Flows:
         engine.anchor_tick[row] = engine.tick
         engine.removed.discard(name)
         state.arrived += 1
-        state.walking[row] = self._give(name, Task("move_to", target, {}, state.spec.span))
+        walk = self._give(name, Task("move_to", target, {}, state.spec.span))
+        state.walking[row] = walk
+        # told when the walk ends rather than asking every walk every tick
+        walk.on_change(lambda handle: _note_end(state, row, handle))
+        _note_end(state, row, walk)  # a walk may end as it starts (no way to the target)
         return True
 
     def _free_place(self, state: FlowState, radius: float) -> FloatArray | None:
@@ -162,3 +168,8 @@ class Flows:
         humans.velocity[rows] = 0.0
         humans.present[rows] = False
         self.engine.removed.update(humans.names[i] for i in rows.tolist())
+
+
+def _note_end(state: FlowState, row: int, walk: TaskHandle) -> None:
+    if walk.done and row not in state.ended:
+        state.ended.append(row)
