@@ -37,9 +37,9 @@ LOOKAHEAD = 0.6         # m: a waypoint this close counts as passed
 ALIGNED = math.radians(3.0)
 PROGRESS = 0.5          # m a walking human must make within `stuck_time`
 GROUP_SPACING = 0.7     # m between neighbours of a walking group
+GROUP_PULL = 1.0        # 1/s: m/s towards the group's centre per metre too far from it
 CROWDED_GOAL = 1.5      # m from its goal within which a stuck walker settles beside those there
 STILL = 0.1             # m/s below which a body counts as standing
-GROUP_PULL = 1.0        # 1/s: m/s towards the group's centre per metre too far from it
 _STANDING = int(Posture.STANDING)  # an int compares with the posture array faster than an enum
 
 
