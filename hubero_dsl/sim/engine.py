@@ -38,8 +38,6 @@ ALIGNED = math.radians(3.0)
 PROGRESS = 0.5          # m a walking human must make within `stuck_time`
 GROUP_SPACING = 0.7     # m between neighbours of a walking group
 GROUP_PULL = 1.0        # 1/s: m/s towards the group's centre per metre too far from it
-CROWDED_GOAL = 1.5      # m from its goal within which a stuck walker settles beside those there
-STILL = 0.1             # m/s below which a body counts as standing
 _STANDING = int(Posture.STANDING)  # an int compares with the posture array faster than an enum
 
 
@@ -165,17 +163,23 @@ class Engine:
         if not np.isfinite(goal).all():
             return None
         mine = math.dist(h.position[index], goal)
-        if mine > CROWDED_GOAL + h.stop_distance[index]:
+        if mine > physics.CROWDED_GOAL + h.stop_distance[index]:
             return None
+        return self.standing_nearer((float(goal[0]), float(goal[1])), mine)
+
+    def standing_nearer(self, point: tuple[float, float], than: float) -> str | None:
+        """The body standing still (a human not walking, a robot at rest) nearest to `point`,
+        if it is nearer to it than `than` metres."""
+        h = self.humans
         names, position, still = list(h.names), h.position, ~h.moving
         if h.present is not None:
             still &= h.present
         if self.robots.count:
             names += self.robots.names
             position = np.concatenate([position, self.robots.position])
-            still = np.concatenate([still, physics.lengths(self.robots.velocity) < STILL])
-        distance = physics.lengths(position - goal)
-        ahead = (still & (distance < mine)).nonzero()[0]
+            still = np.concatenate([still, physics.lengths(self.robots.velocity) < physics.STILL])
+        distance = physics.lengths(position - np.asarray(point))
+        ahead = (still & (distance < than)).nonzero()[0]
         if not len(ahead):
             return None
         return names[int(ahead[np.argmin(distance[ahead])])]
@@ -352,7 +356,7 @@ class Engine:
         self._dispatch_events()
         if self.robots.count:
             self.robots.settle(self.tick, dt, self.ticks(self.stuck_time), self.position_of,
-                               self.finish_robot)
+                               self.finish_robot, self.standing_nearer)
 
     def _keep_out_of_walls(self, old: FloatArray, moved: FloatArray) -> FloatArray:
         present = self.humans.present

@@ -21,6 +21,8 @@ BoolArray = npt.NDArray[np.bool_]
 
 TURN_RATE = 2.5          # rad/s a human turns at
 WALL_MARGIN = 0.02       # m of clearance a body centre keeps beyond "free"
+STILL = 0.1              # m/s below which a body counts as standing
+CROWDED_GOAL = 1.5       # m from a goal within which a stuck walker looks for who stands there
 
 
 class BodySeparation:

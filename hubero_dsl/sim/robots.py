@@ -258,8 +258,11 @@ class Robots:
 
     def settle(self, tick: int, dt: float, stuck_ticks: int,
                position_of: Callable[[Target], tuple[float, float] | None],
-               finish: Callable[[str, TaskStatus, str], None]) -> None:
-        """End the tasks whose end has come: arrived, time up, stuck, or the target gone."""
+               finish: Callable[[str, TaskStatus, str], None],
+               standing_nearer: Callable[[tuple[float, float], float], str | None]) -> None:
+        """End the tasks whose end has come: arrived, time up, stuck, or the target gone. A
+        robot stuck near a goal someone stands on is told so in the reason; unlike a person,
+        it does not count that as arriving (its success is what a benchmark measures)."""
         for i, task in enumerate(self.tasks):
             if task is None:
                 continue
@@ -272,7 +275,18 @@ class Robots:
             elif kind == "move_to" and (problem := self._problem(i)) is not None:
                 finish(name, TaskStatus.ABORTED, problem)  # its controller cannot get there
             elif kind == "move_to" and self._stuck(i, tick, stuck_ticks):
-                finish(name, TaskStatus.ABORTED, f"stuck: no progress for {stuck_ticks * dt:g} s")
+                finish(name, TaskStatus.ABORTED, f"stuck: no progress for {stuck_ticks * dt:g} s"
+                       + self._taken(i, task, goal, standing_nearer))
+
+    def _taken(self, i: int, task: RobotTask, goal: tuple[float, float] | None,
+               standing_nearer: Callable[[tuple[float, float], float], str | None]) -> str:
+        """`, its goal taken by NAME` when someone stands nearer the goal, close to it."""
+        if goal is None:
+            return ""
+        mine = math.dist(goal, self.position[i])
+        blocker = standing_nearer(goal, mine) if mine <= physics.CROWDED_GOAL + task.stop_distance \
+            else None
+        return f", its goal taken by {blocker}" if blocker is not None else ""
 
     def _problem(self, i: int) -> str | None:
         """Why the controller cannot reach the goal, if it says (the navigator's `problem`)."""

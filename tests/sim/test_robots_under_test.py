@@ -167,6 +167,22 @@ def test_a_driven_robot_moves_as_its_controller_would_and_release_hands_it_back(
         driven.robot("r").drive(math.nan, 0.0)
 
 
+def test_a_robot_stuck_at_a_goal_someone_stands_on_says_who(
+        scenario: ScenarioFactory) -> None:
+    program = scenario("""
+    human bob at (7, 4)
+    robot cart at (2, 4) { controller navigator; speed 0.8 m/s }
+    """)
+    sim = Simulation(program, activities=False)
+    sim.engine.stuck_time = 5.0
+    sim.human("bob").stand(duration=100.0)
+    task = sim.robot("cart").move_to((7.0, 4.0))
+    sim.run_until(lambda: task.done, time_limit=60)
+    # unlike a person, a robot does not count stopping beside its goal as arriving
+    assert task.status is TaskStatus.ABORTED
+    assert task.reason == "stuck: no progress for 5 s, its goal taken by bob"
+
+
 def test_acceleration_is_limited(scenario: ScenarioFactory) -> None:
     program = scenario("robot r at (2, 4) { controller external; max_acceleration 0.5 }\n")
     sim = Simulation(program, activities=False)
