@@ -155,21 +155,22 @@ class Engine:
         return None
 
     def standing_at_goal(self, index: int) -> str | None:
-        """Who stands between walker `index` and its goal, if the walker is within
-        CROWDED_GOAL of it: the nearest body to the goal that is nearer to it than the walker
-        and standing (a human not walking, or a robot at rest). None when there is none."""
+        """`standing_at` for walker `index` and its goal (None when it has none)."""
         h = self.humans
         goal = h.goal[index]
         if not np.isfinite(goal).all():
             return None
-        mine = math.dist(h.position[index], goal)
-        if mine > physics.CROWDED_GOAL + h.stop_distance[index]:
-            return None
-        return self.standing_nearer((float(goal[0]), float(goal[1])), mine)
+        return self.standing_at((float(goal[0]), float(goal[1])), h.position[index],
+                                float(h.stop_distance[index]))
 
-    def standing_nearer(self, point: tuple[float, float], than: float) -> str | None:
-        """The body standing still (a human not walking, a robot at rest) nearest to `point`,
-        if it is nearer to it than `than` metres."""
+    def standing_at(self, goal: tuple[float, float], here: FloatArray,
+                    stop_distance: float) -> str | None:
+        """Who stands between a body at `here` and its `goal`, when the body is within
+        CROWDED_GOAL (beyond `stop_distance`) of it: the body standing still (a human not
+        walking, a robot at rest) nearest to the goal and nearer to it than `here`."""
+        than = math.dist(here, goal)
+        if than > physics.CROWDED_GOAL + stop_distance:
+            return None
         h = self.humans
         names, position, still = list(h.names), h.position, ~h.moving
         if h.present is not None:
@@ -178,7 +179,7 @@ class Engine:
             names += self.robots.names
             position = np.concatenate([position, self.robots.position])
             still = np.concatenate([still, physics.lengths(self.robots.velocity) < physics.STILL])
-        distance = physics.lengths(position - np.asarray(point))
+        distance = physics.lengths(position - np.asarray(goal))
         ahead = (still & (distance < than)).nonzero()[0]
         if not len(ahead):
             return None
@@ -356,7 +357,7 @@ class Engine:
         self._dispatch_events()
         if self.robots.count:
             self.robots.settle(self.tick, dt, self.ticks(self.stuck_time), self.position_of,
-                               self.finish_robot, self.standing_nearer)
+                               self.finish_robot, self.standing_at)
 
     def _keep_out_of_walls(self, old: FloatArray, moved: FloatArray) -> FloatArray:
         present = self.humans.present

@@ -109,21 +109,13 @@ class Robots:
 
     def set_velocity(self, name: str, velocity: tuple[float, float] | None) -> None:
         """Drive the robot at `velocity` from now on (None: back to its controller)."""
-        index = self.names.index(name)
-        if velocity is None:
-            self.commanded.pop(index, None)
-        else:
-            self.commanded[index] = velocity
+        _override(self.commanded, self.names.index(name), velocity)
 
     def drive(self, name: str, command: tuple[float, float] | None) -> None:
         """Answer for the robot's controller from now on: `command` is what a controller would
         return, (vx, vy) or (v, omega) by the robot's kinematics (None: ask the controller
         again). The controller is not asked, so no observation is built for it."""
-        index = self.names.index(name)
-        if command is None:
-            self.driven.pop(index, None)
-        else:
-            self.driven[index] = command
+        _override(self.driven, self.names.index(name), command)
 
     # ---- one tick ----------------------------------------------------------------------------
 
@@ -259,7 +251,8 @@ class Robots:
     def settle(self, tick: int, dt: float, stuck_ticks: int,
                position_of: Callable[[Target], tuple[float, float] | None],
                finish: Callable[[str, TaskStatus, str], None],
-               standing_nearer: Callable[[tuple[float, float], float], str | None]) -> None:
+               standing_at: Callable[[tuple[float, float], FloatArray, float], str | None]
+               ) -> None:
         """End the tasks whose end has come: arrived, time up, stuck, or the target gone. A
         robot stuck near a goal someone stands on is told so in the reason; unlike a person,
         it does not count that as arriving (its success is what a benchmark measures)."""
@@ -276,16 +269,14 @@ class Robots:
                 finish(name, TaskStatus.ABORTED, problem)  # its controller cannot get there
             elif kind == "move_to" and self._stuck(i, tick, stuck_ticks):
                 finish(name, TaskStatus.ABORTED, f"stuck: no progress for {stuck_ticks * dt:g} s"
-                       + self._taken(i, task, goal, standing_nearer))
+                       + self._taken(i, task, goal, standing_at))
 
     def _taken(self, i: int, task: RobotTask, goal: tuple[float, float] | None,
-               standing_nearer: Callable[[tuple[float, float], float], str | None]) -> str:
+               standing_at: Callable[[tuple[float, float], FloatArray, float], str | None]
+               ) -> str:
         """`, its goal taken by NAME` when someone stands nearer the goal, close to it."""
-        if goal is None:
-            return ""
-        mine = math.dist(goal, self.position[i])
-        blocker = standing_nearer(goal, mine) if mine <= physics.CROWDED_GOAL + task.stop_distance \
-            else None
+        blocker = None if goal is None else standing_at(goal, self.position[i],
+                                                         task.stop_distance)
         return f", its goal taken by {blocker}" if blocker is not None else ""
 
     def _problem(self, i: int) -> str | None:
@@ -305,6 +296,15 @@ class Robots:
             self._anchor[i] = self.position[i]
             self._anchor_tick[i] = tick
         return tick - int(self._anchor_tick[i]) > stuck_ticks
+
+
+def _override(table: dict[int, tuple[float, float]], index: int,
+              value: tuple[float, float] | None) -> None:
+    """Set robot `index`'s entry of an override table, or clear it with None."""
+    if value is None:
+        table.pop(index, None)
+    else:
+        table[index] = value
 
 
 def _velocity_command(command: Any, robot: str, controller: str,
