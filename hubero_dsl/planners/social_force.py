@@ -141,7 +141,11 @@ class SocialForceParams(PlannerParams):
         "grows with speed to the whole at the desired speed (1 = always whole; below 1, "
         "people in a slow, dense crowd close up, as in Chraibi et al.'s 2010 speed-dependent "
         "body)."))
-
+    time_gap: float = Field(default=0.0, ge=0.0, le=10.0, json_schema_extra=_TIME,
+                            description=(
+        "Time gap kept to whoever is in one's path, s: the desired speed is capped at the "
+        "distance one can walk towards the target before touching them, divided by it "
+        "(Tordeux, Chraibi & Seyfried's 2016 collision-free speed model; 0 = no cap)."))
 
     @classmethod
     def inert_above(cls, step: float) -> dict[str, float]:
@@ -166,6 +170,7 @@ class _RowParams:
     side_preference: Column
     anticipation: Column
     space_at_rest: Column
+    time_gap: Column
 
     @staticmethod
     def from_models(models: list[SocialForceParams]) -> _RowParams:
@@ -183,7 +188,8 @@ class _RowParams:
             arrival_radius=_column(values("arrival_radius")),
             side_preference=_column(values("side_preference")),
             anticipation=_column(values("anticipation")),
-            space_at_rest=_column(values("space_at_rest")))
+            space_at_rest=_column(values("space_at_rest")),
+            time_gap=_column(values("time_gap")))
 
     def padded(self, rows: int) -> _RowParams:
         """Columns long enough for `rows` bodies; bodies without a model get the defaults.
@@ -250,7 +256,8 @@ class SocialForcePlanner:
         rows = drive.index
         velocity = crowd.velocity[rows]
         pairs = self._pair_finder.find(crowd.position, self._reach(crowd, drive))
-        acceleration = goal_acceleration(crowd.position[rows], velocity, drive,
+        acceleration = goal_acceleration(crowd.position[rows], velocity,
+                                         _keep_time_gap(crowd, drive, params, pairs),
                                          _at(params.arrival_radius, rows), dt)
         # Terms that are zero are skipped rather than added; adding 0.0 once keeps the sums
         # bit for bit what adding every term gives (it turns -0.0 into 0.0, as they would).
@@ -523,6 +530,44 @@ def _space_scale(crowd: Crowd, drive: Drive, at_rest: Column) -> FloatArray | No
     kept = _at(at_rest, rows)
     scale[rows] = kept + (1.0 - kept) * pace
     return scale
+
+
+def _keep_time_gap(crowd: Crowd, drive: Drive, params: _RowParams,
+                   pairs: NeighbourPairs) -> Drive:
+    """`drive` with each desired speed capped at the free distance ahead over the time gap.
+
+    The free distance is how far a human can walk straight towards its target before its body
+    touches a neighbour's (within its interaction range) that lies across that line; the cap
+    makes speed fall with headway, as in Tordeux et al.'s collision-free speed model, whose
+    speed-headway relation reproduces the fundamental diagram of corridors and bottlenecks.
+    """
+    gap = params.time_gap
+    if pairs.count == 0 or (isinstance(gap, float) and gap <= 0.0):
+        return drive
+    rows = drive.index
+    to_target = drive.target - crowd.position[rows]
+    heading = np.zeros((crowd.count, 2))
+    heading[rows] = to_target / np.maximum(np.hypot(to_target[:, 0], to_target[:, 1]),
+                                           1e-9)[:, None]
+    contact = crowd.radius[pairs.first] + crowd.radius[pairs.second]
+    free = np.full(crowd.count, np.inf)
+    # offsets point from second to first: the first sees the second at -offset
+    for receiver, sign, reacts in ((pairs.first, -1.0, pairs.first_reacts),
+                                   (pairs.second, 1.0, pairs.second_reacts)):
+        along = sign * (pairs.offset_x * heading[receiver, 0]
+                        + pairs.offset_y * heading[receiver, 1])
+        across_squared = pairs.distance * pairs.distance - along * along
+        in_path = (along > 0.0) & (across_squared < contact * contact)
+        if reacts is not None:
+            in_path &= reacts
+        hit = in_path.nonzero()[0]
+        if hit.size:
+            walk = along[hit] - np.sqrt(contact[hit] ** 2 - across_squared[hit])
+            np.minimum.at(free, receiver[hit], np.maximum(walk, 0.0))
+    cap = free[rows] / np.maximum(_at(gap, rows), 1e-9)
+    # a time gap of 0 (for some rows only) means no cap
+    cap = np.where(_at(gap, rows) > 0.0, cap, np.inf)
+    return replace(drive, desired_speed=np.minimum(drive.desired_speed, cap))
 
 
 def _product(first: Column, second: Column) -> Column:

@@ -65,6 +65,9 @@ FITTABLE: dict[str, Fittable] = {f.name: f for f in (
     Fittable("personal_space", 0.2, 0.7, 0.5, "m", "radius of the personal-space circle"),
     Fittable("social_force.space_at_rest", 0.0, 1.0, 1.0, "",
              "share of the personal space kept standing still"),
+    Fittable("social_force.time_gap", 0.0, 2.0, 0.0, "s",
+             "time gap kept to whoever is in one's path"),
+    Fittable("social_force.kappa", 0.0, 3000.0, 3000.0, "", "sliding friction between bodies"),
     Fittable("speed_scale", 0.7, 1.4, 1.0, "", "factor on the measured desired speeds"),
 )}
 DEFAULT_FIT = ("relaxation_time", "social_force.A", "social_force.B", "personal_space")

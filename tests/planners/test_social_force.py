@@ -196,6 +196,50 @@ def test_at_the_desired_speed_the_whole_personal_space_counts() -> None:
     np.testing.assert_array_equal(first_velocities(0.0), first_velocities(1.0))
 
 
+def follow_slow_leader(time_gap: float, beside: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """A walker (desired 1.3 m/s) starting 3 m behind a leader who walks at 0.5 m/s, `beside`
+    metres to the side of the walker's line, with no social push: only the time gap acts."""
+    params = [SocialForceParams(A=0.0, side_preference=0.0, time_gap=time_gap)] * 2
+    scene = Scene(position=[[-3.0, 0.0], [0.0, beside]], target=[[20.0, 0.0], [20.0, beside]],
+                  shapes=[Circle(0.3)] * 2, radius=np.array([0.2, 0.2]),
+                  speed=np.array([1.3, 0.5]), params=params)
+    return simulate(scene, OPEN, seconds=12.0)
+
+
+def test_a_time_gap_makes_a_walker_follow_at_the_leaders_speed_one_gap_behind() -> None:
+    positions, velocities = follow_slow_leader(time_gap=1.0)
+    free = pair_distance(positions) - 0.4  # between the bodies
+    # the speed-headway rule v = free / T settles at the leader's speed, 0.5 m behind at T = 1
+    assert velocities[-40:, 0, 0] == pytest.approx(0.5, abs=0.02)
+    assert free[-40:] == pytest.approx(0.5, abs=0.05)
+    assert free.min() > 0.3  # it never closed in on the leader
+    # a longer gap keeps it further behind
+    longer, _ = follow_slow_leader(time_gap=2.0)
+    assert pair_distance(longer)[-1] - 0.4 == pytest.approx(1.0, abs=0.1)
+
+
+def test_a_time_gap_leaves_people_off_ones_path_alone() -> None:
+    # the leader walks 0.5 m beside the line: further than the two bodies' radii, so the walker
+    # passes it at its own speed, as it does with no time gap at all
+    with_gap, fast = follow_slow_leader(time_gap=1.0, beside=0.5)
+    without, _ = follow_slow_leader(time_gap=0.0, beside=0.5)
+    np.testing.assert_array_equal(with_gap, without)
+    passing = slice(100, 160)  # 5-8 s, as it overtakes (later the map's edge slows it)
+    assert fast[passing, 0, 0] == pytest.approx(1.3, abs=0.01)
+    # touching distance across the line is the limit: 0.35 m to the side still blocks
+    _, blocked = follow_slow_leader(time_gap=1.0, beside=0.35)
+    assert blocked[passing, 0, 0].max() < 0.7
+
+
+def test_no_time_gap_is_the_plain_model_bit_for_bit() -> None:
+    plain, _ = follow_slow_leader(time_gap=0.0)
+    params = [SocialForceParams(A=0.0, side_preference=0.0)] * 2
+    scene = Scene(position=[[-3.0, 0.0], [0.0, 0.0]], target=[[20.0, 0.0], [20.0, 0.0]],
+                  shapes=[Circle(0.3)] * 2, radius=np.array([0.2, 0.2]),
+                  speed=np.array([1.3, 0.5]), params=params)
+    np.testing.assert_array_equal(plain, simulate(scene, OPEN, seconds=12.0)[0])
+
+
 def test_a_human_walking_at_a_wall_does_not_enter_it() -> None:
     wall = make_grid(lambda x, y: x >= 3.0)
     scene = Scene(position=[[0.0, 0.0]], target=[[8.0, 0.3]], shapes=[Circle(0.5)],
