@@ -33,6 +33,7 @@ from hubero_dsl.lang.placement import (
 from hubero_dsl.model.activities import Activity
 from hubero_dsl.model.params import HUMAN_PARAMS
 from hubero_dsl.model.program import (
+    CrowdSpec,
     Distribution,
     FlowSpec,
     HumanSpec,
@@ -178,8 +179,9 @@ def _check_module(module: ast.Module, diagnostics: list[Diagnostic]) -> Program 
         on_failure=cast(Literal["stop", "continue"],
                         facts.settings.get("on_failure") or "stop"),
         bounds=lowering.bounds, places=dict(facts.places), areas=areas,
-        defaults=facts.defaults, humans=_humans(module, facts) + crowds + arrivals,
+        defaults=facts.defaults, humans=_humans(module, facts) + crowds.members + arrivals,
         robots=tuple(facts.robots), groups=dict(facts.groups), flows=flows,
+        crowds=crowds.specs, fixed_bodies=crowds.fixed_bodies,
         variants=_variants(facts), activities=activities,
         expectations=lowering.expectations(module.of_type(ast.ExpectDecl)), graph=graph)
 
@@ -202,21 +204,35 @@ def _group_starts(facts: Facts) -> dict[str, tuple[float, float]]:
     return starts
 
 
+@dataclass(frozen=True)
+class _Crowds:
+    """Every crowd as placed with the scenario's seed, and what placing them again needs."""
+
+    members: tuple[HumanSpec, ...]
+    specs: tuple[CrowdSpec, ...]
+    fixed_bodies: tuple[tuple[float, float, float], ...]
+
+
 def _crowd_members(facts: Facts, grid: OccupancyGrid, lowering: Lowering,
-                   diagnostics: list[Diagnostic]) -> tuple[HumanSpec, ...]:
+                   diagnostics: list[Diagnostic]) -> _Crowds:
     """Every crowd's members, placed at seeded random places of its area where they fit."""
     taken = [(*start.xy, _radius(facts.human_layers.get(name), facts))
              for name, start in facts.human_starts.items()]
     taken += [(*robot.start.xy, robot.radius) for robot in facts.robots]
+    fixed = tuple(taken)
     seed = cast(int, facts.settings.get("seed") or 0)
     members: list[HumanSpec] = []
+    specs: list[CrowdSpec] = []
     for crowd in facts.crowds:
-        places = place_crowd(grid, crowd.name, len(crowd.members), lowering.area(crowd.area),
-                             _radius(crowd.layer, facts), taken, seed, crowd.span, diagnostics)
+        spec = CrowdSpec(crowd.name, lowering.area(crowd.area), _radius(crowd.layer, facts),
+                         crowd.heading, crowd.members)
+        places = place_crowd(grid, crowd.name, len(crowd.members), spec.area, spec.radius,
+                             taken, seed, crowd.span, diagnostics)
         members += [HumanSpec(member, Pose(x, y, crowd.heading), crowd.layer, crowd.span,
                               crowd.name)
                     for member, (x, y) in zip(crowd.members, places, strict=False)]
-    return tuple(members)
+        specs.append(spec)
+    return _Crowds(tuple(members), tuple(specs), fixed)
 
 
 def _flows(facts: Facts, grid: OccupancyGrid, lowering: Lowering,

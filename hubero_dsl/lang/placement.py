@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 from hubero_dsl.diagnostics import Diagnostic, Related, Span, error, warning
 from hubero_dsl.errors import MapError
 from hubero_dsl.lang import ast
-from hubero_dsl.world.grid import REACH_MARGIN
+from hubero_dsl.world.scatter import crowd_places
 
 if TYPE_CHECKING:
     from shapely.geometry import Polygon
@@ -105,39 +105,9 @@ def place_crowd(grid: OccupancyGrid, name: str, count: int, area: Polygon, radiu
     obstacles and of every body already placed (`taken`: x, y, radius; extended here), all in
     the largest part of the area a body can walk through. Fewer than `count` places is error
     E406."""
-    import zlib
-
-    import numpy as np
-    import shapely
-
-    labels = grid.components(radius + REACH_MARGIN)  # where it may wander, not just fit
-    rows, cols = np.nonzero(labels)
-    centres = grid.cell_to_world(np.stack((rows, cols), axis=-1))
-    inside = shapely.contains_xy(area, centres[:, 0], centres[:, 1])
-    # the area's largest connected part: nobody starts in a pocket cut off from the rest
-    inside_labels = labels[rows[inside], cols[inside]]
-    if len(inside_labels):
-        main = np.bincount(inside_labels).argmax()
-        inside &= labels[rows, cols] == main
-    candidates = centres[inside]
-    rng = np.random.default_rng([seed, zlib.crc32(f"crowd {name}".encode())])
-    order = rng.permutation(len(candidates))
-    cell = 2.0 * max([radius, *(r for _, _, r in taken)])
-    buckets: dict[tuple[int, int], list[tuple[float, float, float]]] = {}
-    for x, y, r in taken:
-        buckets.setdefault((int(x // cell), int(y // cell)), []).append((x, y, r))
-    placed: list[tuple[float, float]] = []
-    for index in order:
-        x, y = float(candidates[index, 0]), float(candidates[index, 1])
-        key = (int(x // cell), int(y // cell))
-        near = (b for dx in (-1, 0, 1) for dy in (-1, 0, 1)
-                for b in buckets.get((key[0] + dx, key[1] + dy), ()))
-        if all((x - bx) ** 2 + (y - by) ** 2 >= (radius + br) ** 2 for bx, by, br in near):
-            placed.append((x, y))
-            buckets.setdefault(key, []).append((x, y, radius))
-            taken.append((x, y, radius))
-            if len(placed) == count:
-                return placed
+    placed = crowd_places(grid, name, count, area, radius, taken, seed)
+    if len(placed) == count:
+        return placed
     diagnostics.append(error("E406", f"only {len(placed)} of the {count} people of crowd "
                              f"'{name}' fit in its area", span,
                              "make the area larger, or the crowd smaller"))

@@ -78,6 +78,18 @@ class HumanSpec:
 
 
 @dataclass(frozen=True, slots=True)
+class CrowdSpec:
+    """A crowd as placed: its members start at places of `area` drawn from the run's seed, clear
+    of `radius` around the obstacles and of the bodies placed before them."""
+
+    name: str
+    area: Polygon
+    radius: float
+    heading: float
+    members: tuple[str, ...]
+
+
+@dataclass(frozen=True, slots=True)
 class FlowSpec:
     """People who keep arriving: they appear in `area` at seeded Poisson times, `rate` per
     second on average, walk to `target` and leave the scene there.
@@ -168,6 +180,10 @@ class Program:
     graph: nx.DiGraph
     groups: Mapping[str, tuple[str, ...]] = field(default_factory=dict)  # walk together
     flows: tuple[FlowSpec, ...] = ()
+    # The crowds in the order they are placed, and the bodies placed before any of them (named
+    # humans and robots: x, y, radius): what a run with another seed places the crowds anew by.
+    crowds: tuple[CrowdSpec, ...] = ()
+    fixed_bodies: tuple[tuple[float, float, float], ...] = ()
 
     def people_sets(self) -> dict[str, tuple[str, tuple[str, ...]]]:
         """The crowds, flows and groups: name -> (kind, members), crowds and flows in the order

@@ -25,7 +25,7 @@ import numpy.typing as npt
 
 from hubero_dsl.errors import SimulationError
 from hubero_dsl.model.params import HUMAN_PARAMS, REACTIONS, ParamKind
-from hubero_dsl.model.program import Distribution, ParamValue, Program
+from hubero_dsl.model.program import Distribution, ParamValue, Pose, Program
 from hubero_dsl.planners.base import GlobalPlanner, LocalPlanner, PlannerParams
 from hubero_dsl.planners.registry import global_planner, local_planner
 from hubero_dsl.sim.arrays import HumanArrays
@@ -36,6 +36,7 @@ from hubero_dsl.sim.handles import HumanHandle, RobotHandle
 from hubero_dsl.sim.robots import Robots, robot_body
 from hubero_dsl.sim.scheduler import Scheduler
 from hubero_dsl.sim.status import TaskEvent, TaskHandle
+from hubero_dsl.world.scatter import crowd_places
 from hubero_dsl.world.shapes import Shape, ShapeArrays
 
 if TYPE_CHECKING:
@@ -118,9 +119,9 @@ class Simulation:
         if variant is not None and variant not in program.variants:
             known = ", ".join(program.variants) or "none"
             raise SimulationError(f"unknown variant '{variant}' (variants: {known})")
-        self.program = program
-        self.variant = variant
         self.seed = program.seed if seed is None else seed
+        self.program = program = crowds_placed(program, self.seed)
+        self.variant = variant
         self.params = draw_params(program, variant, self.seed)
         self._shared_planners = planners
         self.engine = self._build_engine(build_controllers(program, controllers or {}))
@@ -264,6 +265,29 @@ class Simulation:
             return self._shared_planners.build(self.program, key)
         cls = global_planner(key[0])
         return cls(self.program.grid, cls.Params.model_validate(dict(key[1])))
+
+
+def crowds_placed(program: Program, seed: int) -> Program:
+    """`program` with its crowds placed by `seed`: each seed starts a crowd at places of its
+    own, as each draws its own parameters. The program's own seed keeps the places it was
+    compiled with (the same draw)."""
+    if seed == program.seed or not program.crowds:
+        return program
+    taken = list(program.fixed_bodies)
+    starts: dict[str, Pose] = {}
+    for crowd in program.crowds:
+        places = crowd_places(program.grid, crowd.name, len(crowd.members), crowd.area,
+                              crowd.radius, taken, seed)
+        if len(places) < len(crowd.members):
+            raise SimulationError(
+                f"with seed {seed} only {len(places)} of the {len(crowd.members)} people of "
+                f"crowd '{crowd.name}' fit in its area (they all fit with the scenario's seed "
+                f"{program.seed}): make the area larger, or the crowd smaller")
+        starts.update((name, Pose(x, y, crowd.heading))
+                      for name, (x, y) in zip(crowd.members, places, strict=True))
+    humans = tuple(dataclasses.replace(h, start=starts[h.name]) if h.name in starts else h
+                   for h in program.humans)
+    return dataclasses.replace(program, humans=humans)
 
 
 def build_controllers(program: Program, given: Mapping[str, type | RobotController]

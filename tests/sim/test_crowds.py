@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from hubero_dsl.errors import SimulationError
 from hubero_dsl.pipeline import check_source, compile_source
 from hubero_dsl.sim.loop import run_program
 from hubero_dsl.sim.simulation import Simulation
@@ -41,6 +42,40 @@ def test_placement_depends_on_the_seed_only(room_map: Path) -> None:
     starts = [[h.start.xy for h in compile_source(_text(room_map, body, seed), "t.hub").humans]
               for seed in (4, 4, 5)]
     assert starts[0] == starts[1] != starts[2]
+
+
+def _crowd_starts(sim: Simulation) -> list[tuple[float, float]]:
+    rows = [sim.program.human_names.index(f"c_{i}") for i in range(1, 11)]
+    return [tuple(map(float, sim.engine.humans.position[row])) for row in rows]
+
+
+def test_a_run_with_another_seed_places_the_crowd_as_that_seed_compiles_it(
+        room_map: Path) -> None:
+    body = ("human host at (1, 1)\ncrowd c 10 in rect((1, 1), (9, 7))\n"
+            "activity { c stand for 1 s }\n")
+    at_4, at_5 = (compile_source(_text(room_map, body, seed), "t.hub") for seed in (4, 5))
+    starts_5 = [h.start.xy for h in at_5.humans if h.group == "c"]
+    # the file's own seed keeps the compiled places; --seed 5 on the seed-4 file places the
+    # crowd exactly where the seed-5 file does, around the same host
+    assert _crowd_starts(Simulation(at_4)) == [h.start.xy for h in at_4.humans if h.group]
+    assert _crowd_starts(Simulation(at_4, seed=5)) == starts_5
+    assert _crowd_starts(Simulation(at_4, seed=5)) != _crowd_starts(Simulation(at_4, seed=6))
+    assert Simulation(at_4, seed=5).program.human("host").start.xy == (1.0, 1.0)
+
+
+def test_a_seed_whose_crowd_does_not_fit_is_a_clear_simulation_error(room_map: Path) -> None:
+    # 22 bodies of 0.3 m in a 3 m x 3 m area: whether the random placement fits them all
+    # depends on the draw
+    body = ("crowd c 22 in rect((1, 1), (4, 4)) { radius 0.3 m }\n"
+            "activity { c stand for 1 s }\n")
+    fitting = [seed for seed in range(1, 12) if check_source(_text(room_map, body, seed),
+                                                              "t.hub").program]
+    failing = [seed for seed in range(1, 12) if seed not in fitting]
+    assert fitting and failing
+    program = compile_source(_text(room_map, body, fitting[0]), "t.hub")
+    with pytest.raises(SimulationError, match=rf"with seed {failing[0]} only \d+ of the 22 "
+                       r"people of crowd 'c' fit in its area"):
+        Simulation(program, seed=failing[0])
 
 
 def test_a_task_given_to_a_crowd_is_given_to_every_member(room_map: Path) -> None:
