@@ -496,19 +496,28 @@ class OccupancyGrid:
         """(K, 2) centres of the cells inside `area` (a shapely polygon) where a body of this
         radius fits and from which it can walk to `goal`: where people may appear who are
         going there. Empty when there are none."""
+        reachable = self.reachable_mask(goal, body_radius + REACH_MARGIN)
+        return self.cells_in(area, reachable)[2]
+
+    def cells_in(self, area: Any, mask: npt.NDArray[Any]) -> tuple[IntArray, IntArray, FloatArray]:
+        """The cells set in `mask` (of the grid's shape) whose centres lie inside `area` (a
+        shapely polygon), in row-major order: their rows, columns and (K, 2) centres. Only the
+        cells under the area's bounding box are looked at."""
         import shapely
 
-        reachable = self.reachable_mask(goal, body_radius + REACH_MARGIN)
         x0, y0, x1, y1 = area.bounds
         (r0, c0), (r1, c1) = self.world_to_cell([(x0, y0), (x1, y1)])
         rows_, cols_ = self.shape
         r0, c0 = max(int(r0), 0), max(int(c0), 0)
         r1, c1 = min(int(r1) + 1, rows_), min(int(c1) + 1, cols_)
         if r0 >= r1 or c0 >= c1:
-            return np.zeros((0, 2))
-        rows, cols = np.nonzero(reachable[r0:r1, c0:c1])
-        centres = self.cell_to_world(np.stack((rows + r0, cols + c0), axis=-1))
-        return centres[shapely.contains_xy(area, centres[:, 0], centres[:, 1])]
+            nothing = np.zeros(0, dtype=np.intp)
+            return nothing, nothing, np.zeros((0, 2))
+        rows, cols = np.nonzero(mask[r0:r1, c0:c1])
+        rows, cols = rows + r0, cols + c0
+        centres = self.cell_to_world(np.stack((rows, cols), axis=-1))
+        inside = shapely.contains_xy(area, centres[:, 0], centres[:, 1])
+        return rows[inside], cols[inside], centres[inside]
 
     def nearest_free(self, xy: tuple[float, float],
                      body_radius: float = 0.0) -> tuple[tuple[float, float], float]:

@@ -12,7 +12,6 @@ import zlib
 from typing import TYPE_CHECKING
 
 import numpy as np
-import shapely
 
 from hubero_dsl.world.grid import REACH_MARGIN
 
@@ -32,14 +31,10 @@ def crowd_places(grid: OccupancyGrid, crowd: str, count: int, area: Polygon, rad
     `taken` (which each new place extends); fewer when no more fit."""
     rng = np.random.default_rng([seed, zlib.crc32(f"crowd {crowd}".encode())])
     labels = grid.components(radius + REACH_MARGIN)  # where it may wander, not just fit
-    rows, cols = np.nonzero(labels)
-    centres = grid.cell_to_world(np.stack((rows, cols), axis=-1))
-    inside = shapely.contains_xy(area, centres[:, 0], centres[:, 1])
-    inside_labels = labels[rows[inside], cols[inside]]
-    if len(inside_labels):
-        main = np.bincount(inside_labels).argmax()
-        inside &= labels[rows, cols] == main
-    candidates = centres[inside]
+    rows, cols, candidates = grid.cells_in(area, labels)
+    inside_labels = labels[rows, cols]
+    if len(inside_labels):  # the area's largest connected part: no start in a cut-off pocket
+        candidates = candidates[inside_labels == np.bincount(inside_labels).argmax()]
     order = rng.permutation(len(candidates))
     # bodies in a grid of buckets one largest diameter wide: a new body can only touch those
     # in its own bucket and the eight around it
