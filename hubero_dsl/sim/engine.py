@@ -505,6 +505,8 @@ class Engine:
 
     def _turn(self, dt: float) -> None:
         h = self.humans
+        if not (h.moving.any() or h.teleop.any()) and np.isnan(h.heading_goal).all():
+            return  # nobody walks and nobody turns to a heading: the tick at rest
         speed = physics.lengths(h.velocity)
         walking = (speed > 0.1) & (h.moving | h.teleop)
         turning = walking | ~np.isnan(h.heading_goal)
@@ -520,29 +522,32 @@ class Engine:
     def _dispatch_events(self) -> None:
         h = self.humans
         moving = h.moving
-        standing = ~moving
-        # a walking human always has a goal; NaN goals (nobody walking) compare False
-        arrived = moving & (physics.lengths(h.position - h.goal) <= h.stop_distance)
-        timer = self.wake_tick <= self.tick
-        wake = arrived | timer
-        turning = ~np.isnan(h.heading_goal) & standing
-        aligned = None
+        wake = timer = self.wake_tick <= self.tick
+        arrived = stuck = aligned = None
+        anyone_moving = bool(moving.any())
+        if anyone_moving:  # arrivals and progress concern walkers only
+            # a walking human always has a goal
+            arrived = moving & (physics.lengths(h.position - h.goal) <= h.stop_distance)
+            progressed = physics.lengths(h.position - self.anchor) > PROGRESS
+            if progressed.any():
+                self.anchor[progressed] = h.position[progressed]
+            # a standing human's anchor is set afresh when it starts walking (`walk_to`)
+            self.anchor_tick[progressed | ~moving] = self.tick
+            stuck = moving & (self.tick - self.anchor_tick > self.ticks(self.stuck_time))
+            wake = wake | arrived | stuck
+        turning = ~np.isnan(h.heading_goal)
+        if anyone_moving:
+            turning &= ~moving
         if turning.any():
             aligned = turning & (np.abs(physics.wrap_angle(h.heading - h.heading_goal))
                                  < ALIGNED)
-            wake |= aligned
-        progressed = physics.lengths(h.position - self.anchor) > PROGRESS
-        if progressed.any():
-            self.anchor[progressed] = h.position[progressed]
-        self.anchor_tick[progressed | standing] = self.tick
-        stuck = moving & (self.tick - self.anchor_tick > self.ticks(self.stuck_time))
-        wake |= stuck
+            wake = wake | aligned
         if not wake.any():
             return
         for index in wake.nonzero()[0]:
-            self._wake(int(index), bool(arrived[index]),
-                       aligned is not None and bool(aligned[index]), bool(stuck[index]),
-                       bool(timer[index]))
+            self._wake(int(index), arrived is not None and bool(arrived[index]),
+                       aligned is not None and bool(aligned[index]),
+                       stuck is not None and bool(stuck[index]), bool(timer[index]))
 
     def _wake(self, index: int, arrived: bool, aligned: bool, stuck: bool, timer: bool) -> None:
         h = self.humans

@@ -5,6 +5,7 @@ All functions take and return whole arrays; nothing here loops over humans.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -22,6 +23,7 @@ BoolArray = npt.NDArray[np.bool_]
 TURN_RATE = 2.5          # rad/s a human turns at
 WALL_MARGIN = 0.02       # m of clearance a body centre keeps beyond "free"
 STILL = 0.1              # m/s below which a body counts as standing
+FEW_BODIES = 8           # up to this many, wall checks run in floats rather than arrays
 CROWDED_GOAL = 1.5       # m from a goal within which a stuck walker looks for who stands there
 
 
@@ -31,7 +33,8 @@ class BodySeparation:
     Close pairs come from a Verlet list (`PairFinder`) that is rebuilt only after someone has
     moved half the skin; when none of them overlaps, the positions are returned as they are,
     exactly as `separate_bodies` would. Otherwise `separate_bodies` does the work, so the
-    result is the same bit for bit.
+    result is the same bit for bit. A few bodies (a robot among a household) are checked pair
+    by pair in floats instead, which costs less than the arrays' calls.
     """
 
     def __init__(self, skin: float = 0.6) -> None:
@@ -41,12 +44,26 @@ class BodySeparation:
                  movable: BoolArray) -> FloatArray:
         if len(position) < 2:
             return position
+        if len(position) <= FEW_BODIES:
+            if not _few_overlap(position, radius):
+                return position
+            return separate_bodies(position, radius, movable)
         reach = np.full(len(position), 2.0 * float(radius.max()))
         pairs = self._finder.find(position, reach)
         if pairs.count == 0 or not (radius[pairs.first] + radius[pairs.second]
                                     > pairs.distance).any():
             return position
         return separate_bodies(position, radius, movable)
+
+
+def _few_overlap(position: FloatArray, radius: FloatArray) -> bool:
+    """Whether any two of a few bodies overlap, checked in floats pair by pair."""
+    bodies = list(zip(position.tolist(), radius.tolist(), strict=True))
+    for i, ((xi, yi), ri) in enumerate(bodies):
+        for (xj, yj), rj in bodies[i + 1:]:
+            if math.hypot(xi - xj, yi - yj) < ri + rj:
+                return True
+    return False
 
 
 def separate_bodies(position: FloatArray, radius: FloatArray, movable: BoolArray) -> FloatArray:
@@ -88,9 +105,11 @@ def keep_out_of_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
     A body centre must keep `radius / 2` of clearance (bodies may brush furniture, centres never
     enter occupied cells); the full move is tried, then each axis alone, then no move. Bodies
     whose cell is far enough from every wall are accepted at once (`OccupancyGrid.surely_clear`);
-    only the others pay for interpolated clearances. Returns `new` itself when nobody is
-    stopped.
+    only the others pay for interpolated clearances; a few bodies are first tested so in
+    floats. Returns `new` itself when nobody is stopped.
     """
+    if len(new) <= FEW_BODIES and _few_surely_clear(grid, old, new, radius):
+        return new
     step = lengths(new - old)
     moved = step > 0
     if not moved.any():  # nobody moves: there is nothing to stop (the common tick at rest)
@@ -106,6 +125,21 @@ def keep_out_of_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
     result = new.copy()
     result[check] = _slide_along_walls(grid, old[check], new[check], needed[check])
     return result
+
+
+def _few_surely_clear(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
+                      radius: FloatArray) -> bool:
+    """Whether no move of a few bodies needs a closer look: each stays or ends, and starts,
+    surely clear by the tests of `keep_out_of_walls`, checked in floats row by row."""
+    for (x0, y0), (x1, y1), r in zip(old.tolist(), new.tolist(), radius.tolist(), strict=True):
+        step = math.hypot(x1 - x0, y1 - y0)
+        if step == 0.0:
+            continue
+        needed = 0.5 * r + WALL_MARGIN
+        if not (grid.surely_clear_point(x1, y1, needed)
+                and grid.surely_clear_point(x0, y0, step + needed)):
+            return False
+    return True
 
 
 def _slide_along_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,

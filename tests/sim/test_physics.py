@@ -42,6 +42,36 @@ def test_keep_out_of_walls_equals_the_exact_test_for_every_body(seed: int) -> No
     assert not np.array_equal(exact, new)   # some moves really were stopped or slid
 
 
+@pytest.mark.parametrize("count", [1, 3, physics.FEW_BODIES])
+def test_a_few_bodies_are_kept_out_of_walls_as_many_are(count: int) -> None:
+    # a few bodies are checked in floats, many in arrays: both give the exact test's answer
+    grid = furnished_room()
+    rng = np.random.default_rng(count)
+    slid = 0
+    for _ in range(200):
+        old = rng.uniform((0.5, 1.0), (3.5, 2.5), size=(count, 2))  # about the table
+        old = old[grid.is_free(old)]
+        new = old + rng.normal(0.0, 0.1, size=old.shape)
+        radius = rng.uniform(0.15, 0.3, size=len(old))
+        fast = physics.keep_out_of_walls(grid, old, new, radius)
+        exact = physics._slide_along_walls(grid, old, new, 0.5 * radius + physics.WALL_MARGIN)
+        np.testing.assert_array_equal(fast, exact)
+        slid += not np.array_equal(fast, new)
+    assert slid > 10   # walls were met, not only open floor
+
+
+def test_the_float_test_of_a_point_is_the_array_test() -> None:
+    grid = furnished_room()
+    rng = np.random.default_rng(5)
+    points = np.vstack([rng.uniform((-0.5, -0.5), (6.5, 4.5), size=(2000, 2)),
+                        [[np.nan, 1.0], [np.inf, 1.0], [1.0, -np.inf]]])
+    for distance in (0.05, 0.2, 0.6):
+        expected = grid.surely_clear(points, distance)
+        got = [grid.surely_clear_point(x, y, distance) for x, y in points.tolist()]
+        np.testing.assert_array_equal(got, expected)
+    assert expected.any() and not expected.all()
+
+
 def test_keep_out_of_walls_returns_the_moves_when_all_are_clear() -> None:
     grid = OccupancyGrid(np.zeros((100, 100), dtype=bool), 0.1, (0.0, 0.0))
     old = np.array([[5.0, 5.0], [3.0, 6.0]])
@@ -78,6 +108,22 @@ def test_body_separation_equals_separate_bodies_tick_after_tick() -> None:
         stopped += got is position
         position = got
     assert 0 < stopped < 60   # both the shortcut and the correction were exercised
+
+
+@pytest.mark.parametrize("count", [2, 3, physics.FEW_BODIES])
+def test_a_few_bodies_are_separated_as_many_are(count: int) -> None:
+    rng = np.random.default_rng(count)
+    separation = physics.BodySeparation()
+    touched = 0
+    for _ in range(200):
+        position = rng.uniform(0.0, 0.6 * count, size=(count, 2))
+        radius = rng.uniform(0.15, 0.3, size=count)
+        movable = rng.uniform(size=count) > 0.2
+        expected = physics.separate_bodies(position, radius, movable)
+        got = separation(position, radius, movable)
+        np.testing.assert_array_equal(got, expected)
+        touched += got is not position
+    assert 0 < touched < 200
 
 
 def tree_pairs(position: np.ndarray, radius: float) -> np.ndarray:
