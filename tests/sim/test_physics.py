@@ -28,35 +28,33 @@ def furnished_room() -> OccupancyGrid:
     return OccupancyGrid(occupied, 0.05, (0.0, 0.0))
 
 
-@pytest.mark.parametrize("seed", range(5))
-def test_keep_out_of_walls_equals_the_exact_test_for_every_body(seed: int) -> None:
-    grid = furnished_room()
-    rng = np.random.default_rng(seed)
-    old = rng.uniform((0.0, 0.0), (6.0, 4.0), size=(300, 2))
+def kept_out_exactly(grid: OccupancyGrid, rng: np.random.Generator, count: int,
+                     area: tuple[tuple[float, float], tuple[float, float]],
+                     step: float) -> bool:
+    """Random moves of `count` bodies from free places in `area`: `keep_out_of_walls` gives
+    the exact test's answer. Whether any move was stopped or slid."""
+    old = rng.uniform(*area, size=(count, 2))
     old = old[grid.is_free(old)]
-    new = old + rng.normal(0.0, 0.15, size=old.shape)
+    new = old + rng.normal(0.0, step, size=old.shape)
     radius = rng.uniform(0.15, 0.3, size=len(old))
     fast = physics.keep_out_of_walls(grid, old, new, radius)
     exact = physics._slide_along_walls(grid, old, new, 0.5 * radius + physics.WALL_MARGIN)
     np.testing.assert_array_equal(fast, exact)
-    assert not np.array_equal(exact, new)   # some moves really were stopped or slid
+    return not np.array_equal(exact, new)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_keep_out_of_walls_equals_the_exact_test_for_every_body(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    assert kept_out_exactly(furnished_room(), rng, 300, ((0.0, 0.0), (6.0, 4.0)), 0.15)
 
 
 @pytest.mark.parametrize("count", [1, 3, physics.FEW_BODIES])
 def test_a_few_bodies_are_kept_out_of_walls_as_many_are(count: int) -> None:
     # a few bodies are checked in floats, many in arrays: both give the exact test's answer
-    grid = furnished_room()
-    rng = np.random.default_rng(count)
-    slid = 0
-    for _ in range(200):
-        old = rng.uniform((0.5, 1.0), (3.5, 2.5), size=(count, 2))  # about the table
-        old = old[grid.is_free(old)]
-        new = old + rng.normal(0.0, 0.1, size=old.shape)
-        radius = rng.uniform(0.15, 0.3, size=len(old))
-        fast = physics.keep_out_of_walls(grid, old, new, radius)
-        exact = physics._slide_along_walls(grid, old, new, 0.5 * radius + physics.WALL_MARGIN)
-        np.testing.assert_array_equal(fast, exact)
-        slid += not np.array_equal(fast, new)
+    grid, rng = furnished_room(), np.random.default_rng(count)
+    about_the_table = ((0.5, 1.0), (3.5, 2.5))
+    slid = sum(kept_out_exactly(grid, rng, count, about_the_table, 0.1) for _ in range(200))
     assert slid > 10   # walls were met, not only open floor
 
 
