@@ -1,12 +1,14 @@
 """Moving bodies for one tick: integrate velocities, keep bodies apart and out of walls, turn.
 
-All functions take and return whole arrays; nothing here loops over humans.
+All functions take and return whole arrays; nothing here loops over humans, except the
+shortcuts for a few bodies (up to FEW_BODIES), which test them one by one in floats because
+numpy's calls on arrays that small cost more than the arithmetic.
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -23,7 +25,7 @@ BoolArray = npt.NDArray[np.bool_]
 TURN_RATE = 2.5          # rad/s a human turns at
 WALL_MARGIN = 0.02       # m of clearance a body centre keeps beyond "free"
 STILL = 0.1              # m/s below which a body counts as standing
-FEW_BODIES = 8           # up to this many, wall checks run in floats rather than arrays
+FEW_BODIES = 8           # up to this many, wall and overlap tests run in floats
 CROWDED_GOAL = 1.5       # m from a goal within which a stuck walker looks for who stands there
 
 
@@ -183,7 +185,12 @@ def lengths(vectors: FloatArray) -> FloatArray:
     return np.sqrt(squared, out=squared)
 
 
-def wrap_angle(angle: FloatArray) -> FloatArray:
+@overload
+def wrap_angle(angle: float) -> float: ...
+@overload
+def wrap_angle(angle: FloatArray) -> FloatArray: ...
+def wrap_angle(angle: float | FloatArray) -> float | FloatArray:
+    """The angle in [-pi, pi): element-wise for an array, in floats for a float."""
     return (angle + np.pi) % (2.0 * np.pi) - np.pi
 
 

@@ -145,9 +145,9 @@ class Robots:
         self.position = moved
         rows = self._holonomic  # a holonomic robot faces where it goes
         if len(rows):
-            velocity = self.velocity[rows]
-            moving = np.hypot(velocity[:, 0], velocity[:, 1]) > 1e-6
-            self.heading[rows] = np.where(moving, np.arctan2(velocity[:, 1], velocity[:, 0]),
+            going = self.velocity[rows]
+            moving = np.hypot(going[:, 0], going[:, 1]) > 1e-6
+            self.heading[rows] = np.where(moving, np.arctan2(going[:, 1], going[:, 0]),
                                           self.heading[rows])
 
     def _observe(self, i: int, time: float, humans: HumanArrays,
@@ -213,7 +213,7 @@ class Robots:
         forward, turn = command
         limit = spec.max_angular_speed
         turn = max(-limit, min(limit, turn))
-        heading = (float(self.heading[i]) + turn * dt + math.pi) % math.tau - math.pi  # wrap_angle
+        heading = physics.wrap_angle(float(self.heading[i]) + turn * dt)
         self.heading[i] = heading
         return self._limited(i, math.cos(heading) * forward, math.sin(heading) * forward, dt)
 
