@@ -25,6 +25,18 @@ the region either, val(v) <= L - oct(start, v) (up to float rounding, relative 1
 the start always qualifies. A bound too small is raised to the cost the search found, or doubled
 when that is more, so a plan costs a few small searches before the region covers the component.
 
+That region grows with the square of the distance between start and goal, and a crowd
+wandering to goals of its own pays it at every walk (about 20 ms a plan across a car park at
+5 cm). A first plan between cells at least 16 blocks apart therefore searches a corridor
+instead (`CostGrid.field_between`), as hierarchical planners do: the cheapest path on a coarse
+grid of blocks about 0.4 m wide, each costing its cheapest cell (so the blocks of any fine path
+are passable there), then Dijkstra on the fine cells of that path's blocks and of the blocks
+next to them. Its cost is bounded by the corridor's size, which grows with the distance only.
+The path is the cheapest inside the corridor, not always the cheapest of all: on the project's
+car park map, over 629 walks of a wandering crowd, the plans came out 0.04 % longer on average and
+at most 4 %. When the corridor holds no way (the coarse path crossed a wall thinner than a
+block), the plan falls back to the region search. navfn's `corridor` parameter turns it off.
+
 `segment_costs` integrates a cost grid along straight segments (exact cell traversal), which is
 how the planner checks line of sight and compares a shortcut with the path it replaces.
 All coordinates here are in cell units: a point (u, v) lies in cell (floor(u), floor(v)), so the
@@ -66,6 +78,12 @@ _DIAGONAL_EXTRA = math.sqrt(2.0) - 1.0  # a diagonal move is this much longer th
 # than to that path's cost, keeps the next region from spanning the whole map.
 _BOUND_GROWTH = 1.25
 _TIE_TOLERANCE = 1e-9    # relative: float rounding, when a path costs exactly the octile bound
+# Long plans search a corridor of blocks about this wide (m) along a coarse path, when start
+# and goal are at least _CORRIDOR_MIN_BLOCKS blocks apart, the blocks of the coarse path and
+# _CORRIDOR_WIDTH blocks on each side of it.
+CORRIDOR_BLOCK = 0.4
+_CORRIDOR_MIN_BLOCKS = 16
+_CORRIDOR_WIDTH = 1
 
 
 @dataclass(frozen=True, slots=True)
@@ -184,6 +202,22 @@ class ComponentSearch:
             # the path found proves the optimum is at most `found` (see _BOUND_GROWTH)
             bound = min(found, _BOUND_GROWTH * bound)
 
+    def solve_within(self, goal: Cell, start: Cell, offset: Cell, mask: BoolArray
+                     ) -> CostToGo | None:
+        """The field of `goal` searched on the cells of `mask` (a box at `offset`) only, until
+        `start` is settled; None when no way inside the mask leads there. It keeps the cells
+        settled by then, whose values are the cheapest ways inside the mask."""
+        window = (slice(offset[0], offset[0] + mask.shape[0]),
+                  slice(offset[1], offset[1] + mask.shape[1]))
+        mcp = MCP_Geometric(np.where(mask, self._cost[window], np.inf), fully_connected=True)
+        cumulative, traceback = _find_costs(mcp, offset, goal, start)
+        found = float(cumulative[start[0] - offset[0], start[1] - offset[1]])
+        if not math.isfinite(found):
+            return None
+        # settled cells cost at most `found`; cells still waiting hold values no lower
+        settled = np.where(cumulative <= found, cumulative, np.inf)
+        return _field(mcp, offset, goal, settled, traceback, complete=False)
+
     def _region_window(self, goal: Cell, start: Cell, bound: float
                        ) -> tuple[Cell, FloatArray, FloatArray] | None:
         """The costs on the bounding box of the region where octile(start, u) + octile(u, goal)
@@ -260,18 +294,73 @@ def _field(mcp: MCP_Geometric, offset: Cell, goal: Cell, cumulative: FloatArray,
 
 @dataclass(eq=False)
 class CostGrid:
-    """Travel cost per cell for one `CostKey`, its lethal mask and its components."""
+    """Travel cost per cell for one `CostKey`, its lethal mask and its components.
+
+    `block` is the side, in cells, of the blocks of its coarse grid (0: no coarse grid), on
+    which long plans find their corridor (`field_between`).
+    """
 
     key: CostKey
     cost: FloatArray                   # (rows, cols); inf where lethal
     lethal: BoolArray
     labels: npt.NDArray[np.int32]      # 0 on lethal cells, 1.. per 8-connected component
+    block: int = 0
     _searches: dict[int, ComponentSearch] = field(default_factory=dict)
+    _coarse: CostGrid | None = None
 
     def search(self, label: int) -> ComponentSearch:
         if label not in self._searches:
             self._searches[label] = ComponentSearch(self.cost, self.labels, label)
         return self._searches[label]
+
+    def field_between(self, goal: Cell, start: Cell, *, corridor: bool = True) -> CostToGo:
+        """The field of a first plan from `start` to `goal`: with `corridor`, searched in a
+        corridor along the coarse grid's path when they are far apart (the module docstring
+        says why and what that costs in optimality); else, or when the corridor holds no way,
+        over the region that proves the path optimal (`ComponentSearch.solve_between`)."""
+        search = self.search(int(self.labels[goal]))
+        if corridor and self.block and _octile(goal[0] - start[0], goal[1] - start[1]) >= \
+                _CORRIDOR_MIN_BLOCKS * self.block:
+            offset, mask = self._corridor(goal, start)
+            found = search.solve_within(goal, start, offset, mask)
+            if found is not None:
+                return found
+        return search.solve_between(goal, start)
+
+    def _corridor(self, goal: Cell, start: Cell) -> tuple[Cell, BoolArray]:
+        """The fine cells (a box's offset and mask) of the blocks along the coarse grid's
+        cheapest path from `start` to `goal`, and of the blocks around them."""
+        coarse, block = self.coarse(), self.block
+        coarse_goal, coarse_start = (goal[0] // block, goal[1] // block), \
+            (start[0] // block, start[1] // block)
+        path = coarse.search(int(coarse.labels[coarse_goal])).solve_between(
+            coarse_goal, coarse_start).descend(coarse_start)
+        low = np.maximum(path.min(axis=0) - _CORRIDOR_WIDTH, 0)
+        high = np.minimum(path.max(axis=0) + _CORRIDOR_WIDTH + 1, coarse.cost.shape)
+        blocks = np.zeros(high - low, dtype=bool)
+        blocks[path[:, 0] - low[0], path[:, 1] - low[1]] = True
+        blocks = ndimage.binary_dilation(blocks, _EIGHT_CONNECTED, iterations=_CORRIDOR_WIDTH)
+        rows, cols = self.cost.shape
+        fine = np.repeat(np.repeat(blocks, block, axis=0), block, axis=1)
+        offset = (int(low[0]) * block, int(low[1]) * block)
+        return offset, fine[:rows - offset[0], :cols - offset[1]]
+
+    def coarse(self) -> CostGrid:
+        """Blocks of `block` x `block` cells, each costing its cheapest cell (lethal when all
+        its cells are): a path's blocks are passable in it, so fine components stay connected
+        in it, and a coarse path is never dearer per block than the fine ones it stands for."""
+        if self._coarse is None:
+            block = self.block
+            rows, cols = self.cost.shape
+            padded = np.pad(self.cost, ((0, -rows % block), (0, -cols % block)),
+                            constant_values=np.inf)
+            cost = padded.reshape(padded.shape[0] // block, block,
+                                  padded.shape[1] // block, block).min(axis=(1, 3))
+            lethal = np.isinf(cost)
+            labels, _ = ndimage.label(~lethal, structure=_EIGHT_CONNECTED)
+            self._coarse = CostGrid(key=self.key, cost=cost, lethal=lethal,
+                                    labels=labels.astype(np.int32))
+        return self._coarse
 
 
 def build_cost_grid(clearance: FloatArray, resolution: float, key: CostKey,
@@ -289,7 +378,9 @@ def build_cost_grid(clearance: FloatArray, resolution: float, key: CostKey,
         cost += comfort_weight * s * s
     cost[lethal] = np.inf
     labels, _ = ndimage.label(~lethal, structure=_EIGHT_CONNECTED)
-    return CostGrid(key=key, cost=cost, lethal=lethal, labels=labels.astype(np.int32))
+    block = max(2, round(CORRIDOR_BLOCK / resolution))
+    return CostGrid(key=key, cost=cost, lethal=lethal, labels=labels.astype(np.int32),
+                    block=block)
 
 
 @dataclass(frozen=True, slots=True)
@@ -305,8 +396,9 @@ class FieldCache:
     """LRU caches of cost grids per `CostKey` and of cost-to-go fields per (goal cell, key)."""
 
     def __init__(self, clearance: FloatArray, resolution: float, comfort_weight: float, *,
-                 max_fields: int, max_grids: int) -> None:
+                 max_fields: int, max_grids: int, corridor: bool = True) -> None:
         self._clearance = clearance
+        self._corridor = corridor
         self._resolution = resolution
         self._comfort_weight = comfort_weight
         self._max_fields = max_fields
@@ -344,7 +436,7 @@ class FieldCache:
             grid = self.cost_grid(key)
             search = grid.search(int(grid.labels[goal]))
             if entry is None and start is not None:
-                entry = search.solve_between(goal, start)
+                entry = grid.field_between(goal, start, corridor=self._corridor)
             else:
                 entry = search.solve(goal)
             self._field_builds += 1

@@ -66,6 +66,11 @@ class NavfnParams(PlannerParams):
         default=True,
         description="shorten the grid path into straight segments; False keeps every turn of "
                     "the 8-connected grid path")
+    corridor: bool = Field(
+        default=True,
+        description="a plan between points farther apart than 16 blocks of 0.4 m searches a "
+                    "corridor along a coarse plan (bounded, near-optimal); False: every plan "
+                    "searches the region that proves it optimal")
     cache_size: int = Field(
         default=32, ge=1, le=4096,
         description="cost-to-go fields kept (least recently used are dropped first)")
@@ -92,7 +97,7 @@ class NavfnPlanner:
                        else NavfnParams.model_validate(params.model_dump()))
         self._cache = FieldCache(np.asarray(grid.clearance, dtype=np.float64), grid.resolution,
                                  self.params.comfort_weight, max_fields=self.params.cache_size,
-                                 max_grids=_MAX_GRIDS)
+                                 max_grids=_MAX_GRIDS, corridor=self.params.corridor)
         # Walls as a cost grid (0 free, inf occupied): the way out of the lethal zone must not
         # pass through one.
         self._walls: FloatArray = np.where(np.asarray(grid.occupied, dtype=bool), np.inf, 0.0)
@@ -146,8 +151,9 @@ class NavfnPlanner:
             # shorter or cheaper, so no search is needed (a crowd's thousand plans in the open)
             self.straight_plans += 1
             return self._to_world(np.vstack([start_uv, goal_uv]), start, goal)
-        field = (costs.search(int(costs.labels[goal_cell])).solve_between(goal_cell, entry)
-                 if self.independent else self._cache.field(key, goal_cell, entry))
+        field = (costs.field_between(goal_cell, entry, corridor=self.params.corridor)
+                 if self.independent
+                 else self._cache.field(key, goal_cell, entry))
         cells = _turns(field.descend(entry))
         forced = entry != cell_at(start_uv, costs.cost.shape)
         points, to_go = self._polyline(start_uv, goal_uv, cells, field, costs,
@@ -275,12 +281,12 @@ def _farthest_shortcut(points: FloatArray, to_go: FloatArray, cost: FloatArray,
 
 def reference_plan_length(grid: OccupancyGrid, start: Point, goal: Point,
                           body_radius: float) -> float | None:
-    """The length of navfn's plan (default parameters, no comfort margin) for a body from
+    """The length of navfn's optimal plan (no corridor, no comfort margin) for a body from
     `start` to `goal`: the shortest way the metrics compare a path with (`plan_efficiency`).
     None when there is no such plan."""
     try:
-        plan = NavfnPlanner(grid, NavfnParams()).plan(start, goal, body_radius=body_radius,
-                                                      comfort_radius=body_radius)
+        plan = NavfnPlanner(grid, NavfnParams(corridor=False)).plan(
+            start, goal, body_radius=body_radius, comfort_radius=body_radius)
     except NoPath:
         return None
     return float(np.hypot(*np.diff(plan.waypoints, axis=0).T).sum())

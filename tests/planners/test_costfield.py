@@ -169,3 +169,97 @@ def test_parking_plans_cost_what_the_whole_field_says(comfort: float) -> None:
         whole = search.solve(goal)
         for start in map(cell, PARKING_STARTS):
             assert search.solve_between(goal, start).value(start) == whole.value(start)
+
+
+# ---- corridors: far plans search along a coarse path ------------------------------------------
+
+PROJECT_PARKING = Path(__file__).resolve().parents[2] / "maps" / "parking.yaml"
+
+
+def parking_grid(comfort: float) -> costfield.CostGrid:
+    from hubero_dsl.world.mapfile import load_map
+
+    occupancy = load_map(PROJECT_PARKING)
+    return build_cost_grid(np.asarray(occupancy.clearance, dtype=np.float64),
+                           occupancy.resolution, CostKey.of(0.2, comfort), 40.0)
+
+
+def far_pairs(grid: costfield.CostGrid, count: int, seed: int
+              ) -> list[tuple[tuple[int, int], tuple[int, int]]]:
+    """Goal and start cells of the largest component, far enough apart for a corridor."""
+    label = int(np.bincount(grid.labels.ravel())[1:].argmax()) + 1
+    cells = free_cells(grid.labels, label, 6 * count, seed)
+    reach = costfield._CORRIDOR_MIN_BLOCKS * grid.block
+    pairs = [(goal, start) for goal, start in zip(cells[::2], cells[1::2], strict=True)
+             if costfield._octile(goal[0] - start[0], goal[1] - start[1]) >= reach]
+    assert len(pairs) >= count
+    return pairs[:count]
+
+
+@pytest.mark.parametrize("comfort", [0.2, 0.5])
+def test_far_plans_search_a_corridor_and_come_close_to_the_optimum(comfort: float) -> None:
+    grid = parking_grid(comfort)
+    assert grid.block == 8    # 0.4 m at 5 cm
+    in_corridor = 0
+    for goal, start in far_pairs(grid, 12, seed=3):
+        search = grid.search(int(grid.labels[goal]))
+        optimal = search.solve_between(goal, start)
+        corridor = grid.field_between(goal, start)
+        # a corridor's field settles fewer cells than the region that proves the optimum (a
+        # corridor that holds no way falls back to that region: then the fields are equal)
+        settled = np.isfinite(corridor.cost).sum()
+        assert settled <= np.isfinite(optimal.cost).sum()
+        in_corridor += settled < np.isfinite(optimal.cost).sum()
+        assert optimal.value(start) <= corridor.value(start) <= 1.05 * optimal.value(start)
+        path = corridor.descend(start)
+        assert tuple(path[0]) == start and tuple(path[-1]) == goal
+        assert not grid.lethal[path[:, 0], path[:, 1]].any()
+        values = [corridor.value((int(r), int(c))) for r, c in path]
+        assert all(a > b for a, b in itertools.pairwise(values))
+        # without the corridor the plan is the optimal search's
+        exact = grid.field_between(goal, start, corridor=False)
+        assert exact.value(start) == optimal.value(start)
+    assert in_corridor >= 9
+
+
+def test_near_plans_search_the_region_that_proves_them_optimal() -> None:
+    grid = build_cost_grid(clearance_of(maze(2)), RES, CostKey.of(0.15, 0.4), 40.0)
+    label = int(np.bincount(grid.labels.ravel())[1:].argmax()) + 1
+    search = grid.search(label)
+    reach = costfield._CORRIDOR_MIN_BLOCKS * grid.block
+    for goal, start in zip(*[iter(free_cells(grid.labels, label, 40, 2))] * 2, strict=True):
+        if costfield._octile(goal[0] - start[0], goal[1] - start[1]) >= reach:
+            continue
+        np.testing.assert_array_equal(grid.field_between(goal, start).cost,
+                                      search.solve_between(goal, start).cost)
+
+
+def test_a_corridor_through_a_thin_wall_falls_back_to_the_optimal_search() -> None:
+    """The coarse grid sees through a wall thinner than a block (its blocks keep the free
+    cells on both sides); the corridor then holds no way, and the region search finds the
+    door far from the line."""
+    occupied = np.zeros((160, 400), dtype=bool)
+    occupied[:, 203:205] = True              # two cells thick, inside the blocks 200-207
+    occupied[140:160, 203:205] = False       # the only door, near the bottom
+    grid = build_cost_grid(clearance_of(occupied), RES, CostKey.of(0.03, 0.03), 40.0)
+    start, goal = (20, 20), (20, 380)
+    assert grid.labels[start] == grid.labels[goal]
+    coarse = grid.coarse()
+    wall_blocks = coarse.cost[:, 203 // grid.block]
+    assert np.isfinite(wall_blocks[:10]).all()    # the coarse grid walks through the wall
+    field = grid.field_between(goal, start)
+    assert field.value(start) == grid.search(int(grid.labels[goal])).solve(goal).value(start)
+    assert max(row for row, _ in field.descend(start)) >= 140   # through the door
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_cells_connected_on_the_map_are_connected_on_the_coarse_grid(seed: int) -> None:
+    grid = build_cost_grid(clearance_of(maze(seed)), RES, CostKey.of(0.15, 0.3), 40.0)
+    coarse, block = grid.coarse(), grid.block
+    rows, cols = np.nonzero(grid.labels)
+    fine_labels = grid.labels[rows, cols]
+    coarse_labels = coarse.labels[rows // block, cols // block]
+    assert (coarse_labels > 0).all()
+    # every fine component lies in one coarse component
+    for label in np.unique(fine_labels):
+        assert len(np.unique(coarse_labels[fine_labels == label])) == 1

@@ -157,15 +157,18 @@ def test_field_is_built_once_per_goal_and_reused(pillar_room: OccupancyGrid) -> 
     planner = navfn(pillar_room)
     goal = (8.5, 1.0)
     planner.plan((1.0, 1.0), goal, body_radius=BODY, comfort_radius=0.5)
+    # 7.5 m away, the first plan searched a corridor; a start outside it widens the field
+    # to the whole component, which every later plan to the goal reuses
     planner.plan((2.0, 5.0), goal, body_radius=BODY, comfort_radius=0.5)
     planner.plan((1.0, 1.0), goal, body_radius=BODY, comfort_radius=0.5)
+    planner.plan((3.0, 4.0), goal, body_radius=BODY, comfort_radius=0.5)
     stats = planner.cache_stats
-    assert (stats.grid_builds, stats.field_builds, stats.field_hits) == (1, 1, 2)
+    assert (stats.grid_builds, stats.field_builds, stats.field_hits) == (1, 2, 2)
     # Another comfort radius is another cost grid and field; a goal in the same cell is not.
     planner.plan((1.0, 1.0), goal, body_radius=BODY, comfort_radius=0.7)
     planner.plan((1.0, 1.0), (8.51, 1.01), body_radius=BODY, comfort_radius=0.7)
     stats = planner.cache_stats
-    assert (stats.grid_builds, stats.field_builds, stats.field_hits) == (2, 2, 3)
+    assert (stats.grid_builds, stats.field_builds, stats.field_hits) == (2, 3, 3)
 
 
 def test_whole_fields_are_cached_objects(pillar_room: OccupancyGrid) -> None:
