@@ -82,8 +82,8 @@ _TIE_TOLERANCE = 1e-9    # relative: float rounding, when a path costs exactly t
 # Long plans search a corridor of blocks about this wide (m) along a coarse path, when start
 # and goal are at least _CORRIDOR_MIN_BLOCKS blocks apart: the blocks of the coarse path and
 # one block on each side of it, then two when that holds no way (a coarse path may cut a
-# corner the fine cells cannot: on the paper's car park, 15 of its 24 plans found their way
-# in the narrower corridor, 20 in the wider one).
+# corner the fine cells cannot: on the paper's car park with a 0.125 m comfort radius, 13 of
+# its 21 far plans found their way in the narrower corridor, 18 in the wider one).
 CORRIDOR_BLOCK = 0.4
 _CORRIDOR_MIN_BLOCKS = 16
 _CORRIDOR_WIDTHS = (1, 2)
