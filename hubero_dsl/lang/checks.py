@@ -736,16 +736,21 @@ class Checker:
                                      strict=False):
             self.facts.bodies.append((f"the start of robot '{robot.name}'", robot.start.xy,
                                       robot.radius, robot_decl.start.span))
+        # the first position written at each span (a scenario of thousands of goals looked
+        # each one up in the whole list)
+        points: dict[Span, tuple[float, float]] = {}
+        for _, xy, span in self.facts.positions:
+            points.setdefault(span, xy)
         for actor, kind, target in self.goals:
-            where = self._point_of(target)
+            where = self._point_of(target, points)
             if where is not None and actor in radius:
                 self.facts.bodies.append((f"the goal of {actor}'s {kind}", where,
                                           radius[actor], target.span))
 
-    def _point_of(self, target: ast.PointValue) -> tuple[float, float] | None:
+    def _point_of(self, target: ast.PointValue, points: dict[Span, tuple[float, float]]
+                  ) -> tuple[float, float] | None:
         if isinstance(target, ast.Point):
-            return next((xy for what, xy, span in self.facts.positions if span == target.span),
-                        None)
+            return points.get(target.span)
         pose = self.facts.places.get(target.name)
         return pose.xy if pose is not None else None
 

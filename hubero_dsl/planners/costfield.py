@@ -442,11 +442,10 @@ class FieldCache:
             self._field_hits += 1
         else:
             grid = self.cost_grid(key)
-            search = grid.search(int(grid.labels[goal]))
             if entry is None and start is not None:
                 entry = grid.field_between(goal, start, corridor=self._corridor)
             else:
-                entry = search.solve(goal)
+                entry = grid.search(int(grid.labels[goal])).solve(goal)
             self._field_builds += 1
             self._fields[(goal, key)] = entry
             if len(self._fields) > self._max_fields:

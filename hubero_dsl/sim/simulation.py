@@ -341,7 +341,7 @@ def _human_arrays(program: Program, params: dict[str, dict[str, ParamValue]]) ->
         return np.array([float(params[n][key]) for n in names], dtype=np.float64)  # type: ignore[arg-type]
 
     shapes: list[Shape] = [params[n]["personal_space"] for n in names]  # type: ignore[misc]
-    starts = [program.human(n).start for n in names]
+    starts = [human.start for human in program.humans]
     quantities = {k: column(k) for k, spec in HUMAN_PARAMS.items()
                   if spec.kind is ParamKind.QUANTITY}
     return HumanArrays(
