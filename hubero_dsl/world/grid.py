@@ -44,6 +44,10 @@ BoolArray = npt.NDArray[np.bool_]
 _EIGHT_CONNECTED = np.ones((3, 3), dtype=bool)
 # Cell index given to non-finite coordinates: far outside any grid, still a valid integer.
 _FAR_AWAY = np.iinfo(np.int32).max
+# Up to this many points, the clearance and direction queries run in floats, point by point:
+# for the few bodies of a small scene numpy's calls cost more than the arithmetic. The answers
+# are the arrays' bit for bit (tests compare them), scipy's bilinear interpolation included.
+FEW_POINTS = 8
 # Masks and labels kept per grid (least recently used dropped first): body radii drawn from a
 # distribution would otherwise each keep a map-sized array alive.
 _CACHE_ENTRIES = 48
@@ -73,6 +77,33 @@ def _unit_vectors(vectors: FloatArray) -> FloatArray:
     x, y = vectors[..., 0], vectors[..., 1]
     norms = np.sqrt(x * x + y * y)[..., None]
     return np.divide(vectors, norms, out=np.zeros(vectors.shape), where=norms > 0.0)
+
+
+def _clipped_cell(fraction: float, count: int) -> tuple[int, bool]:
+    """`_locate_fractional` along one axis for a finite coordinate: the cell clipped into
+    0 .. count - 1, and whether it was inside."""
+    cell = math.floor(fraction)
+    clipped = min(max(cell, 0), count - 1)
+    return clipped, clipped == cell
+
+
+def _bilinear(values: FloatArray, row: float, col: float) -> float:
+    """scipy.ndimage.map_coordinates(values, order=1, mode="nearest") at one point, with its
+    arithmetic: weights from the coordinate as given, neighbours clipped into the grid, and
+    the four products summed in C order (tests compare the two bit for bit)."""
+    rows, cols = values.shape
+    r0, c0 = math.floor(row), math.floor(col)
+    wr0 = 1.0 - (row - r0)
+    wc0 = 1.0 - (col - c0)
+    wr1, wc1 = 1.0 - wr0, 1.0 - wc0
+    ra, rb = min(max(r0, 0), rows - 1), min(max(r0 + 1, 0), rows - 1)
+    ca, cb = min(max(c0, 0), cols - 1), min(max(c0 + 1, 0), cols - 1)
+    total = 0.0
+    total += float(values[ra, ca]) * wr0 * wc0
+    total += float(values[ra, cb]) * wr0 * wc1
+    total += float(values[rb, ca]) * wr1 * wc0
+    total += float(values[rb, cb]) * wr1 * wc1
+    return total
 
 
 def _check_radius(body_radius: float) -> float:
@@ -337,6 +368,12 @@ class OccupancyGrid:
         return self._probe(_points(xy), direction=True)
 
     def _probe(self, points: FloatArray, *, direction: bool) -> tuple[FloatArray, FloatArray]:
+        if points.ndim == 2 and len(points) <= FEW_POINTS and np.isfinite(points).all():
+            probes = [self._probe_point(x, y) for x, y in points.tolist()]
+            clearance = np.array([probe[0] for probe in probes]).reshape(len(points))
+            if not direction:
+                return clearance, clearance
+            return clearance, np.array([probe[1] for probe in probes]).reshape(len(points), 2)
         row, col = self._fractional_rows_cols(points)
         row_index, col_index, inside = self._locate_fractional(row, col)
         free: BoolArray = inside & ~self.occupied[row_index, col_index]
@@ -390,6 +427,8 @@ class OccupancyGrid:
         have more than `reach` of clearance. One cell lookup serves all three.
         """
         points = _points(xy)
+        if points.ndim == 2 and len(points) <= FEW_POINTS and np.isfinite(points).all():
+            return self._few_walls_within(points, reach)
         row, col = self._fractional_rows_cols(points)
         row_index, col_index, inside = self._locate_fractional(row, col)
         maybe = (self._clearance_floor[row_index, col_index] < reach).nonzero()[0]
@@ -401,6 +440,73 @@ class OccupancyGrid:
         free: BoolArray = inside & ~self.occupied[row_index, col_index]
         clearance = self._interpolated(row, col, free)
         return maybe, clearance, self._direction(points, row_index, col_index, inside, free)
+
+    def _few_walls_within(self, points: FloatArray, reach: float
+                          ) -> tuple[IntArray, FloatArray, FloatArray]:
+        """`walls_within` for a few finite points, in floats."""
+        floor = self._clearance_floor
+        rows, cols = self.occupied.shape
+        found: list[int] = []
+        probes: list[tuple[float, tuple[float, float]]] = []
+        for index, (x, y) in enumerate(points.tolist()):
+            row, col = _clipped_cell((y - self.origin[1]) / self.resolution, rows), \
+                _clipped_cell((x - self.origin[0]) / self.resolution, cols)
+            if floor[row[0], col[0]] < reach:
+                found.append(index)
+                probes.append(self._probe_point(x, y))
+        return (np.array(found, dtype=np.intp), np.array([p[0] for p in probes]),
+                np.array([p[1] for p in probes]).reshape(len(found), 2))
+
+    def _probe_point(self, x: float, y: float) -> tuple[float, tuple[float, float]]:
+        """`clearance_at` and `obstacle_direction_at` of one finite point, in floats, with
+        the arithmetic of the arrays' `_probe` (and of scipy's order-1 `map_coordinates`)."""
+        res, (ox, oy) = self.resolution, self.origin
+        row_f, col_f = (y - oy) / res, (x - ox) / res
+        (row, row_inside), (col, col_inside) = _clipped_cell(row_f, self.occupied.shape[0]), \
+            _clipped_cell(col_f, self.occupied.shape[1])
+        inside = row_inside and col_inside
+        free = inside and not self.occupied[row, col]
+        clearance = _bilinear(self.clearance, row_f - 0.5, col_f - 0.5) if free else 0.0
+        if free:
+            nearest_row, nearest_col = self._obstacle_field[1]
+            away = self._away_from_cell(x, y, int(nearest_row[row, col]),
+                                        int(nearest_col[row, col]))
+            if away == (0.0, 0.0):  # on the obstacle's very edge: cell to cell
+                cx, cy = self._cell_centre(row, col)
+                lx, ly = self._cell_centre(int(nearest_row[row, col]),
+                                           int(nearest_col[row, col]))
+                lx -= 0.5 * res
+                ly -= 0.5 * res
+                away = (cx - 0.5 * (lx + (lx + res)), cy - 0.5 * (ly + (ly + res)))
+        elif inside:  # towards the nearest free cell
+            nearest_free = self._free_field
+            away = (0.0, 0.0)
+            if nearest_free is not None:
+                fx, fy = self._cell_centre(int(nearest_free[0, row, col]),
+                                           int(nearest_free[1, row, col]))
+                fx -= 0.5 * self.resolution
+                fy -= 0.5 * self.resolution
+                away = (min(max(x, fx), fx + self.resolution) - x,
+                        min(max(y, fy), fy + self.resolution) - y)
+        else:
+            xmin, ymin, xmax, ymax = self.bounds
+            away = (min(max(x, xmin), xmax) - x, min(max(y, ymin), ymax) - y)
+        norm = math.sqrt(away[0] * away[0] + away[1] * away[1])
+        direction = (away[0] / norm, away[1] / norm) if norm > 0.0 else (0.0, 0.0)
+        return clearance, direction
+
+    def _cell_centre(self, row: int, col: int) -> tuple[float, float]:
+        """`_cell_centres` of one cell, in floats."""
+        return (self.origin[0] + (col + 0.5) * self.resolution,
+                self.origin[1] + (row + 0.5) * self.resolution)
+
+    def _away_from_cell(self, x: float, y: float, row: int, col: int) -> tuple[float, float]:
+        """From the nearest point of the cell (as a square) to (x, y), as `_direction` has it."""
+        lx, ly = self._cell_centre(row, col)
+        lx -= 0.5 * self.resolution
+        ly -= 0.5 * self.resolution
+        ux, uy = lx + self.resolution, ly + self.resolution
+        return x - min(max(x, lx), ux), y - min(max(y, ly), uy)
 
     @cached_property
     def _clearance_floor(self) -> FloatArray:

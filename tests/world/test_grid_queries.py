@@ -172,3 +172,47 @@ def test_grids_with_the_same_cells_share_one_obstacle_field() -> None:
     coarser = OccupancyGrid(first.occupied, 0.1, first.origin)
     assert coarser._obstacle_field[0] is not first._obstacle_field[0]
     np.testing.assert_array_equal(coarser.clearance, 2.0 * first.clearance)
+
+
+# ---- a few points at a time: the same answers, computed in floats ----------------------------
+
+def same_bits(a: np.ndarray, b: np.ndarray) -> bool:
+    """Equal bit for bit (a zero's sign included)."""
+    return a.shape == b.shape and np.array_equal(np.asarray(a, np.float64).view(np.uint64),
+                                                 np.asarray(b, np.float64).view(np.uint64))
+
+
+def few_at_a_time(points: np.ndarray, seed: int) -> list[np.ndarray]:
+    """The finite points in chunks of 1 to FEW_POINTS."""
+    from hubero_dsl.world.grid import FEW_POINTS
+
+    points = points[np.isfinite(points).all(axis=1)]
+    sizes = np.random.default_rng(seed).integers(1, FEW_POINTS + 1, len(points))
+    return np.split(points, np.cumsum(sizes)[np.cumsum(sizes) < len(points)])
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_few_points_get_the_arrays_answers_bit_for_bit(seed: int) -> None:
+    grid = furnished(seed)
+    for chunk in few_at_a_time(awkward_points(grid, seed), seed):
+        clearance, direction = grid.clearance_and_direction_at(chunk)
+        assert same_bits(clearance, reference_clearance_at(grid, chunk))
+        assert same_bits(direction, reference_direction(grid, chunk))
+        assert same_bits(grid.clearance_at(chunk), clearance)
+        reach = 0.4
+        found, near_clearance, away = grid.walls_within(chunk, reach)
+        floor = grid._clearance_floor
+        rows, cols = grid._locate(chunk)[:2]
+        np.testing.assert_array_equal(found, np.flatnonzero(floor[rows, cols] < reach))
+        assert same_bits(near_clearance, clearance[found])
+        assert same_bits(away, direction[found])
+
+
+def test_a_few_points_on_a_map_without_free_cells_or_of_one_row() -> None:
+    walls = OccupancyGrid(np.ones((4, 5), dtype=bool), 0.1, (0.0, 0.0))
+    line = OccupancyGrid(np.array([[False, False, True, False]]), 0.5, (-1.0, 2.0))
+    for grid, seed in ((walls, 1), (line, 2)):
+        for chunk in few_at_a_time(awkward_points(grid, seed), seed):
+            clearance, direction = grid.clearance_and_direction_at(chunk)
+            assert same_bits(clearance, reference_clearance_at(grid, chunk))
+            assert same_bits(direction, reference_direction(grid, chunk))
