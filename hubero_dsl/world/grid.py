@@ -20,7 +20,7 @@ from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 from functools import cached_property
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -79,12 +79,16 @@ def _unit_vectors(vectors: FloatArray) -> FloatArray:
     return np.divide(vectors, norms, out=np.zeros(vectors.shape), where=norms > 0.0)
 
 
-def _clipped_cell(fraction: float, count: int) -> tuple[int, bool]:
-    """`_locate_fractional` along one axis for a finite coordinate: the cell clipped into
-    0 .. count - 1, and whether it was inside."""
-    cell = math.floor(fraction)
-    clipped = min(max(cell, 0), count - 1)
-    return clipped, clipped == cell
+class _PointCell(NamedTuple):
+    """Where one point lies: its fractional cell, its cell clipped into the grid, and whether
+    it is inside the map and on a free cell."""
+
+    row_f: float
+    col_f: float
+    row: int
+    col: int
+    inside: bool
+    free: bool
 
 
 def _bilinear(values: FloatArray, row: float, col: float) -> float:
@@ -369,7 +373,8 @@ class OccupancyGrid:
 
     def _probe(self, points: FloatArray, *, direction: bool) -> tuple[FloatArray, FloatArray]:
         if points.ndim == 2 and len(points) <= FEW_POINTS and np.isfinite(points).all():
-            probes = [self._probe_point(x, y) for x, y in points.tolist()]
+            probes = [self._probe_point(x, y, self._locate_point(x, y), direction=direction)
+                      for x, y in points.tolist()]
             clearance = np.array([probe[0] for probe in probes]).reshape(len(points))
             if not direction:
                 return clearance, clearance
@@ -444,69 +449,61 @@ class OccupancyGrid:
     def _few_walls_within(self, points: FloatArray, reach: float
                           ) -> tuple[IntArray, FloatArray, FloatArray]:
         """`walls_within` for a few finite points, in floats."""
-        floor = self._clearance_floor
-        rows, cols = self.occupied.shape
         found: list[int] = []
         probes: list[tuple[float, tuple[float, float]]] = []
         for index, (x, y) in enumerate(points.tolist()):
-            row, col = _clipped_cell((y - self.origin[1]) / self.resolution, rows), \
-                _clipped_cell((x - self.origin[0]) / self.resolution, cols)
-            if floor[row[0], col[0]] < reach:
+            cell = self._locate_point(x, y)
+            if self._clearance_floor[cell.row, cell.col] < reach:
                 found.append(index)
-                probes.append(self._probe_point(x, y))
+                probes.append(self._probe_point(x, y, cell, direction=True))
         return (np.array(found, dtype=np.intp), np.array([p[0] for p in probes]),
                 np.array([p[1] for p in probes]).reshape(len(found), 2))
 
-    def _probe_point(self, x: float, y: float) -> tuple[float, tuple[float, float]]:
-        """`clearance_at` and `obstacle_direction_at` of one finite point, in floats, with
-        the arithmetic of the arrays' `_probe` (and of scipy's order-1 `map_coordinates`)."""
-        res, (ox, oy) = self.resolution, self.origin
-        row_f, col_f = (y - oy) / res, (x - ox) / res
-        (row, row_inside), (col, col_inside) = _clipped_cell(row_f, self.occupied.shape[0]), \
-            _clipped_cell(col_f, self.occupied.shape[1])
-        inside = row_inside and col_inside
-        free = inside and not self.occupied[row, col]
-        clearance = _bilinear(self.clearance, row_f - 0.5, col_f - 0.5) if free else 0.0
-        if free:
-            nearest_row, nearest_col = self._obstacle_field[1]
-            away = self._away_from_cell(x, y, int(nearest_row[row, col]),
-                                        int(nearest_col[row, col]))
+    def _locate_point(self, x: float, y: float) -> _PointCell:
+        """`_locate_fractional` of one finite point, in floats."""
+        row_f = (y - self.origin[1]) / self.resolution
+        col_f = (x - self.origin[0]) / self.resolution
+        rows, cols = self.occupied.shape
+        row, col = min(max(math.floor(row_f), 0), rows - 1), min(max(math.floor(col_f), 0),
+                                                                 cols - 1)
+        inside = row == math.floor(row_f) and col == math.floor(col_f)
+        return _PointCell(row_f, col_f, row, col, inside,
+                          inside and not self.occupied[row, col])
+
+    def _probe_point(self, x: float, y: float, cell: _PointCell, *, direction: bool
+                     ) -> tuple[float, tuple[float, float]]:
+        """`_probe` of one finite point, in floats, with the arrays' arithmetic (and scipy's
+        order-1 `map_coordinates`); the direction is (0, 0) unless asked for."""
+        clearance = (_bilinear(self.clearance, cell.row_f - 0.5, cell.col_f - 0.5)
+                     if cell.free else 0.0)
+        if not direction:
+            return clearance, (0.0, 0.0)
+        if cell.free:  # away from the nearest point of the nearest obstacle cell
+            obstacle = (int(self._obstacle_field[1][0][cell.row, cell.col]),
+                        int(self._obstacle_field[1][1][cell.row, cell.col]))
+            lx, ly, ux, uy = self._cell_square(*obstacle)
+            away = (x - min(max(x, lx), ux), y - min(max(y, ly), uy))
             if away == (0.0, 0.0):  # on the obstacle's very edge: cell to cell
-                cx, cy = self._cell_centre(row, col)
-                lx, ly = self._cell_centre(int(nearest_row[row, col]),
-                                           int(nearest_col[row, col]))
-                lx -= 0.5 * res
-                ly -= 0.5 * res
-                away = (cx - 0.5 * (lx + (lx + res)), cy - 0.5 * (ly + (ly + res)))
-        elif inside:  # towards the nearest free cell
-            nearest_free = self._free_field
+                cx = self.origin[0] + (cell.col + 0.5) * self.resolution  # its centre
+                cy = self.origin[1] + (cell.row + 0.5) * self.resolution
+                away = (cx - 0.5 * (lx + ux), cy - 0.5 * (ly + uy))
+        elif cell.inside:  # towards the nearest free cell
             away = (0.0, 0.0)
-            if nearest_free is not None:
-                fx, fy = self._cell_centre(int(nearest_free[0, row, col]),
-                                           int(nearest_free[1, row, col]))
-                fx -= 0.5 * self.resolution
-                fy -= 0.5 * self.resolution
-                away = (min(max(x, fx), fx + self.resolution) - x,
-                        min(max(y, fy), fy + self.resolution) - y)
-        else:
+            if self._free_field is not None:
+                lx, ly, ux, uy = self._cell_square(int(self._free_field[0, cell.row, cell.col]),
+                                                   int(self._free_field[1, cell.row, cell.col]))
+                away = (min(max(x, lx), ux) - x, min(max(y, ly), uy) - y)
+        else:  # towards the map
             xmin, ymin, xmax, ymax = self.bounds
             away = (min(max(x, xmin), xmax) - x, min(max(y, ymin), ymax) - y)
         norm = math.sqrt(away[0] * away[0] + away[1] * away[1])
-        direction = (away[0] / norm, away[1] / norm) if norm > 0.0 else (0.0, 0.0)
-        return clearance, direction
+        return clearance, (away[0] / norm, away[1] / norm) if norm > 0.0 else (0.0, 0.0)
 
-    def _cell_centre(self, row: int, col: int) -> tuple[float, float]:
-        """`_cell_centres` of one cell, in floats."""
-        return (self.origin[0] + (col + 0.5) * self.resolution,
-                self.origin[1] + (row + 0.5) * self.resolution)
-
-    def _away_from_cell(self, x: float, y: float, row: int, col: int) -> tuple[float, float]:
-        """From the nearest point of the cell (as a square) to (x, y), as `_direction` has it."""
-        lx, ly = self._cell_centre(row, col)
-        lx -= 0.5 * self.resolution
-        ly -= 0.5 * self.resolution
-        ux, uy = lx + self.resolution, ly + self.resolution
-        return x - min(max(x, lx), ux), y - min(max(y, ly), uy)
+    def _cell_square(self, row: int, col: int) -> tuple[float, float, float, float]:
+        """The lower-left and upper-right corners of a cell, with `_cell_squares`' arithmetic."""
+        lx = self.origin[0] + (col + 0.5) * self.resolution - 0.5 * self.resolution
+        ly = self.origin[1] + (row + 0.5) * self.resolution - 0.5 * self.resolution
+        return lx, ly, lx + self.resolution, ly + self.resolution
 
     @cached_property
     def _clearance_floor(self) -> FloatArray:
