@@ -31,7 +31,8 @@ wandering to goals of its own pays it at every walk (about 20 ms a plan across a
 instead (`CostGrid.field_between`), as hierarchical planners do: the cheapest path on a coarse
 grid of blocks about 0.4 m wide, each costing its cheapest cell (so the blocks of any fine path
 are passable there), then Dijkstra on the fine cells of that path's blocks and of the blocks
-next to them. Its cost is bounded by the corridor's size, which grows with the distance only.
+next to them. The cells it searches grow with the distance only (the box the search is set up
+on, with its square when the corridor runs diagonally, at a fraction of the cost per cell).
 The path is the cheapest inside the corridor, not always the cheapest of all: on the project's
 car park map, over 629 walks of a wandering crowd, the plans came out 0.04 % longer on average
 and at most 4 %. When the corridor holds no way (the coarse path cut a corner or crossed a
