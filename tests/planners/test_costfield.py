@@ -263,3 +263,26 @@ def test_cells_connected_on_the_map_are_connected_on_the_coarse_grid(seed: int) 
     # every fine component lies in one coarse component
     for label in np.unique(fine_labels):
         assert len(np.unique(coarse_labels[fine_labels == label])) == 1
+
+
+def test_a_corridor_field_costs_what_mcp_charges_on_the_same_cells() -> None:
+    """The corridor is searched as a graph of its cells; every value it gives is MCP's on the
+    box with the cells outside the corridor impassable, and its steps lead downhill."""
+    from skimage.graph import MCP_Geometric
+
+    grid = parking_grid(0.5)
+    for goal, start in far_pairs(grid, 6, seed=5):
+        offset, mask = grid._corridor(grid._coarse_path(goal, start), 1)
+        field = grid.search(int(grid.labels[goal])).solve_within(goal, start, offset, mask)
+        assert field is not None
+        window = grid.cost[offset[0]:offset[0] + mask.shape[0],
+                           offset[1]:offset[1] + mask.shape[1]]
+        mcp = MCP_Geometric(np.where(mask, window, np.inf), fully_connected=True)
+        whole, _ = mcp.find_costs([(goal[0] - offset[0], goal[1] - offset[1])])
+        reached = np.isfinite(field.cost)
+        np.testing.assert_array_equal(reached, np.isfinite(whole))
+        np.testing.assert_array_equal(field.cost[reached], whole[reached].astype(np.float32))
+        path = field.descend(start)
+        assert tuple(path[-1]) == goal
+        values = [field.value((int(r), int(c))) for r, c in path]
+        assert all(a > b for a, b in itertools.pairwise(values))
