@@ -20,7 +20,7 @@ from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 from functools import cached_property
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -79,16 +79,14 @@ def _unit_vectors(vectors: FloatArray) -> FloatArray:
     return np.divide(vectors, norms, out=np.zeros(vectors.shape), where=norms > 0.0)
 
 
-class _PointCell(NamedTuple):
-    """Where one point lies: its fractional cell, its cell clipped into the grid, and whether
-    it is inside the map and on a free cell."""
+# Where one finite point lies: its fractional row and column, its cell (row, column) clipped
+# into the grid, and whether it is inside the map. A plain tuple: it is built every tick.
+_PointCell = tuple[float, float, int, int, bool]
 
-    row_f: float
-    col_f: float
-    row: int
-    col: int
-    inside: bool
-    free: bool
+
+def _few_finite(points: FloatArray) -> bool:
+    """Whether `points` is a list of at most FEW_POINTS finite points (asked in floats)."""
+    return points.ndim == 2 and len(points) <= FEW_POINTS and bool(np.isfinite(points).all())
 
 
 def _bilinear(values: FloatArray, row: float, col: float) -> float:
@@ -372,7 +370,7 @@ class OccupancyGrid:
         return self._probe(_points(xy), direction=True)
 
     def _probe(self, points: FloatArray, *, direction: bool) -> tuple[FloatArray, FloatArray]:
-        if points.ndim == 2 and len(points) <= FEW_POINTS and np.isfinite(points).all():
+        if _few_finite(points):
             probes = [self._probe_point(x, y, self._locate_point(x, y), direction=direction)
                       for x, y in points.tolist()]
             clearance = np.array([probe[0] for probe in probes]).reshape(len(points))
@@ -416,12 +414,9 @@ class OccupancyGrid:
         arrays would cost more in numpy's calls than in the arithmetic."""
         if not (math.isfinite(x) and math.isfinite(y)):
             return False
-        row = math.floor((y - self.origin[1]) / self.resolution)
-        col = math.floor((x - self.origin[0]) / self.resolution)
-        rows, cols = self.occupied.shape
-        if not (0 <= row < rows and 0 <= col < cols):  # off the map
-            return False
-        return bool(self._clearance_floor[row, col] >= distance)
+        _, _, row, col, inside = self._locate_point(x, y)
+        # off the map it is never surely clear (`surely_clear` reads an edge cell there)
+        return inside and bool(self._clearance_floor[row, col] >= distance)
 
     def walls_within(self, xy: ArrayLike, reach: float
                      ) -> tuple[IntArray, FloatArray, FloatArray]:
@@ -432,7 +427,7 @@ class OccupancyGrid:
         have more than `reach` of clearance. One cell lookup serves all three.
         """
         points = _points(xy)
-        if points.ndim == 2 and len(points) <= FEW_POINTS and np.isfinite(points).all():
+        if _few_finite(points):
             return self._few_walls_within(points, reach)
         row, col = self._fractional_rows_cols(points)
         row_index, col_index, inside = self._locate_fractional(row, col)
@@ -453,7 +448,8 @@ class OccupancyGrid:
         probes: list[tuple[float, tuple[float, float]]] = []
         for index, (x, y) in enumerate(points.tolist()):
             cell = self._locate_point(x, y)
-            if self._clearance_floor[cell.row, cell.col] < reach:
+            _, _, row, col, _ = cell
+            if self._clearance_floor[row, col] < reach:
                 found.append(index)
                 probes.append(self._probe_point(x, y, cell, direction=True))
         return (np.array(found, dtype=np.intp), np.array([p[0] for p in probes]),
@@ -463,35 +459,34 @@ class OccupancyGrid:
         """`_locate_fractional` of one finite point, in floats."""
         row_f = (y - self.origin[1]) / self.resolution
         col_f = (x - self.origin[0]) / self.resolution
+        row_floor, col_floor = math.floor(row_f), math.floor(col_f)
         rows, cols = self.occupied.shape
-        row, col = min(max(math.floor(row_f), 0), rows - 1), min(max(math.floor(col_f), 0),
-                                                                 cols - 1)
-        inside = row == math.floor(row_f) and col == math.floor(col_f)
-        return _PointCell(row_f, col_f, row, col, inside,
-                          inside and not self.occupied[row, col])
+        row, col = min(max(row_floor, 0), rows - 1), min(max(col_floor, 0), cols - 1)
+        return row_f, col_f, row, col, row == row_floor and col == col_floor
 
     def _probe_point(self, x: float, y: float, cell: _PointCell, *, direction: bool
                      ) -> tuple[float, tuple[float, float]]:
         """`_probe` of one finite point, in floats, with the arrays' arithmetic (and scipy's
         order-1 `map_coordinates`); the direction is (0, 0) unless asked for."""
-        clearance = (_bilinear(self.clearance, cell.row_f - 0.5, cell.col_f - 0.5)
-                     if cell.free else 0.0)
+        row_f, col_f, row, col, inside = cell
+        free = inside and not self.occupied[row, col]
+        clearance = _bilinear(self.clearance, row_f - 0.5, col_f - 0.5) if free else 0.0
         if not direction:
             return clearance, (0.0, 0.0)
-        if cell.free:  # away from the nearest point of the nearest obstacle cell
-            obstacle = (int(self._obstacle_field[1][0][cell.row, cell.col]),
-                        int(self._obstacle_field[1][1][cell.row, cell.col]))
+        if free:  # away from the nearest point of the nearest obstacle cell
+            obstacle = (int(self._obstacle_field[1][0][row, col]),
+                        int(self._obstacle_field[1][1][row, col]))
             lx, ly, ux, uy = self._cell_square(*obstacle)
             away = (x - min(max(x, lx), ux), y - min(max(y, ly), uy))
             if away == (0.0, 0.0):  # on the obstacle's very edge: cell to cell
-                cx = self.origin[0] + (cell.col + 0.5) * self.resolution  # its centre
-                cy = self.origin[1] + (cell.row + 0.5) * self.resolution
+                cx = self.origin[0] + (col + 0.5) * self.resolution  # its centre
+                cy = self.origin[1] + (row + 0.5) * self.resolution
                 away = (cx - 0.5 * (lx + ux), cy - 0.5 * (ly + uy))
-        elif cell.inside:  # towards the nearest free cell
+        elif inside:  # towards the nearest free cell
             away = (0.0, 0.0)
             if self._free_field is not None:
-                lx, ly, ux, uy = self._cell_square(int(self._free_field[0, cell.row, cell.col]),
-                                                   int(self._free_field[1, cell.row, cell.col]))
+                lx, ly, ux, uy = self._cell_square(int(self._free_field[0, row, col]),
+                                                   int(self._free_field[1, row, col]))
                 away = (min(max(x, lx), ux) - x, min(max(y, ly), uy) - y)
         else:  # towards the map
             xmin, ymin, xmax, ymax = self.bounds
