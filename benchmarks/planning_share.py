@@ -9,7 +9,9 @@ Reported: the run's wall time from the interpreter's start, the time inside `pla
 ratio (the target is at most 20 %), and how many plans were made. Workloads: the circle
 crossing of `crossing.py` (5 s, and the whole window at N = 100), the car park flow of
 `flow.py` (1 person a second for 3 minutes), a crowd of 300 wandering among the parked cars
-(each walk to a goal of its own) and the shipped `scenarios/station.hub`.
+(each walk to a goal of its own), the shipped `scenarios/station.hub`, and the shipped
+`scenarios/lounge_crowd.hub` (eight people wandering among the living room's furniture, on
+its 2 cm cells, a family and a robot).
 """
 
 from __future__ import annotations
@@ -89,7 +91,8 @@ def workloads(folder: Path) -> dict[str, Path]:
     files["shoppers 300, 60 s"] = folder / "shoppers.hub"
     files["shoppers 300, 60 s"].write_text(SHOPPERS.format(
         map=REPO_ROOT / "maps" / "parking.yaml"), encoding="utf-8")
-    files["scenarios/station.hub"] = REPO_ROOT / "scenarios" / "station.hub"
+    for shipped in ("station.hub", "lounge_crowd.hub"):
+        files[f"scenarios/{shipped}"] = REPO_ROOT / "scenarios" / shipped
     return files
 
 
