@@ -261,14 +261,18 @@ class ComponentSearch:
         target = int(number[(start[0] - offset[0] + 1) * width + start[1] - offset[1] + 1])
         if source < 0 or target < 0:
             return None
-        # each cell's eight neighbours in _MOVES order, cell by cell: already in CSR order
+        # each cell's eight neighbours in _MOVES order, cell by cell: already in CSR order,
+        # eight entries a cell. A neighbour outside the corridor becomes a loop of infinite
+        # weight, which relaxes nothing: cheaper than dropping it from every row.
+        count = len(cells)
         around = cells[:, None] + (_MOVES[:, 0] * width + _MOVES[:, 1])
         flat = cost.ravel()
         weights = (flat[cells][:, None] + flat[around]) * (0.5 * _MOVE_LENGTHS)
-        present = np.isfinite(weights)
-        graph = csr_matrix((weights[present], number[around][present],
-                            np.concatenate([[0], np.cumsum(present.sum(axis=1))])),
-                           shape=(len(cells), len(cells)))
+        neighbour = number[around]
+        outside = neighbour < 0
+        neighbour[outside] = np.broadcast_to(np.arange(count)[:, None], neighbour.shape)[outside]
+        graph = csr_matrix((weights.ravel(), neighbour.ravel(), np.arange(0, 8 * count + 1, 8)),
+                           shape=(count, count))
         distance, previous = dijkstra(graph, indices=source, return_predecessors=True)
         if not math.isfinite(distance[target]):
             return None
