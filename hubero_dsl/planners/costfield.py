@@ -25,25 +25,24 @@ the region either, val(v) <= L - oct(start, v) (up to float rounding, relative 1
 the start always qualifies. A bound too small is raised to the cost the search found, or doubled
 when that is more, so a plan costs a few small searches before the region covers the component.
 
-That region grows with the square of the distance, and a crowd
-wandering to goals of its own pays it at every walk (about 20 ms a plan across a car park at
-5 cm). A first plan between cells at least 16 blocks apart therefore searches a corridor
-instead (`CostGrid.field_between`), as hierarchical planners do: the cheapest path on a coarse
-grid of blocks about 0.4 m wide, each costing its cheapest cell (so the blocks of any fine path
-are passable there), then Dijkstra on the fine cells of that path's blocks and of the blocks
-next to them (scipy's Dijkstra on a graph of those cells alone). The cells it searches grow
-with the distance only. A nearer plan searches the first region only (the bound 1.1 times
-the octile distance): when that proves its path, the plan is optimal; when the way bends
-round furniture, the region would grow until it covers the room (on the living room's 2 cm
-cells, 20-75 ms a plan), and the plan searches a corridor too.
-The path is the cheapest inside the corridor, not always the cheapest of all: on the project's
-car park map, over 629 walks of a wandering crowd, the plans came out 0.04 % longer on average
-and at most 4 %; in the living room, over 387 walks of 20 people wandering among the
-furniture, their costs came out at most 0.16 % above the optimum (a path can still be much
-longer where two ways round a table cost almost the same). When the corridor holds no way
-(the coarse path cut a corner or crossed a wall that the fine cells do not), it is widened
-once, then the plan falls back to the region search. navfn's `corridor` parameter turns it
-off.
+That region grows with the square of the distance, and a crowd wandering to goals of its own
+pays it at every walk (about 20 ms a plan across a car park at 5 cm). A first plan between
+cells at least 16 blocks apart therefore searches a corridor instead
+(`CostGrid.field_between`), as hierarchical planners do: the cheapest path on a coarse grid of
+blocks about 0.4 m wide, each costing its cheapest cell (so the blocks of any fine path are
+passable there), then Dijkstra on the fine cells of that path's blocks and of the blocks next
+to them (scipy's Dijkstra on a graph of those cells alone). The cells it searches grow with the
+distance only. A nearer plan searches the first region only (the bound 1.1 times the octile
+distance): when that proves its path, the plan is optimal; when the way bends round furniture,
+the region would grow until it covers the room (on the living room's 2 cm cells, 20-75 ms a
+plan), and the plan searches a corridor too. The path is the cheapest inside the corridor, not
+always the cheapest of all: on the project's car park map, over 629 walks of a wandering crowd,
+the plans came out 0.04 % longer on average and at most 4 %; in the living room, over 387 walks
+of 20 people wandering among the furniture (214 searches), their costs came out at most 0.16 %
+above the optimum (a path can still be much longer where two ways round a table cost almost the
+same). When the corridor holds no way (the coarse path cut a corner or crossed a wall that the
+fine cells do not), it is widened once, then the plan falls back to the region search. navfn's
+`corridor` parameter turns it off.
 
 `segment_costs` integrates a cost grid along straight segments (exact cell traversal), which is
 how the planner checks line of sight and compares a shortcut with the path it replaces.
@@ -97,10 +96,10 @@ _BOUND_GROWTH = 1.25
 _TIE_TOLERANCE = 1e-9    # relative: float rounding, when a path costs exactly the octile bound
 # Plans search a corridor of blocks about this wide (m) along a coarse path when start and
 # goal are at least _CORRIDOR_MIN_BLOCKS blocks apart, or nearer when the first region does
-# not prove their path: the blocks of the coarse path and
-# one block on each side of it, then two when that holds no way (a coarse path may cut a
-# corner the fine cells cannot: on the paper's car park with a 0.125 m comfort radius, 13 of
-# its 21 far plans found their way in the narrower corridor, 18 in the wider one).
+# not prove their path: the blocks of the coarse path and one block on each side of it, then
+# two when that holds no way (a coarse path may cut a corner the fine cells cannot: on the
+# paper's car park with a 0.125 m comfort radius, 13 of its 21 far plans found their way in
+# the narrower corridor, 18 in the wider one).
 CORRIDOR_BLOCK = 0.4
 _CORRIDOR_MIN_BLOCKS = 16
 _CORRIDOR_WIDTHS = (1, 2)
