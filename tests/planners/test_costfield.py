@@ -171,7 +171,7 @@ def test_parking_plans_cost_what_the_whole_field_says(comfort: float) -> None:
             assert search.solve_between(goal, start).value(start) == whole.value(start)
 
 
-# ---- corridors: far plans search along a coarse path ------------------------------------------
+# ---- corridors: far plans, and near ones that bend, search along a coarse path ------------
 
 PROJECT_PARKING = Path(__file__).resolve().parents[2] / "maps" / "parking.yaml"
 LIVING_ROOM = PROJECT_PARKING.with_name("living_room.yaml")
