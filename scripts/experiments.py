@@ -2,9 +2,11 @@
 comparisons, run and measured with `hubero run`, `hubero diff` and `hubero plot`'s library code.
 
     .venv/bin/python scripts/experiments.py            # writes docs/experiments.md, docs/images/
+    .venv/bin/python scripts/experiments.py --out DIR  # DIR/experiments.md, DIR/images/
 
 The logs go to a temporary folder and are deleted; the markdown and the PNGs are rewritten in
-place. Nothing depends on the wall clock, so an unchanged simulator gives unchanged files.
+place. Nothing depends on the wall clock, so an unchanged simulator gives unchanged files
+(tests/test_docs_experiments.py checks that the page is what this script writes).
 """
 
 from __future__ import annotations
@@ -26,8 +28,7 @@ from hubero_dsl.pipeline import compile_file
 from hubero_dsl.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
-DOC = ROOT / "docs" / "experiments.md"
-IMAGES = ROOT / "docs" / "images"
+DOCS = ROOT / "docs"
 EPSILON = 0.1
 # The parking lot's narrow aisle (docs/maps.md): x -4.1 .. 0.4, y -8.0 .. -7.0.
 AISLE = (-4.1, 0.4, -8.0, -7.0)
@@ -116,13 +117,13 @@ def image(name: str) -> str:
 # ---- the two comparisons ------------------------------------------------------------------
 
 
-def living_room_section(runs: dict[str, LoggedRun]) -> list[str]:
+def living_room_section(runs: dict[str, LoggedRun], images: Path) -> list[str]:
     circle, ellipse = runs["circle"], runs["ellipse"]
     diff = diff_runs(circle, ellipse, epsilon=EPSILON)
     view = View.around([circle, ellipse], whole_map=False)
     for variant, run in runs.items():
-        plot_run(run, IMAGES / f"living_room_{variant}.png", view=view)
-    plot_overlay(circle, ellipse, IMAGES / "living_room_diff.png", epsilon=EPSILON)
+        plot_run(run, images / f"living_room_{variant}.png", view=view)
+    plot_overlay(circle, ellipse, images / "living_room_diff.png", epsilon=EPSILON)
     moments = {v: closest_moment(r, "actor1", "actor2") for v, r in runs.items()}
     actor2 = diff.humans["actor2"]
     lines = [
@@ -170,13 +171,13 @@ def living_room_section(runs: dict[str, LoggedRun]) -> list[str]:
     return lines
 
 
-def parking_section(runs: dict[str, LoggedRun], flips: list[str]) -> list[str]:
+def parking_section(runs: dict[str, LoggedRun], flips: list[str], images: Path) -> list[str]:
     square, circle = runs["square"], runs["circle"]
     diff = diff_runs(square, circle, epsilon=EPSILON)
     view = View.around([square, circle], whole_map=False)  # both show the aisle
     for variant, run in runs.items():
-        plot_run(run, IMAGES / f"parking_{variant}.png", view=view)
-    plot_overlay(square, circle, IMAGES / "parking_diff_actor1.png", epsilon=EPSILON,
+        plot_run(run, images / f"parking_{variant}.png", view=view)
+    plot_overlay(square, circle, images / "parking_diff_actor1.png", epsilon=EPSILON,
                  humans=["actor1"])
     actor1 = diff.humans["actor1"]
     at = actor1.metric("task_finish_times.at_dumpster")
@@ -295,16 +296,20 @@ HEADER = [
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.parse_args(argv)
-    IMAGES.mkdir(parents=True, exist_ok=True)
+    parser.add_argument("--out", type=Path, default=DOCS,
+                        help="folder for experiments.md and images/ (default: docs/)")
+    out = parser.parse_args(argv).out
+    images = out / "images"
+    images.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="hubero-experiments-") as temp:
         folder = Path(temp)
-        living_room = living_room_section(run_variants(LIVING_ROOM, folder))
+        living_room = living_room_section(run_variants(LIVING_ROOM, folder), images)
         flips = radius_table(folder)
-        parking = parking_section(run_variants(PARKING, folder), flips)
-    DOC.write_text("\n".join([*HEADER, *living_room, *parking]).rstrip() + "\n",
-                   encoding="utf-8")
-    print(f"wrote {DOC.relative_to(ROOT)} and {len(list(IMAGES.glob('*.png')))} images")
+        parking = parking_section(run_variants(PARKING, folder), flips, images)
+    page = out / "experiments.md"
+    page.write_text("\n".join([*HEADER, *living_room, *parking]).rstrip() + "\n",
+                    encoding="utf-8")
+    print(f"wrote {page} and {len(list(images.glob('*.png')))} images")
     return 0
 
 
