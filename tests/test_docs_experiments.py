@@ -1,6 +1,6 @@
-"""docs/experiments.md quotes runs of the shipped scenarios: it must be what
-scripts/experiments.py writes now, so that a change to the simulator cannot leave the page's
-numbers behind."""
+"""The pages of docs/ that quote runs of the shipped scenarios must quote them as they run now,
+so that a change to the simulator cannot leave the pages' numbers behind: docs/experiments.md is
+what scripts/experiments.py writes, and analysis.md's metrics example is the ellipse run's."""
 
 from __future__ import annotations
 
@@ -28,3 +28,20 @@ def test_the_experiments_page_is_what_its_script_writes(tmp_path: Path) -> None:
         "parking_circle", "parking_diff_actor1"))
     for name in pictures:
         assert (ROOT / "docs" / "images" / name).is_file()
+
+
+def test_the_metrics_example_of_analysis_md_is_the_ellipse_runs(tmp_path: Path) -> None:
+    import json
+
+    from hubero_dsl.analysis.metrics import compute_metrics
+    from hubero_dsl.log.reader import load_run
+    from hubero_dsl.pipeline import compile_file
+    from hubero_dsl.simulate import simulate
+
+    page = (ROOT / "docs" / "analysis.md").read_text(encoding="utf-8")
+    example = page.split("An example, actor2 in the living room's `ellipse` run:\n\n```json\n")[1]
+    shown = json.loads(example.split("```")[0])
+    log = tmp_path / "ellipse.mcap"
+    simulate(compile_file(ROOT / "scenarios" / "living_room.hub"), variant="ellipse", log=log,
+             writer_process=False)
+    assert compute_metrics(load_run(log)).to_dict()["humans"]["actor2"] == shown
