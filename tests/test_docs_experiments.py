@@ -4,20 +4,15 @@ what scripts/experiments.py writes, and analysis.md's metrics example is the ell
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
+
+from tests.scripts import load_script
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_the_experiments_page_is_what_its_script_writes(tmp_path: Path) -> None:
-    spec = importlib.util.spec_from_file_location("experiments", ROOT / "scripts" /
-                                                  "experiments.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["experiments"] = module  # dataclasses look their module up while being built
-    spec.loader.exec_module(module)
+    module = load_script(ROOT / "scripts" / "experiments.py")
     assert module.main(["--out", str(tmp_path)]) == 0
     written = (tmp_path / "experiments.md").read_text(encoding="utf-8")
     committed = (ROOT / "docs" / "experiments.md").read_text(encoding="utf-8")

@@ -3,8 +3,6 @@ and the committed files are exactly what maps/draw_maps.py draws from the shape 
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 from types import ModuleType
 
@@ -14,6 +12,7 @@ from skimage.graph import MCP_Geometric
 
 from hubero_dsl.world.grid import BoolArray, OccupancyGrid
 from hubero_dsl.world.mapfile import load_map
+from tests.scripts import load_script
 
 MAPS = Path(__file__).resolve().parents[2] / "maps"
 
@@ -162,12 +161,7 @@ def test_large_personal_space_takes_a_longer_way_round(parking: OccupancyGrid) -
 
 @pytest.fixture(scope="module")
 def draw_maps() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("draw_maps", MAPS / "draw_maps.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["draw_maps"] = module  # dataclasses look their module up while being built
-    spec.loader.exec_module(module)
-    return module
+    return load_script(MAPS / "draw_maps.py")
 
 
 @pytest.mark.parametrize("name", ["living_room", "parking", "station", "benchmark/corridor",
