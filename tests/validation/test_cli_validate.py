@@ -101,3 +101,33 @@ def test_a_defaults_file_with_people_is_refused(cli: Cli, tmp_path: Path) -> Non
     outcome = cli("validate", FREE_FLOW, "--defaults", str(fitted))
     assert outcome.status == 2
     assert "holds a `defaults { }` block only" in outcome.err
+
+
+def test_the_docs_quote_the_held_out_run_as_it_runs_now(cli: Cli) -> None:
+    """docs/validation.md's claim that the fitted values hold the held-out uo-100-180-180 within
+    15 % rests on its rows of the table of every recording: they are what the command gives."""
+    root = Path(__file__).resolve().parents[2]
+    outcome = cli("validate", str(shipped_path("uo-100-180-180")), "--json", "--defaults",
+                  str(root / "docs" / "fitted_juelich.hub"))
+    assert outcome.status == 0, outcome.err
+    (entry,) = json.loads(outcome.out)["files"]
+    rows = []
+    for b in entry["bins"]:
+        measured, simulated = b["measured_frames"], b["simulated_frames"]
+        if measured < 10 and simulated < 10:
+            continue
+        speeds = [f"{speed:.2f} ({frames})" if frames >= 10 else f"- ({frames})"
+                  for speed, frames in ((b["measured_speed"], measured),
+                                        (b["simulated_speed"], simulated))]
+        error = "-" if b["relative_error"] is None else f"{b['relative_error'] * 100:+.0f} %"
+        line = entry["line_flow"]
+        flow = f"{line['measured']:.2f} / {line['simulated']:.2f} /s" if not rows else ""
+        name = "uo-100-180-180" if not rows else ""
+        low, high = b["density"]
+        rows.append(f"| {name} | {low:.1f}-{high:.1f} | {speeds[0]} | {speeds[1]} | {error} | "
+                    f"{flow} |".replace("|  |", "| |"))
+    page = (root / "docs" / "validation.md").read_text(encoding="utf-8").splitlines()
+    assert rows[0] in page, f"docs/validation.md does not quote {rows[0]}"
+    start = page.index(rows[0])
+    assert page[start:start + len(rows)] == rows
+    assert entry["worst_relative_error"] <= 0.15
