@@ -198,29 +198,27 @@ class ComponentSearch:
             self._mcp = MCP_Geometric(self._cost[window], fully_connected=True)
         return _search(self._mcp, self.offset, goal, None, complete=True)
 
-    def solve_between(self, goal: Cell, start: Cell) -> CostToGo:
+    def solve_between(self, goal: Cell, start: Cell, bound: float | None = None) -> CostToGo:
         """The field of `goal` over as small a region around start and goal as proves optimal
         the start's path (see the module docstring); the component's when the region grows
-        to it."""
-        bound = _first_bound(goal, start)
+        to it. `bound` resumes from a bound `region_step` has already tried and raised."""
+        bound = _first_bound(goal, start) if bound is None else bound
         while True:
-            window = self._region_window(goal, start, bound)
-            if window is None:
-                return self.solve(goal, start)
-            found, cost = self._solve_region(goal, start, window, bound)
+            found, bound = self.region_step(goal, start, bound)
             if found is not None:
                 return found
-            # the path found proves the optimum is at most `cost` (see _BOUND_GROWTH)
-            bound = min(cost, _BOUND_GROWTH * bound)
 
-    def solve_first_region(self, goal: Cell, start: Cell) -> CostToGo | None:
-        """`solve_between`'s first search alone: the field when the first region proves the
-        start's path optimal (a way close to the straight line), else None."""
-        bound = _first_bound(goal, start)
+    def region_step(self, goal: Cell, start: Cell, bound: float | None = None
+                    ) -> tuple[CostToGo | None, float]:
+        """One search of `solve_between` (the first when `bound` is None): the field when its
+        region proves the start's path optimal, else None and the bound to try next."""
+        bound = _first_bound(goal, start) if bound is None else bound
         window = self._region_window(goal, start, bound)
         if window is None:
-            return self.solve(goal, start)
-        return self._solve_region(goal, start, window, bound)[0]
+            return self.solve(goal, start), bound
+        found, cost = self._solve_region(goal, start, window, bound)
+        # the path found proves the optimum is at most `cost` (see _BOUND_GROWTH)
+        return found, min(cost, _BOUND_GROWTH * bound)
 
     def _solve_region(self, goal: Cell, start: Cell,
                       window: tuple[Cell, FloatArray, FloatArray], bound: float
@@ -405,8 +403,9 @@ class CostGrid:
         search = self.search(int(self.labels[goal]))
         if not (corridor and self.block):
             return search.solve_between(goal, start)
+        bound = None  # the region search's next bound, once its first search has failed
         if _octile(goal[0] - start[0], goal[1] - start[1]) < _CORRIDOR_MIN_BLOCKS * self.block:
-            near = search.solve_first_region(goal, start)
+            near, bound = search.region_step(goal, start)
             if near is not None:
                 return near
         path = self._coarse_path(goal, start)
@@ -414,7 +413,7 @@ class CostGrid:
             found = search.solve_within(goal, start, *self._corridor(path, width))
             if found is not None:
                 return found
-        return search.solve_between(goal, start)
+        return search.solve_between(goal, start, bound)
 
     def _coarse_path(self, goal: Cell, start: Cell) -> IntArray:
         """The blocks of the coarse grid's cheapest path from `start`'s block to `goal`'s."""

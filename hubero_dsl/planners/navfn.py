@@ -68,7 +68,8 @@ class NavfnParams(PlannerParams):
                     "the 8-connected grid path")
     corridor: bool = Field(
         default=True,
-        description="a plan between points farther apart than 16 blocks of 0.4 m searches a "
+        description="a plan between points farther apart than 16 blocks of 0.4 m, or a "
+                    "nearer one whose way bends far from the straight line, searches a "
                     "corridor along a coarse plan (bounded, near-optimal); False: every plan "
                     "searches the region that proves it optimal")
     cache_size: int = Field(

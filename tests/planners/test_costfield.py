@@ -232,7 +232,7 @@ def test_near_plans_close_to_the_straight_line_search_the_region_that_proves_the
     for goal, start in zip(*[iter(free_cells(grid.labels, label, 120, 2))] * 2, strict=True):
         if costfield._octile(goal[0] - start[0], goal[1] - start[1]) >= reach:
             continue
-        first = search.solve_first_region(goal, start)
+        first, _ = search.region_step(goal, start)
         if first is None:
             continue
         proven += 1
@@ -262,9 +262,14 @@ def test_near_plans_round_furniture_search_a_corridor_close_to_the_optimum(comfo
         if detours == 6:
             break
         if costfield._octile(goal[0] - start[0], goal[1] - start[1]) >= reach or \
-                search.solve_first_region(goal, start) is not None:
+                search.region_step(goal, start)[0] is not None:
             continue
         detours += 1
+        # the region search resumed from the first search's raised bound is the one from the
+        # start (what a corridor with no way falls back to)
+        _, raised = search.region_step(goal, start)
+        np.testing.assert_array_equal(search.solve_between(goal, start, raised).cost,
+                                      search.solve_between(goal, start).cost)
         whole = search.solve(goal)
         found = grid.field_between(goal, start)
         assert whole.value(start) <= found.value(start) <= 1.02 * whole.value(start)
