@@ -119,6 +119,8 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         self.log_path = Path(log) if log is not None else None
         self.action_box = action_space(self.robot_spec)
         self.action_space = self.action_box
+        self._action_bounds = list(zip(self.action_box.low.tolist(),
+                                       self.action_box.high.tolist(), strict=True))
         self.observation_space = observation_space(self.program, max_people, map_patch)
         self._sim: Simulation | None = None
         self._judge: Judge | None = None
@@ -154,9 +156,12 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         sim = self._sim
         if sim is None:
             raise gymnasium.error.ResetNeeded("call reset() before step()")
-        low, high = self.action_box.low, self.action_box.high
-        clipped = np.clip(np.asarray(action, dtype=np.float64), low, high)
-        self._robot.drive(float(clipped[0]), float(clipped[1]))  # the controller is not asked
+        first, second = np.asarray(action, dtype=np.float64).reshape(2).tolist()
+        if not math.isfinite(first + second):
+            raise ValueError(f"an action is two finite numbers, not {action!r}")
+        (low_1, high_1), (low_2, high_2) = self._action_bounds
+        # the box's clipping, in floats (the controller is not asked)
+        self._robot.drive(min(max(first, low_1), high_1), min(max(second, low_2), high_2))
         sim.step()
         if self._log is not None:
             self._log.observe(sim)

@@ -97,6 +97,16 @@ def test_driving_into_a_person_is_a_collision(tmp_path: Path) -> None:
     assert info["outcome"] == "collision" and reward < 0
 
 
+def test_actions_are_clipped_to_the_box_and_must_be_finite(tmp_path: Path) -> None:
+    env = gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(_scenario(tmp_path)), robot="cart")
+    env.reset(seed=0)
+    for _ in range(40):  # 9 m/s asked along +x: the robot goes at its 1 m/s at most
+        observation, *_ = env.step(np.array([9.0, 0.0], np.float32))
+    assert observation["robot"][2] == pytest.approx(1.0)
+    with pytest.raises(ValueError, match="two finite numbers"):
+        env.step(np.array([np.nan, 0.0], np.float32))
+
+
 def _people_seen(env: gymnasium.Env, seed: int, steps: int = 120) -> np.ndarray:
     observation, _ = env.reset(seed=seed)
     seen = [observation["people"].copy()]

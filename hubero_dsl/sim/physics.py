@@ -8,6 +8,7 @@ numpy's calls on arrays that small cost more than the arithmetic.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, overload
 
 import numpy as np
@@ -107,11 +108,12 @@ def keep_out_of_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
     A body centre must keep `radius / 2` of clearance (bodies may brush furniture, centres never
     enter occupied cells); the full move is tried, then each axis alone, then no move. Bodies
     whose cell is far enough from every wall are accepted at once (`OccupancyGrid.surely_clear`);
-    only the others pay for interpolated clearances; a few bodies are first tested so in
-    floats. Returns `new` itself when nobody is stopped.
+    only the others pay for interpolated clearances; a few bodies are handled in floats.
+    Returns `new` itself when nobody is stopped.
     """
-    if len(new) <= FEW_BODIES and _few_surely_clear(grid, old, new, radius):
-        return new
+    if len(new) <= FEW_BODIES and (kept := _few_kept_out_of_walls(grid, old, new, radius)
+                                   ) is not None:
+        return kept
     step = lengths(new - old)
     moved = step > 0
     if not moved.any():  # nobody moves: there is nothing to stop (the common tick at rest)
@@ -129,19 +131,65 @@ def keep_out_of_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
     return result
 
 
-def _few_surely_clear(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
-                      radius: FloatArray) -> bool:
-    """Whether no move of a few bodies needs a closer look: each stays or ends, and starts,
-    surely clear by the tests of `keep_out_of_walls`, checked in floats row by row."""
-    for (x0, y0), (x1, y1), r in zip(old.tolist(), new.tolist(), radius.tolist(), strict=True):
-        step = math.hypot(x1 - x0, y1 - y0)
+@dataclass(frozen=True, slots=True)
+class _Move:
+    """One body's move that needs a closer look, in floats."""
+
+    x0: float
+    y0: float
+    x1: float
+    y1: float
+    needed: float
+
+
+def _few_kept_out_of_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
+                           radius: FloatArray) -> FloatArray | None:
+    """`keep_out_of_walls` for a few bodies, row by row in floats with the arrays' arithmetic;
+    None when a coordinate is not finite (the arrays handle those)."""
+    rows: list[int] = []
+    moves: list[_Move] = []
+    for row, ((x0, y0), (x1, y1), r) in enumerate(
+            zip(old.tolist(), new.tolist(), radius.tolist(), strict=True)):
+        if not math.isfinite(x0 + y0 + x1 + y1):
+            return None
+        dx, dy = x1 - x0, y1 - y0
+        step = math.sqrt(dx * dx + dy * dy)
         if step == 0.0:
             continue
         needed = 0.5 * r + WALL_MARGIN
         if not (grid.surely_clear_point(x1, y1, needed)
                 and grid.surely_clear_point(x0, y0, step + needed)):
-            return False
-    return True
+            rows.append(row)
+            moves.append(_Move(x0, y0, x1, y1, needed))
+    if not moves:
+        return new
+    result = new.copy()
+    result[rows] = _few_slid_along_walls(grid, moves)
+    return result
+
+
+def _few_slid_along_walls(grid: OccupancyGrid, moves: list[_Move]) -> list[tuple[float, float]]:
+    """`_slide_along_walls` for a few moves, in floats: the full move, then x alone, then y
+    alone, then none, each tried for the moves the one before did not fit."""
+    before = [grid.clearance_at_point(m.x0, m.y0) for m in moves]
+    result = [(m.x0, m.y0) for m in moves]
+    pending = list(range(len(moves)))
+    for trial_of in (lambda m: (m.x1, m.y1), lambda m: (m.x1, m.y0), lambda m: (m.x0, m.y1)):
+        trials = [trial_of(moves[k]) for k in pending]
+        crossed = grid.crosses_obstacle_few([(moves[k].x0, moves[k].y0, x, y)
+                                             for k, (x, y) in zip(pending, trials, strict=True)])
+        still = []
+        for k, (x, y), through in zip(pending, trials, crossed, strict=True):
+            clear = grid.clearance_at_point(x, y)
+            if (not through and grid.is_free_point(x, y)
+                    and (clear >= moves[k].needed or clear >= before[k])):
+                result[k] = (x, y)
+            else:
+                still.append(k)
+        pending = still
+        if not pending:
+            break
+    return result
 
 
 def _slide_along_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,

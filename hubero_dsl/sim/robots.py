@@ -71,8 +71,7 @@ class Robots:
         self.personal_space = ShapeArrays.from_shapes([Circle(s.radius) for s in specs])
         self.commanded: dict[int, tuple[float, float]] = {}
         self.driven: dict[int, tuple[float, float]] = {}
-        self._holonomic = np.array([i for i, s in enumerate(specs) if s.kinematics == "holonomic"],
-                                   dtype=np.intp)
+        self._holonomic = [i for i, s in enumerate(specs) if s.kinematics == "holonomic"]
         self.controllers: list[RobotController] = [
             (controllers or {})[s.name] for s in specs] if count else []
         self.tasks: list[RobotTask | None] = [None] * count
@@ -143,12 +142,11 @@ class Robots:
         self.velocity = velocity
         self.path_length += np.hypot(step[:, 0], step[:, 1])
         self.position = moved
-        rows = self._holonomic  # a holonomic robot faces where it goes
-        if len(rows):
-            going = self.velocity[rows]
-            moving = np.hypot(going[:, 0], going[:, 1]) > 1e-6
-            self.heading[rows] = np.where(moving, np.arctan2(going[:, 1], going[:, 0]),
-                                          self.heading[rows])
+        # a holonomic robot faces where it goes (numpy's functions on floats: the values its
+        # arrays would give)
+        for i, (vx, vy) in zip(self._holonomic, velocity[self._holonomic].tolist(), strict=True):
+            if np.hypot(vx, vy) > 1e-6:
+                self.heading[i] = np.arctan2(vy, vx)
 
     def _observe(self, i: int, time: float, humans: HumanArrays,
                  position_of: Callable[[Target], tuple[float, float] | None]) -> Observation:

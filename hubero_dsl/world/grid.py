@@ -19,7 +19,7 @@ import math
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields
-from functools import cached_property
+from functools import cache, cached_property
 from typing import Any
 
 import numpy as np
@@ -87,6 +87,12 @@ _PointCell = tuple[float, float, int, int, bool]
 def _few_finite(points: FloatArray) -> bool:
     """Whether `points` is a list of at most FEW_POINTS finite points (asked in floats)."""
     return points.ndim == 2 and len(points) <= FEW_POINTS and bool(np.isfinite(points).all())
+
+
+@cache
+def _sample_fractions(samples: int) -> tuple[float, ...]:
+    """Where `crosses_obstacle` samples a segment: `np.linspace(0, 1, samples)`."""
+    return tuple(np.linspace(0.0, 1.0, samples).tolist())
 
 
 def _bilinear(values: FloatArray, row: float, col: float) -> float:
@@ -326,6 +332,23 @@ class OccupancyGrid:
         crossed: BoolArray = np.logical_not(free.all(axis=1))
         return crossed
 
+    def is_free_point(self, x: float, y: float) -> bool:
+        """`is_free` of one finite point, in floats."""
+        _, _, row, col, inside = self._locate_point(x, y)
+        return inside and not self.occupied[row, col]
+
+    def crosses_obstacle_few(self, segments: list[tuple[float, float, float, float]]
+                             ) -> list[bool]:
+        """`crosses_obstacle` of a few finite segments (x0, y0, x1, y1), in floats with its
+        arithmetic: each is sampled as often as the longest needs."""
+        dx = np.array([x1 - x0 for x0, _, x1, _ in segments])
+        dy = np.array([y1 - y0 for _, y0, _, y1 in segments])
+        longest = float(np.hypot(dx, dy).max(initial=0.0))
+        fractions = _sample_fractions(max(2, math.ceil(longest / (0.5 * self.resolution)) + 1))
+        return [not all(self.is_free_point(x0 + (x1 - x0) * f, y0 + (y1 - y0) * f)
+                        for f in fractions)
+                for x0, y0, x1, y1 in segments]
+
     # --- distance fields ------------------------------------------------------------------
 
     @cached_property
@@ -364,6 +387,10 @@ class OccupancyGrid:
     def clearance_at(self, xy: ArrayLike) -> FloatArray:
         """Clearance at each point, bilinear between cell centres; 0 off free cells."""
         return self._probe(_points(xy), direction=False)[0]
+
+    def clearance_at_point(self, x: float, y: float) -> float:
+        """`clearance_at` of one finite point, in floats."""
+        return self._probe_point(x, y, self._locate_point(x, y), direction=False)[0]
 
     def clearance_and_direction_at(self, xy: ArrayLike) -> tuple[FloatArray, FloatArray]:
         """`clearance_at` and `obstacle_direction_at` in one pass over the cell lookups."""
