@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from hubero_dsl.sim.physics import lengths
 from hubero_dsl.world.shapes import Shape, ShapeArrays
 
 FloatArray = npt.NDArray[np.float64]
@@ -96,17 +97,16 @@ class PathPool:
                 ) -> None:
         """Move each cursor past waypoints within `lookahead` (never past the last one)."""
         for _ in range(4):  # a few passes skip several short segments in one tick
-            active = self.end - self.cursor > 1
-            if not active.any():
+            rows = np.flatnonzero(self.end - self.cursor > 1)
+            if not rows.size:
                 return
-            rows = np.flatnonzero(active)
-            near = np.linalg.norm(self.points[self.cursor[rows]] - position[rows], axis=1)
-            passed = near < lookahead
+            passed = lengths(self.points[self.cursor[rows]] - position[rows]) < lookahead
             if visible is not None:
                 passed &= visible[rows]
-            if not passed.any():
+            passing = rows[passed]
+            if not passing.size:
                 return
-            self.cursor[rows[passed]] += 1
+            self.cursor[passing] += 1
 
     def current_targets(self, rows: IntArray) -> FloatArray:
         return self.points[self.cursor[rows]]
