@@ -49,8 +49,12 @@ from gymnasium.vector.utils import batch_space
 
 from hubero_dsl.errors import InputError
 from hubero_dsl.model.program import Program, RobotSpec
+from hubero_dsl.sim.joint import JointSteering
 from hubero_dsl.sim.judge import Judge
 from hubero_dsl.sim.simulation import GlobalPlanners, Simulation
+
+# observation, reward, terminated, truncated, info: what `Env.step` returns
+Outcome = tuple[dict[str, npt.NDArray[Any]], float, bool, bool, dict[str, Any]]
 
 ENV_ID = "hubero/Scenario-v0"
 INTIMATE, PERSONAL = 0.45, 1.2   # m, surface gaps (HuNavSim's bands)
@@ -151,18 +155,34 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
             self._log.open()
         return self._observe(), {"seed": run_seed}
 
-    def step(self, action: npt.NDArray[np.float32]
-             ) -> tuple[dict[str, npt.NDArray[Any]], float, bool, bool, dict[str, Any]]:
-        sim = self._sim
-        if sim is None:
+    def step(self, action: npt.NDArray[np.float32]) -> Outcome:
+        self._act(action)
+        self._simulation().step()
+        return self._outcome()
+
+    def close(self) -> None:
+        self._close_log(None)
+        super().close()
+
+    # ---- a step in two parts, around the world's tick (a vector env ticks its copies together)
+
+    def _simulation(self) -> Simulation:
+        if self._sim is None:
             raise gymnasium.error.ResetNeeded("call reset() before step()")
+        return self._sim
+
+    def _act(self, action: npt.NDArray[np.float32]) -> None:
+        """Hand the robot the action for the coming tick (the controller is not asked)."""
+        self._simulation()
         first, second = np.asarray(action, dtype=np.float64).reshape(2).tolist()
         if not math.isfinite(first + second):
             raise ValueError(f"an action is two finite numbers, not {action!r}")
-        (low_1, high_1), (low_2, high_2) = self._action_bounds
-        # the box's clipping, in floats (the controller is not asked)
+        (low_1, high_1), (low_2, high_2) = self._action_bounds  # the box's clipping, in floats
         self._robot.drive(min(max(first, low_1), high_1), min(max(second, low_2), high_2))
-        sim.step()
+
+    def _outcome(self) -> Outcome:
+        """What the tick just made gives: observation, reward, whether and how it ended."""
+        sim = self._simulation()
         if self._log is not None:
             self._log.observe(sim)
         distance = self._goal_distance()
@@ -183,10 +203,6 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
             info = self._episode_info(outcome)
             self._close_log(outcome)
         return self._observe(), reward, terminated, truncated, info
-
-    def close(self) -> None:
-        self._close_log(None)
-        super().close()
 
     # ---- observations ------------------------------------------------------------------------
 
@@ -335,6 +351,7 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
         self.action_space = batch_space(self.single_action_space, num_envs)
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self._done = np.zeros(num_envs, dtype=bool)
+        self._steering = JointSteering()
 
     def reset(self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
               ) -> tuple[dict[str, npt.NDArray[Any]], dict[str, Any]]:
@@ -353,16 +370,30 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
         terminated = np.zeros(self.num_envs, dtype=bool)
         truncated = np.zeros(self.num_envs, dtype=bool)
         infos: dict[str, Any] = {}
+        outcomes = self._tick(actions)
         for i, env in enumerate(self.envs):
             if self._done[i]:  # next-step autoreset: this step only resets the episode
                 observation, _ = env.reset()
             else:
-                observation, rewards[i], terminated[i], truncated[i], info = env.step(actions[i])
+                observation, rewards[i], terminated[i], truncated[i], info = outcomes[i]
                 if info:
                     infos = self._add_info(infos, info, i)
             observations.append(observation)
         self._done = terminated | truncated
         return self._batch(observations), rewards, terminated, truncated, infos
+
+    def _tick(self, actions: npt.NDArray[np.float32]) -> dict[int, Outcome]:
+        """One tick of every copy whose episode goes on; their walkers are steered together."""
+        going = [i for i in range(self.num_envs) if not self._done[i]]
+        envs = [self.envs[i] for i in going]
+        for i, env in zip(going, envs, strict=True):
+            env._act(actions[i])
+        sims = [env._simulation() for env in envs]
+        steerings = [sim.begin_step() for sim in sims]
+        steered = self._steering.steer([sim.engine for sim in sims], steerings)
+        for sim, steering, velocities in zip(sims, steerings, steered, strict=True):
+            sim.end_step(steering, velocities)
+        return {i: env._outcome() for i, env in zip(going, envs, strict=True)}
 
     def close_extras(self, **kwargs: Any) -> None:
         for env in self.envs:

@@ -181,6 +181,34 @@ def test_the_vector_env_batches_and_resets_by_itself(tmp_path: Path) -> None:
     envs.close()
 
 
+def test_the_vector_envs_copies_are_the_single_envs_exactly(tmp_path: Path) -> None:
+    # its copies are steered in one call, each a world of its own: the same observations,
+    # rewards and ends, bit for bit, as single environments given the same seeds and actions
+    file, copies = str(_scenario(tmp_path)), 3
+    envs = gymnasium.make_vec(hubero_dsl.gym.ENV_ID, num_envs=copies,
+                              vectorization_mode="vector_entry_point", scenario=file,
+                              robot="cart")
+    observations, _ = envs.reset(seed=5)
+    singles = [gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=file, robot="cart")
+               for _ in range(copies)]
+    alone = [env.reset(seed=5 + i)[0] for i, env in enumerate(singles)]
+    rng, done, met = np.random.default_rng(1), np.zeros(copies, dtype=bool), 0
+    for _ in range(450):  # past the 20 s limit: every copy ends and starts again
+        actions = rng.uniform(-1.0, 1.0, size=(copies, 2)).astype(np.float32)
+        observations, rewards, terminated, truncated, _ = envs.step(actions)
+        for i, env in enumerate(singles):
+            if done[i]:
+                alone[i], _ = env.reset()
+                continue
+            alone[i], reward, *ended, _ = env.step(actions[i])
+            assert reward == rewards[i] and ended == [terminated[i], truncated[i]]
+        for key in observations:
+            np.testing.assert_array_equal(np.stack([o[key] for o in alone]), observations[key])
+        met += int((observations["mask"].sum(axis=1) > 0).sum())
+        done = terminated | truncated
+    assert met > 100  # the copies' robots saw people: the planner was steering among them
+
+
 def test_each_copy_of_a_vector_env_writes_its_own_log(tmp_path: Path) -> None:
     envs = gymnasium.make_vec(hubero_dsl.gym.ENV_ID, num_envs=2,
                               vectorization_mode="vector_entry_point",

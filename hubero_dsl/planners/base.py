@@ -96,6 +96,9 @@ class Crowd:
     radius: FloatArray           # (N,) body radius, m
     personal_space: ShapeArrays  # (N,) shapes in each body's frame
     is_robot: BoolArray          # (N,)
+    # (N,) the simulation each row belongs to, when one call steers several (a vector
+    # environment's copies); rows of different worlds never meet. None: one world.
+    world: IntArray | None = None
 
     @property
     def count(self) -> int:
@@ -132,3 +135,19 @@ class LocalPlanner(Protocol):
     def velocities(self, crowd: Crowd, drive: Drive, dt: float) -> FloatArray:
         """(K, 2) new velocities for the humans in `drive`, never faster than max_speed."""
         ...
+
+
+def joined_planner(planners: list[LocalPlanner]) -> LocalPlanner | None:
+    """One planner that steers the rows of `planners`' crowds stacked in order, each crowd a
+    world of its own (`Crowd.world`), or None when their class cannot.
+
+    A planner class offers this with a classmethod `joined(planners)`; by offering it, it
+    promises to keep the worlds of a stacked Crowd apart. A vector environment steers all its
+    copies with one call of the joined planner instead of one call per copy.
+    """
+    cls = type(planners[0])
+    join = getattr(cls, "joined", None)
+    if join is None or any(type(p) is not cls for p in planners):
+        return None
+    joined: LocalPlanner = join(planners)
+    return joined

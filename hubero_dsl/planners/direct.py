@@ -115,6 +115,13 @@ class DirectPlanner:
         models = params_as(DirectParams, params, self.name)
         self._arrival_radius = np.array([m.arrival_radius for m in models], dtype=np.float64)
 
+    @classmethod
+    def joined(cls, planners: list[DirectPlanner]) -> DirectPlanner:
+        """One planner for the stacked crowds of `planners` (nobody meets anyone here)."""
+        joined = cls(planners[0].grid, [])
+        joined._arrival_radius = np.concatenate([p._arrival_radius for p in planners])
+        return joined
+
     def velocities(self, crowd: Crowd, drive: Drive, dt: float) -> FloatArray:
         """(K, 2) new velocities: relax towards the target, slow down on arrival, clip."""
         check_drive(crowd, drive, self._arrival_radius.shape[0])

@@ -13,6 +13,12 @@ halves the work of the planners that use it.
 A crowd of at most `_SMALL` bodies fits in one leaf of the k-d tree, whose pair query returns
 every close pair in row order, (0, 1), (0, 2), ..., (1, 2), ...: for such crowds every pair is a
 candidate, in that same order, and no tree is built.
+
+Bodies of several simulations can be steered in one call (a vector environment's copies, each
+a *world* of its own): bodies of different worlds are never paired. Their tree is built in
+three dimensions, each world a layer further apart than any query reaches, and its pairs are
+listed in row order, so that a world of at most `_SMALL` bodies meets its pairs in the order
+it would alone.
 """
 
 from __future__ import annotations
@@ -63,24 +69,24 @@ class PairFinder:
         self._built_radius = 0.0
         self._candidates = (np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp))
 
-    def find(self, position: FloatArray, reach: FloatArray) -> NeighbourPairs:
+    def find(self, position: FloatArray, reach: FloatArray,
+             world: IntArray | None = None) -> NeighbourPairs:
         """Every pair of rows closer than the larger reach of the two, with who reacts to whom.
 
         `reach` is (N,): how far each body looks (0 for one that reacts to no one). Coincident
         bodies get a deterministic direction (+x from the second to the first), so they still
-        push apart.
+        push apart. `world` (N,), when given, says which simulation each row belongs to: rows
+        of different worlds are never paired (it must not change while `position` keeps its
+        shape, as a vector environment's stack of copies does not).
         """
         count = position.shape[0]
         query_radius = float(reach.max()) if count else 0.0
         if count < 2 or query_radius <= 0.0:
             return _no_pairs()
-        if count <= _SMALL:
+        if count <= _SMALL and world is None:
             return _pairs_within(position, reach, query_radius, *_all_pairs(count))
         if self._stale(position, query_radius):
-            tree = cKDTree(position, balanced_tree=False, compact_nodes=False)
-            found = tree.query_pairs(query_radius + self.skin, output_type="ndarray")
-            first, second = found.T.copy()
-            self._candidates = (first, second)
+            self._candidates = _candidates(position, query_radius + self.skin, world)
             self._built_at, self._built_radius = position.copy(), query_radius
         return _pairs_within(position, reach, query_radius, *self._candidates)
 
@@ -92,6 +98,20 @@ class PairFinder:
         moved = position - built_at
         furthest_squared = float(np.max(moved[:, 0] * moved[:, 0] + moved[:, 1] * moved[:, 1]))
         return bool(furthest_squared > (self.skin / 2.0) ** 2)
+
+
+def _candidates(position: FloatArray, radius: float, world: IntArray | None
+                ) -> tuple[IntArray, IntArray]:
+    """Pairs of rows closer than `radius`, from a k-d tree; within each world, in row order."""
+    if world is None:
+        tree = cKDTree(position, balanced_tree=False, compact_nodes=False)
+        first, second = tree.query_pairs(radius, output_type="ndarray").T.copy()
+        return first, second
+    layers = np.column_stack([position, world * (2.0 * radius + 1.0)])
+    tree = cKDTree(layers, balanced_tree=False, compact_nodes=False)
+    found = tree.query_pairs(radius, output_type="ndarray")
+    order = np.lexsort((found[:, 1], found[:, 0]))  # by first row, then second
+    return found[order, 0].astype(np.intp), found[order, 1].astype(np.intp)
 
 
 @functools.cache

@@ -243,11 +243,18 @@ class SocialForcePlanner:
     def __init__(self, grid: OccupancyGrid, params: list[PlannerParams]) -> None:
         self.grid = grid
         models = params_as(SocialForceParams, params, self.name)
+        self._models = models
         self._rows_with_params = len(models)
         self._params = _RowParams.from_models(models or [SocialForceParams()])
         self._padded = self._params
         self._pair_finder = PairFinder()
         self._shapes: tuple[ShapeArrays, FloatArray, _CrowdShapes] | None = None
+
+    @classmethod
+    def joined(cls, planners: list[SocialForcePlanner]) -> SocialForcePlanner:
+        """One planner for the stacked crowds of `planners` (see `base.joined_planner`):
+        their rows' parameters in order; pairs never cross worlds."""
+        return cls(planners[0].grid, [m for p in planners for m in p._models])
 
     def velocities(self, crowd: Crowd, drive: Drive, dt: float) -> FloatArray:
         """(K, 2) new velocities for the humans in `drive`, never faster than max_speed."""
@@ -255,7 +262,7 @@ class SocialForcePlanner:
         params = self._params_for(crowd.count)
         rows = drive.index
         velocity = crowd.velocity[rows]
-        pairs = self._pair_finder.find(crowd.position, self._reach(crowd, drive))
+        pairs = self._pair_finder.find(crowd.position, self._reach(crowd, drive), crowd.world)
         acceleration = goal_acceleration(crowd.position[rows], velocity,
                                          _keep_time_gap(crowd, drive, params, pairs),
                                          _at(params.arrival_radius, rows), dt)

@@ -1,15 +1,18 @@
 """The engine: one tick of the world, and the services behaviours use to command humans.
 
 A tick is array work: robots advance, every walking human's next waypoint is found, the local
-planners turn targets into velocities (all humans of a planner at once), bodies move, are kept
-apart and out of walls, and turn. Then events (arrived, aligned, timer, stuck) are detected
-with array comparisons, and only the humans with an event wake their behaviour.
+planners turn targets into velocities (all humans of a planner at once; `begin_step`, `steer`
+and `end_step` split the tick there, so that a vector environment can ask the planners for all
+its copies in one call), bodies move, are kept apart and out of walls, and turn. Then events
+(arrived, aligned, timer, stuck) are detected with array comparisons, and only the humans with
+an event wake their behaviour.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -39,6 +42,23 @@ PROGRESS = 0.5          # m a walking human must make within `stuck_time`
 GROUP_SPACING = 0.7     # m between neighbours of a walking group
 GROUP_PULL = 1.0        # 1/s: m/s towards the group's centre per metre too far from it
 _STANDING = int(Posture.STANDING)  # an int compares with the posture array faster than an enum
+
+
+@dataclass(frozen=True, slots=True)
+class Part:
+    """Humans one local planner steers this tick: their Crowd rows and what they want."""
+
+    planner: str
+    rows: IntArray
+    drive: Drive
+
+
+@dataclass(frozen=True, slots=True)
+class Steering:
+    """What a tick asks of the local planners: everyone as a Crowd, and who each steers."""
+
+    crowd: Crowd
+    parts: list[Part]
 
 
 class Engine:
@@ -334,11 +354,44 @@ class Engine:
     # ---- one tick ------------------------------------------------------------------------
 
     def step(self) -> None:
-        dt = self.dt
+        steering = self.begin_step()
+        self.end_step(steering, self.steer(steering))
+
+    def begin_step(self) -> Steering | None:
+        """A tick's first part: robots move, walkers pass their waypoints, and what the local
+        planners are to be asked is gathered (None: nobody walks). `steer` asks them and
+        `end_step` moves everyone; a vector environment asks for all its copies at once."""
         humans = self.humans
         if self.robots.count:
-            self.robots.advance(dt, self.tick, humans, self.position_of)
-        velocity = self._velocities()
+            self.robots.advance(self.dt, self.tick, humans, self.position_of)
+        rows = humans.moving.nonzero()[0]
+        if not len(rows):
+            return None
+        self.paths.advance(humans.position, LOOKAHEAD)
+        if self._only_local is not None:
+            parts = [(self._only_local, rows)]
+        else:
+            parts = [(name, (mask & humans.moving).nonzero()[0])
+                     for name, mask in self._local_mask.items()]
+        return Steering(self.crowd(), [Part(name, steer, self._drive(steer))
+                                       for name, steer in parts if len(steer)])
+
+    def steer(self, steering: Steering | None) -> list[FloatArray]:
+        """The local planners' velocities for each part of `steering`."""
+        if steering is None:
+            return []
+        return [self._local[part.planner].velocities(steering.crowd, part.drive, self.dt)
+                for part in steering.parts]
+
+    def local_planner(self, name: str) -> LocalPlanner:
+        return self._local[name]
+
+    def end_step(self, steering: Steering | None, steered: list[FloatArray]) -> None:
+        """A tick's last part: with the planners' velocities (`steer`), everyone moves, then
+        the tick's events are dispatched."""
+        dt = self.dt
+        humans = self.humans
+        velocity = self._velocities(steering, steered)
         old = humans.position
         moved = old + velocity * dt
         movable = humans.posture == _STANDING
@@ -377,26 +430,16 @@ class Engine:
             f"the simulation diverged at t = {self.time + self.dt:g} s: the position of {shown} "
             "is not a finite number (check the force parameters and the step)")
 
-    def _velocities(self) -> FloatArray:
+    def _velocities(self, steering: Steering | None, steered: list[FloatArray]) -> FloatArray:
         humans = self.humans
         velocity = np.zeros(humans.velocity.shape)
-        rows = humans.moving.nonzero()[0]
-        if len(rows):
-            self.paths.advance(humans.position, LOOKAHEAD)
-            crowd = self.crowd()
-            if self._only_local is not None:
-                steering = [(self._only_local, rows)]
-            else:
-                steering = [(name, (mask & humans.moving).nonzero()[0])
-                            for name, mask in self._local_mask.items()]
-            for name, steer in steering:
-                if len(steer):
-                    velocity[steer] = self._local[name].velocities(crowd, self._drive(steer),
-                                                                   self.dt)
+        if steering is not None:
+            for part, part_velocity in zip(steering.parts, steered, strict=True):
+                velocity[part.rows] = part_velocity
             if self.groups:
                 velocity = self._keep_together(velocity)
             if self._reactions is not None and self.robots.count:
-                velocity = self._react(velocity, steering)
+                velocity = self._react(velocity, steering.parts)
         if humans.teleop.any():
             teleop = humans.teleop.nonzero()[0]
             velocity[teleop] = humans.teleop_velocity[teleop]
@@ -426,7 +469,7 @@ class Engine:
                     speed, 1e-9))[:, None]
         return velocity
 
-    def _react(self, velocity: FloatArray, steering: list[tuple[str, IntArray]]) -> FloatArray:
+    def _react(self, velocity: FloatArray, parts: list[Part]) -> FloatArray:
         """Humans' reactions to robots: the impassive are steered as if there were no robot,
         the others' velocities adjusted (`hubero_dsl.sim.reactions`)."""
         reactions = self._reactions
@@ -436,11 +479,11 @@ class Engine:
             alone = Crowd(position=h.position, velocity=h.velocity, heading=h.heading,
                           radius=h.radius, personal_space=h.personal_space,
                           is_robot=self._not_robot)
-            for name, steer in steering:
-                rows = steer[reactions.impassive[steer]]
+            for part in parts:
+                rows = part.rows[reactions.impassive[part.rows]]
                 if len(rows):
-                    velocity[rows] = self._local[name].velocities(alone, self._drive(rows),
-                                                                  self.dt)
+                    velocity[rows] = self._local[part.planner].velocities(
+                        alone, self._drive(rows), self.dt)
         r = self.robots
         return reactions.adjust(velocity, self.humans, r.position, r.velocity, r.radius,
                                 self.tick)
@@ -486,10 +529,7 @@ class Engine:
         h, r = self.humans.personal_space, self.robots.personal_space
         cached = self._crowd_shapes
         if cached is None or cached[0] is not h or cached[1] is not r:
-            joined = ShapeArrays(np.concatenate([h.kind, r.kind]), np.concatenate([h.a, r.a]),
-                                 np.concatenate([h.b, r.b]),
-                                 np.concatenate([h.offset, r.offset]))
-            cached = self._crowd_shapes = (h, r, joined)
+            cached = self._crowd_shapes = (h, r, ShapeArrays.stacked([h, r]))
         return cached[2]
 
     def _separate(self, moved: FloatArray, movable: np.ndarray) -> FloatArray:

@@ -28,9 +28,9 @@ from hubero_dsl.model.params import HUMAN_PARAMS, REACTIONS, ParamKind
 from hubero_dsl.model.program import Distribution, ParamValue, Pose, Program
 from hubero_dsl.planners.base import GlobalPlanner, LocalPlanner, PlannerParams
 from hubero_dsl.planners.registry import global_planner, local_planner
-from hubero_dsl.sim.arrays import HumanArrays
+from hubero_dsl.sim.arrays import FloatArray, HumanArrays
 from hubero_dsl.sim.conditions import Conditions, LabelBook
-from hubero_dsl.sim.engine import Engine
+from hubero_dsl.sim.engine import Engine, Steering
 from hubero_dsl.sim.flows import Flows
 from hubero_dsl.sim.handles import HumanHandle, RobotHandle
 from hubero_dsl.sim.robots import Robots, robot_body
@@ -194,18 +194,30 @@ class Simulation:
 
     def step(self) -> None:
         """Advance one tick: the scheduler reacts to the world, then the world moves."""
+        steering = self.begin_step()
+        self.end_step(steering, self.engine.steer(steering))
+
+    def begin_step(self) -> Steering | None:
+        """`step` up to the local planners (`Engine.begin_step`); `end_step` finishes it."""
         if self.scheduler is not None:
             self.scheduler.update()
-        self.advance()
+        return self._begin_advance()
+
+    def end_step(self, steering: Steering | None, steered: list[FloatArray]) -> None:
+        self.engine.end_step(steering, steered)
         if self.scheduler is not None:
             self.scheduler.after_step()
 
     def advance(self) -> None:
         """The world's part of a tick: flows bring people in and see them off, then everyone
         moves."""
+        steering = self._begin_advance()
+        self.engine.end_step(steering, self.engine.steer(steering))
+
+    def _begin_advance(self) -> Steering | None:
         if self.flows is not None:
             self.flows.update()
-        self.engine.step()
+        return self.engine.begin_step()
 
     def run_until(self, done: Callable[[], bool], *, time_limit: float | None = None) -> bool:
         """Step until `done()` holds (True) or the time limit passes (False)."""

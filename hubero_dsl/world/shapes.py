@@ -87,6 +87,14 @@ class ShapeArrays:
     offset: FloatArray
 
     @staticmethod
+    def stacked(parts: list[ShapeArrays]) -> ShapeArrays:
+        """The rows of `parts`, one after another."""
+        return ShapeArrays(np.concatenate([p.kind for p in parts]),
+                           np.concatenate([p.a for p in parts]),
+                           np.concatenate([p.b for p in parts]),
+                           np.concatenate([p.offset for p in parts]))
+
+    @staticmethod
     def from_shapes(shapes: list[Shape]) -> ShapeArrays:
         rows = np.array([shape_to_row(s) for s in shapes], dtype=np.float64).reshape(-1, 4)
         return ShapeArrays(rows[:, 0].astype(np.int8), rows[:, 1].copy(), rows[:, 2].copy(),

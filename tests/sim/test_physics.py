@@ -139,6 +139,34 @@ def test_small_crowds_get_the_pairs_of_the_tree_in_its_order(count: int) -> None
         np.testing.assert_array_equal(found.reshape(-1, 2), tree_pairs(position, 3.0))
 
 
+def as_set(first: np.ndarray, second: np.ndarray) -> set[tuple[int, int]]:
+    return set(zip(first.tolist(), second.tolist(), strict=True))
+
+
+@pytest.mark.parametrize("per_world", [3, 16, 40])
+def test_worlds_stacked_meet_only_their_own(per_world: int) -> None:
+    # four copies of one scene on top of each other: each finds the pairs it finds alone, in
+    # the same order when it is small enough for one leaf of the tree
+    rng = np.random.default_rng(per_world)
+    alone = rng.uniform(0.0, 6.0, size=(per_world, 2))
+    stacked = np.concatenate([alone + rng.normal(0.0, 0.01, alone.shape) * k for k in range(4)])
+    world = np.repeat(np.arange(4), per_world)
+    finder = PairFinder()
+    for _ in range(3):  # the Verlet list's reuse keeps the worlds apart too
+        pairs = finder.find(stacked, np.full(len(stacked), 2.0), world)
+        assert (world[pairs.first] == world[pairs.second]).all()
+        for k in range(4):
+            mine = world[pairs.first] == k
+            own = PairFinder().find(stacked[world == k], np.full(per_world, 2.0))
+            first, second = pairs.first[mine] - k * per_world, pairs.second[mine] - k * per_world
+            assert as_set(first, second) == as_set(own.first, own.second)
+            if per_world <= 16:
+                np.testing.assert_array_equal(first, own.first)
+                np.testing.assert_array_equal(second, own.second)
+                np.testing.assert_array_equal(pairs.distance[mine], own.distance)
+        stacked = stacked + 0.05
+
+
 def test_lengths_are_numpys_norms_bit_for_bit() -> None:
     rng = np.random.default_rng(3)
     vectors = rng.normal(size=(500, 2)) * rng.choice([1e-200, 1e-5, 1.0, 1e200], size=(500, 1))
