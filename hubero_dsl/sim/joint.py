@@ -35,18 +35,17 @@ class JointSteering:
     def steer(self, engines: list[Engine], steerings: list[Steering | None]
               ) -> list[list[FloatArray]]:
         """What `engine.steer(steering)` gives, for each engine and its steering."""
-        answers: list[list[FloatArray]] = [[] for _ in engines]
-        walking = [i for i, steering in enumerate(steerings) if steering is not None]
-        if not walking:
+        parts = {i: steering.parts for i, steering in enumerate(steerings)
+                 if steering is not None}
+        answers = [[np.zeros((0, 2))] * len(parts.get(i, [])) for i in range(len(engines))]
+        if not parts:
             return answers
         crowds = [s.crowd if s is not None else e.crowd() for e, s in zip(engines, steerings,
                                                                            strict=True)]
         starts = np.cumsum([0] + [crowd.count for crowd in crowds]).tolist()
         stack = _stacked(crowds)
-        parts = {i: list(steerings[i].parts) for i in walking}  # type: ignore[union-attr]
-        answers = [[np.zeros((0, 2))] * len(parts.get(i, [])) for i in range(len(engines))]
-        for name in sorted({part.planner for i in walking for part in parts[i]}):
-            asked = [(i, j) for i in walking for j, part in enumerate(parts[i])
+        for name in sorted({part.planner for copy in parts.values() for part in copy}):
+            asked = [(i, j) for i, copy in parts.items() for j, part in enumerate(copy)
                      if part.planner == name]
             planner = self._planner(name, engines)
             if planner is None:  # steered copy by copy, as a single run is

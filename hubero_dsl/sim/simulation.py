@@ -204,6 +204,7 @@ class Simulation:
         return self._begin_advance()
 
     def end_step(self, steering: Steering | None, steered: list[FloatArray]) -> None:
+        """The rest of `step`, given the local planners' answers (`Engine.steer`)."""
         self.engine.end_step(steering, steered)
         if self.scheduler is not None:
             self.scheduler.after_step()
@@ -215,6 +216,7 @@ class Simulation:
         self.engine.end_step(steering, self.engine.steer(steering))
 
     def _begin_advance(self) -> Steering | None:
+        """The world's part up to the local planners: flows, then `Engine.begin_step`."""
         if self.flows is not None:
             self.flows.update()
         return self.engine.begin_step()
