@@ -6,7 +6,10 @@ Two runs of the same file are timed: one that stops at START (5 s) and one that 
 window's end, past the dense meeting in the middle of the circle (1.5 x the time to walk to the
 centre); their difference is the cost of the window. Agent-steps are counted for the people
 still walking (from the log's task events), since those who arrived stand still. The 5 s run
-on its own is the start-up cost a user feels (target: 3 s + 5 ms per person).
+on its own is the start-up cost a user feels (target: 3 s + 5 ms per person). A run can end
+before the window does: someone who makes no progress for 20 s in the crowd is aborted as
+stuck, which fails the crossing (exit status 1, like the time limit). The window then ends
+where the run did (read from the log and marked `*`), and the peers run over that window too.
 
 When installed (`pip install 'hubero[bench]'`), JuPedSim's social force model runs the same
 positions and goals in the same process (C++, dt = 0.01 s, which that model needs to stay
@@ -53,7 +56,7 @@ PAST_THE_MIDDLE = 1.5    # the window ends at this many times the walk to the ce
 JUPEDSIM_DT = 0.01       # s
 PSF_STEPS = {10: 200, 100: 40, 1000: 4, 3000: 2}  # O(N^2): a few steps suffice at large N
 
-Rate = Callable[[int], float]
+Rate = Callable[[int, float], float]  # agent-steps/s of N people from START to an end time
 
 
 def circle_radius(count: int) -> float:
@@ -100,15 +103,27 @@ def scenario_text(count: int, map_path: Path, time_limit: float) -> str:
     return "\n".join(lines) + "\n"
 
 
-def hubero_run(file: Path, log: Path) -> float:
-    """Wall time of `hubero run FILE -o LOG -q` in a fresh interpreter."""
+def hubero_run(file: Path, log: Path) -> tuple[float, str]:
+    """Wall time of `hubero run FILE -o LOG -q` in a fresh interpreter, and how it ended when
+    not at its time limit (exit status 1 is the time limit, or a task that failed)."""
     began = time.perf_counter()
     done = subprocess.run([sys.executable, "-m", "hubero_dsl", "run", str(file), "-o",
                            str(log), "-q"], capture_output=True, text=True, check=False)
     wall = time.perf_counter() - began
-    if done.returncode not in (0, 1) or not log.exists():  # 1: the time limit, as planned
+    if done.returncode not in (0, 1) or not log.exists():
         sys.exit(f"hubero run {file} failed:\n{done.stderr}")
-    return wall
+    lines = done.stderr.strip().splitlines()
+    return wall, lines[-1] if lines else ""
+
+
+def run_end(log: Path) -> float:
+    """The simulated time a run reached: its log's last message (a frame at its last tick)."""
+    from mcap.reader import make_reader
+
+    with log.open("rb") as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None and summary.statistics is not None
+    return round(summary.statistics.message_end_time / 1e9, 2)
 
 
 def walking_steps(log: Path, count: int, start: float, end: float, dt: float) -> float:
@@ -132,6 +147,8 @@ class HuberoWindow:
     start_up: float      # s, wall time of the run that stops at START
     window: float        # s, wall time of the window (the long run minus the short one)
     agent_steps: float   # in the window, of the people still walking
+    end: float           # s of simulated time the long run reached (the window's end)
+    ended: str           # why it ended before the window's end ("" when it did not)
 
     @property
     def rate(self) -> float:
@@ -148,16 +165,21 @@ def hubero_window(count: int, repeat: int) -> HuberoWindow:
         for label, limit in (("short", START), ("long", end)):
             files[label] = folder / f"crossing_{count}_{label}.hub"
             files[label].write_text(scenario_text(count, map_path, limit), encoding="utf-8")
-        short = min(hubero_run(files["short"], folder / "short.mcap") for _ in range(repeat))
-        long = min(hubero_run(files["long"], folder / "long.mcap") for _ in range(repeat))
-        steps = walking_steps(folder / "long.mcap", count, START, end, 0.05)
-    return HuberoWindow(short, long - short, steps)
+        short = min(hubero_run(files["short"], folder / "short.mcap")[0]
+                    for _ in range(repeat))
+        long, ended = min(hubero_run(files["long"], folder / "long.mcap")
+                          for _ in range(repeat))
+        # a run can end before the window does: a walker stuck in the crowd fails the crossing
+        reached = run_end(folder / "long.mcap")
+        steps = walking_steps(folder / "long.mcap", count, START, reached, 0.05)
+    return HuberoWindow(short, long - short, steps, reached,
+                        ended if reached < end - 1e-6 else "")
 
 
 # ---- peers ---------------------------------------------------------------------------------
 
-def jupedsim_rate(count: int) -> float:
-    """JuPedSim's social force model over the same window: agent-steps of the agents it still
+def jupedsim_rate(count: int, end: float) -> float:
+    """JuPedSim's social force model from START to `end`: agent-steps of the agents it still
     has (they leave at their exit stage) per second of wall time."""
     import jupedsim as jps
     import shapely
@@ -178,7 +200,7 @@ def jupedsim_rate(count: int) -> float:
             radius=BODY_RADIUS))
     sim.iterate(round(START / JUPEDSIM_DT))
     chunk, agent_steps = 50, 0
-    iterations = round((window_end(count) - START) / JUPEDSIM_DT)
+    iterations = round((end - START) / JUPEDSIM_DT)
     began = time.perf_counter()
     for done in range(iterations // chunk):
         alive = sim.agent_count()
@@ -226,9 +248,10 @@ def _quiet_pysocialforce() -> None:
     logging.getLogger("numba").setLevel(logging.WARNING)
 
 
-def pysocialforce_rate(count: int) -> float:
+def pysocialforce_rate(count: int, end: float) -> float:
     """PySocialForce with hubero's step (0.05 s) and no groups; time per step after a warm-up
-    step (numba compiles on the first)."""
+    step (numba compiles on the first), over a fixed number of steps from the start (`end` is
+    not used: its rate does not follow density)."""
     _quiet_pysocialforce()
     import pysocialforce as psf
 
@@ -279,11 +302,20 @@ def main(argv: list[str]) -> int:
     print(header)
     for count in args.sizes:
         ours = hubero_window(count, args.repeat)
-        line = (f"{count:>5} {START:>4g}-{window_end(count):<4g} {ours.start_up:>7.2f}s "
+        window = f"{START:g}-{ours.end:g}" + ("*" if ours.ended else "")
+        if ours.window <= 0.0:  # start-up noise larger than the window's cost
+            print(f"{count:>5} {window:>9} {ours.start_up:>7.2f}s: the long run took no longer "
+                  "than the 5 s run; time it again with a larger --repeat", flush=True)
+            continue
+        line = (f"{count:>5} {window:>9} {ours.start_up:>7.2f}s "
                 f"{3 + 0.005 * count:>6.2f}s {ours.rate:>11,.0f} {1e6 / ours.rate:>8.2f}")
+        if ours.ended:
+            print(f"* hubero at N = {count} ended at t = {ours.end:g} s, before "
+                  f"{window_end(count):g} s ({ours.ended}): every rate in its row is over "
+                  f"{START:g}-{ours.end:g} s", file=sys.stderr)
         for name, rate in peers.items():
             try:
-                theirs = max(rate(count) for _ in range(args.repeat))
+                theirs = max(rate(count, ours.end) for _ in range(args.repeat))
             except PeerStoppedError as stop:  # measured up to its failure, said so
                 line += f" {stop.rate:>13,.0f}* {ours.rate / stop.rate:>9.2f}x"
                 print(f"* {name} at N = {count} stopped at t = {stop.reached:g} s with its own "
