@@ -53,7 +53,7 @@ def test_copies_steered_together_move_as_each_alone(scenario: ScenarioFactory,
     if not joinable:
         for sim in together:
             planners = sim.engine._local
-            planners["social_force"] = Opaque(planners["social_force"])  # type: ignore[assignment]
+            planners["social_force"] = Opaque(planners["social_force"])
     joint, walked = JointSteering(), 0
     for _ in range(300):
         steerings = [sim.begin_step() for sim in together]
