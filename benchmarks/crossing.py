@@ -21,6 +21,7 @@ step of its simulator.
     python benchmarks/crossing.py                      # N = 100, 1000, 3000, best of 3
     python benchmarks/crossing.py 100 1000 --repeat 1
     python benchmarks/crossing.py --no-peers
+    python benchmarks/crossing.py 1000 --log-cost --repeat 4   # the log's cost, whole runs
 """
 
 from __future__ import annotations
@@ -103,14 +104,16 @@ def scenario_text(count: int, map_path: Path, time_limit: float) -> str:
     return "\n".join(lines) + "\n"
 
 
-def hubero_run(file: Path, log: Path) -> tuple[float, str]:
-    """Wall time of `hubero run FILE -o LOG -q` in a fresh interpreter, and how it ended when
-    not at its time limit (exit status 1 is the time limit, or a task that failed)."""
+def hubero_run(file: Path, log: Path | None) -> tuple[float, str]:
+    """Wall time of `hubero run FILE -o LOG -q` (`--no-log` without a LOG) in a fresh
+    interpreter, and how it ended when not at its time limit (exit status 1 is the time
+    limit, or a task that failed)."""
     began = time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", "hubero_dsl", "run", str(file), "-o",
-                           str(log), "-q"], capture_output=True, text=True, check=False)
+    output = ["-o", str(log)] if log is not None else ["--no-log"]
+    done = subprocess.run([sys.executable, "-m", "hubero_dsl", "run", str(file), *output,
+                           "-q"], capture_output=True, text=True, check=False)
     wall = time.perf_counter() - began
-    if done.returncode not in (0, 1) or not log.exists():
+    if done.returncode not in (0, 1) or (log is not None and not log.exists()):
         sys.exit(f"hubero run {file} failed:\n{done.stderr}")
     lines = done.stderr.strip().splitlines()
     return wall, lines[-1] if lines else ""
@@ -174,6 +177,21 @@ def hubero_window(count: int, repeat: int) -> HuberoWindow:
         steps = walking_steps(folder / "long.mcap", count, START, reached, 0.05)
     return HuberoWindow(short, long - short, steps, reached,
                         ended if reached < end - 1e-6 else "")
+
+
+def log_cost(count: int, repeat: int) -> tuple[float, float]:
+    """Best wall times of the whole crossing (to the window's end, or where it ends) through
+    `hubero run` with its log and with `--no-log`, run alternately."""
+    with tempfile.TemporaryDirectory() as name:
+        folder = Path(name)
+        file = folder / f"crossing_{count}.hub"
+        file.write_text(scenario_text(count, write_open_map(folder, circle_radius(count)),
+                                      window_end(count)), encoding="utf-8")
+        logged, bare = [], []
+        for _ in range(repeat):
+            logged.append(hubero_run(file, folder / "run.mcap")[0])
+            bare.append(hubero_run(file, None)[0])
+    return min(logged), min(bare)
 
 
 # ---- peers ---------------------------------------------------------------------------------
@@ -284,7 +302,17 @@ def main(argv: list[str]) -> int:
     parser.add_argument("sizes", nargs="*", type=int, default=list(SIZES))
     parser.add_argument("--repeat", type=int, default=3, help="runs of each (best taken)")
     parser.add_argument("--no-peers", action="store_true", help="measure hubero only")
+    parser.add_argument("--log-cost", action="store_true",
+                        help="time each whole crossing with and without its log instead")
     args = parser.parse_args(argv)
+    if args.log_cost:
+        print(f"what the log (10 Hz) adds to the whole crossing through `hubero run`, best of "
+              f"{args.repeat}, run alternately")
+        for count in args.sizes:
+            logged, bare = log_cost(count, args.repeat)
+            print(f"N = {count}: {logged:.2f} s with the log, {bare:.2f} s without: "
+                  f"+{(logged / bare - 1) * 100:.0f} %", flush=True)
+        return 0
     peers = {} if args.no_peers else {
         name: rate for name, (module, rate) in PEERS.items()
         if importlib.util.find_spec(module) is not None}
