@@ -184,12 +184,16 @@ def test_the_vector_env_batches_and_resets_by_itself(tmp_path: Path) -> None:
 def test_the_vector_envs_copies_are_the_single_envs_exactly(tmp_path: Path) -> None:
     # its copies are steered in one call, each a world of its own: the same observations,
     # rewards and ends, bit for bit, as single environments given the same seeds and actions
-    file, copies = str(_scenario(tmp_path)), 3
+    # a robot that sees only ahead and nearby, and its map patch: every part of the observation
+    limited = _scenario(tmp_path).read_text(encoding="utf-8").replace(
+        "radius 0.3 m", "radius 0.3 m; sensor_range 4 m; field_of_view 200 deg")
+    (tmp_path / "limited.hub").write_text(limited, encoding="utf-8")
+    file, copies = str(tmp_path / "limited.hub"), 3
     envs = gymnasium.make_vec(hubero_dsl.gym.ENV_ID, num_envs=copies,
                               vectorization_mode="vector_entry_point", scenario=file,
-                              robot="cart")
+                              robot="cart", map_patch=8)
     observations, _ = envs.reset(seed=5)
-    singles = [gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=file, robot="cart")
+    singles = [gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=file, robot="cart", map_patch=8)
                for _ in range(copies)]
     alone = [env.reset(seed=5 + i)[0] for i, env in enumerate(singles)]
     rng, done, met = np.random.default_rng(1), np.zeros(copies, dtype=bool), 0
@@ -206,7 +210,30 @@ def test_the_vector_envs_copies_are_the_single_envs_exactly(tmp_path: Path) -> N
             np.testing.assert_array_equal(np.stack([o[key] for o in alone]), observations[key])
         met += int((observations["mask"].sum(axis=1) > 0).sum())
         done = terminated | truncated
-    assert met > 100  # the copies' robots saw people: the planner was steering among them
+    assert 100 < met < 3 * 450  # the robots saw people, and not always (range, view)
+
+
+def test_an_observation_holds_whom_the_robots_sensors_see(tmp_path: Path) -> None:
+    limited = _scenario(tmp_path).read_text(encoding="utf-8").replace(
+        "radius 0.3 m", "radius 0.3 m; sensor_range 4 m; field_of_view 200 deg")
+    (tmp_path / "limited.hub").write_text(limited, encoding="utf-8")
+    env = gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(tmp_path / "limited.hub"),
+                         robot="cart", max_people=1)
+    env.reset(seed=3)
+    rng, counts = np.random.default_rng(2), set()
+    for _ in range(300):
+        observation, *_ = env.step(rng.uniform(-1.0, 1.0, 2).astype(np.float32))
+        sim = env.unwrapped._sim
+        robots, humans = sim.engine.robots, sim.engine.humans
+        seen = robots.seen_rows(0, humans.position, humans.radius)
+        counts.add(len(seen))
+        expected = np.zeros((1, 5), np.float32)
+        expected[:len(seen[:1]), 0:2] = humans.position[seen[:1]] - robots.position[0]
+        expected[:len(seen[:1]), 2:4] = humans.velocity[seen[:1]]
+        expected[:len(seen[:1]), 4] = humans.radius[seen[:1]]
+        np.testing.assert_array_equal(observation["people"], expected)
+        assert observation["mask"].tolist() == [int(len(seen) > 0)]
+    assert counts >= {0, 1, 2}  # nobody, one, and more than max_people seen
 
 
 def test_each_copy_of_a_vector_env_writes_its_own_log(tmp_path: Path) -> None:
