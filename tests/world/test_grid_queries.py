@@ -216,3 +216,23 @@ def test_a_few_points_on_a_map_without_free_cells_or_of_one_row() -> None:
             clearance, direction = grid.clearance_and_direction_at(chunk)
             assert same_bits(clearance, reference_clearance_at(grid, chunk))
             assert same_bits(direction, reference_direction(grid, chunk))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_one_point_and_a_few_segments_get_the_arrays_answers(seed: int) -> None:
+    grid, rng = furnished(seed), np.random.default_rng(seed)
+    points = awkward_points(grid, seed)
+    points = points[np.isfinite(points).all(axis=1)]
+    for (x, y), free, clearance in zip(points.tolist(), grid.is_free(points).tolist(),
+                                       grid.clearance_at(points).tolist(), strict=True):
+        assert grid.is_free_point(x, y) == free
+        assert same_bits(np.array(grid.clearance_at_point(x, y)), np.array(clearance))
+    crossed_some = False
+    for chunk in few_at_a_time(points, seed):
+        ends = chunk + rng.normal(0.0, 0.3, chunk.shape)
+        segments = [(a, b, c, d) for (a, b), (c, d) in zip(chunk.tolist(), ends.tolist(),
+                                                           strict=True)]
+        expected = grid.crosses_obstacle(chunk, ends).tolist()
+        assert grid.crosses_obstacle_few(segments) == expected
+        crossed_some |= any(expected) and not all(expected)
+    assert crossed_some
