@@ -170,22 +170,29 @@ def _few_kept_out_of_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray
 
 def _few_slid_along_walls(grid: OccupancyGrid, moves: list[_Move]) -> list[tuple[float, float]]:
     """`_slide_along_walls` for a few moves, in floats: the full move, then x alone, then y
-    alone, then none, each tried for the moves the one before did not fit."""
+    alone, then none, each tried for the moves the one before did not fit. A trial is sampled
+    for walls on its way only when it ends somewhere acceptable (a body pressed into a corner
+    fails every trial at its end), as often as the arrays would sample it: every half cell of
+    the longest trial of its round."""
     before = [grid.clearance_at_point(m.x0, m.y0) for m in moves]
     result = [(m.x0, m.y0) for m in moves]
     pending = list(range(len(moves)))
     for trial_of in (lambda m: (m.x1, m.y1), lambda m: (m.x1, m.y0), lambda m: (m.x0, m.y1)):
         trials = [trial_of(moves[k]) for k in pending]
-        crossed = grid.crosses_obstacle_few([(moves[k].x0, moves[k].y0, x, y)
-                                             for k, (x, y) in zip(pending, trials, strict=True)])
+        fractions: tuple[float, ...] | None = None
         still = []
-        for k, (x, y), through in zip(pending, trials, crossed, strict=True):
-            clear = grid.clearance_at_point(x, y)
-            if (not through and grid.is_free_point(x, y)
-                    and (clear >= moves[k].needed or clear >= before[k])):
-                result[k] = (x, y)
-            else:
-                still.append(k)
+        for k, (x, y) in zip(pending, trials, strict=True):
+            move = moves[k]
+            if grid.is_free_point(x, y) and ((clear := grid.clearance_at_point(x, y))
+                                             >= move.needed or clear >= before[k]):
+                if fractions is None:
+                    fractions = grid.segment_fractions(max(
+                        float(np.hypot(tx - moves[t].x0, ty - moves[t].y0))
+                        for t, (tx, ty) in zip(pending, trials, strict=True)))
+                if not grid.crosses_obstacle_point(move.x0, move.y0, x, y, fractions):
+                    result[k] = (x, y)
+                    continue
+            still.append(k)
         pending = still
         if not pending:
             break

@@ -337,17 +337,17 @@ class OccupancyGrid:
         _, _, row, col, inside = self._locate_point(x, y)
         return inside and not self.occupied[row, col]
 
-    def crosses_obstacle_few(self, segments: list[tuple[float, float, float, float]]
-                             ) -> list[bool]:
-        """`crosses_obstacle` of a few finite segments (x0, y0, x1, y1), in floats with its
-        arithmetic: each is sampled as often as the longest needs."""
-        dx = np.array([x1 - x0 for x0, _, x1, _ in segments])
-        dy = np.array([y1 - y0 for _, y0, _, y1 in segments])
-        longest = float(np.hypot(dx, dy).max(initial=0.0))
-        fractions = _sample_fractions(max(2, math.ceil(longest / (0.5 * self.resolution)) + 1))
-        return [not all(self.is_free_point(x0 + (x1 - x0) * f, y0 + (y1 - y0) * f)
-                        for f in fractions)
-                for x0, y0, x1, y1 in segments]
+    def segment_fractions(self, longest: float) -> tuple[float, ...]:
+        """Where `crosses_obstacle` samples the segments of a call whose longest is `longest`
+        m long (every half cell of it), as fractions of each segment."""
+        return _sample_fractions(max(2, math.ceil(longest / (0.5 * self.resolution)) + 1))
+
+    def crosses_obstacle_point(self, x0: float, y0: float, x1: float, y1: float,
+                               fractions: tuple[float, ...]) -> bool:
+        """`crosses_obstacle` of one finite segment of a call, in floats with its arithmetic,
+        sampled at `fractions` (`segment_fractions` of the call's longest segment)."""
+        return not all(self.is_free_point(x0 + (x1 - x0) * f, y0 + (y1 - y0) * f)
+                       for f in fractions)
 
     # --- distance fields ------------------------------------------------------------------
 

@@ -230,9 +230,9 @@ def test_one_point_and_a_few_segments_get_the_arrays_answers(seed: int) -> None:
     crossed_some = False
     for chunk in few_at_a_time(points, seed):
         ends = chunk + rng.normal(0.0, 0.3, chunk.shape)
-        segments = [(a, b, c, d) for (a, b), (c, d) in zip(chunk.tolist(), ends.tolist(),
-                                                           strict=True)]
+        fractions = grid.segment_fractions(float(np.hypot(*(ends - chunk).T).max()))
         expected = grid.crosses_obstacle(chunk, ends).tolist()
-        assert grid.crosses_obstacle_few(segments) == expected
+        assert [grid.crosses_obstacle_point(a, b, c, d, fractions) for (a, b), (c, d)
+                in zip(chunk.tolist(), ends.tolist(), strict=True)] == expected
         crossed_some |= any(expected) and not all(expected)
     assert crossed_some
