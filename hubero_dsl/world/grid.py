@@ -19,7 +19,7 @@ import math
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields
-from functools import cache, cached_property
+from functools import cached_property, lru_cache
 from typing import Any
 
 import numpy as np
@@ -89,7 +89,13 @@ def _few_finite(points: FloatArray) -> bool:
     return points.ndim == 2 and len(points) <= FEW_POINTS and bool(np.isfinite(points).all())
 
 
-@cache
+def _sample_count(longest: float, resolution: float) -> int:
+    """How many points `crosses_obstacle` samples each segment of a call at: every half cell
+    of the call's longest segment, both ends included."""
+    return max(2, math.ceil(longest / (0.5 * resolution)) + 1)
+
+
+@lru_cache(maxsize=64)  # a few short moves use a few counts; a long one must not stay
 def _sample_fractions(samples: int) -> tuple[float, ...]:
     """Where `crosses_obstacle` samples a segment: `np.linspace(0, 1, samples)`."""
     return tuple(np.linspace(0.0, 1.0, samples).tolist())
@@ -324,8 +330,7 @@ class OccupancyGrid:
         leaves the map), sampled every half cell."""
         a, b = _points(start).reshape(-1, 2), _points(end).reshape(-1, 2)
         step = np.hypot(*(b - a).T)
-        samples = max(2, int(np.ceil(float(step.max(initial=0.0)) / (0.5 * self.resolution)))
-                      + 1)
+        samples = _sample_count(float(step.max(initial=0.0)), self.resolution)
         fractions = np.linspace(0.0, 1.0, samples)
         points = a[:, None, :] + (b - a)[:, None, :] * fractions[None, :, None]
         free = self.is_free(points.reshape(-1, 2)).reshape(len(a), samples)
@@ -340,7 +345,7 @@ class OccupancyGrid:
     def segment_fractions(self, longest: float) -> tuple[float, ...]:
         """Where `crosses_obstacle` samples the segments of a call whose longest is `longest`
         m long (every half cell of it), as fractions of each segment."""
-        return _sample_fractions(max(2, math.ceil(longest / (0.5 * self.resolution)) + 1))
+        return _sample_fractions(_sample_count(longest, self.resolution))
 
     def crosses_obstacle_point(self, x0: float, y0: float, x1: float, y1: float,
                                fractions: tuple[float, ...]) -> bool:
