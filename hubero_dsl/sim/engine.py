@@ -20,7 +20,7 @@ import numpy as np
 from hubero_dsl.errors import SimulationError
 from hubero_dsl.planners.base import Crowd, Drive, NoPath
 from hubero_dsl.sim import physics
-from hubero_dsl.sim.arrays import FloatArray, HumanArrays, IntArray, PathPool
+from hubero_dsl.sim.arrays import BoolArray, FloatArray, HumanArrays, IntArray, PathPool
 from hubero_dsl.sim.behaviours import Behaviour
 from hubero_dsl.sim.reactions import Reactions
 from hubero_dsl.sim.robots import Robots
@@ -389,28 +389,42 @@ class Engine:
     def end_step(self, steering: Steering | None, steered: list[FloatArray]) -> None:
         """A tick's last part: with the planners' velocities (`steer`), everyone moves, then
         the tick's events are dispatched."""
+        humans = self.humans
+        # nobody walks (`begin_step` gave None) and nobody is teleoperated: the tick at rest
+        at_rest = steering is None and not humans.teleop.any()
+        self._move(None if at_rest else self._velocities(steering, steered))
+        heading_goals = ~np.isnan(humans.heading_goal)
+        if not at_rest or heading_goals.any():
+            self._turn(self.dt)
+        self.tick += 1
+        self._dispatch_events(steering is not None, heading_goals)
+        if self.robots.count:
+            self.robots.settle(self.tick, self.dt, self.ticks(self.stuck_time), self.position_of,
+                               self.finish_robot, self.standing_at)
+
+    def _move(self, velocity: FloatArray | None) -> None:
+        """Everyone moves at `velocity` (None at rest: zero), kept apart and out of walls."""
         dt = self.dt
         humans = self.humans
-        velocity = self._velocities(steering, steered)
         old = humans.position
-        moved = old + velocity * dt
+        moved = old + (0.0 if velocity is None else velocity * dt)
         movable = humans.posture == _STANDING
         if not movable.all():
             moved[~movable] = old[~movable]
-        moved = self._separate(moved, movable)
-        if not np.isfinite(moved).all():  # before the walls, which would hide it as a stop
-            self._diverged(moved)
-        moved = self._keep_out_of_walls(old, moved)
+        separated = self._separate(moved, movable)
+        if not np.isfinite(separated).all():  # before the walls, which would hide it as a stop
+            self._diverged(separated)
+        if velocity is None and separated is moved:
+            # at rest and nobody overlaps: nobody moved, so the walls stop no one and no one
+            # walked any length (the values the arithmetic below would give)
+            humans.velocity = np.zeros(old.shape)
+            humans.position = moved
+            return
+        moved = self._keep_out_of_walls(old, separated)
         step = moved - old
         humans.velocity = step / dt
         humans.path_length += physics.lengths(step)
         humans.position = moved
-        self._turn(dt)
-        self.tick += 1
-        self._dispatch_events()
-        if self.robots.count:
-            self.robots.settle(self.tick, dt, self.ticks(self.stuck_time), self.position_of,
-                               self.finish_robot, self.standing_at)
 
     def _keep_out_of_walls(self, old: FloatArray, moved: FloatArray) -> FloatArray:
         present = self.humans.present
@@ -541,12 +555,13 @@ class Engine:
         everyone = np.concatenate([moved, r.position])
         radius = np.concatenate([self.humans.radius, r.radius])
         can_move = np.concatenate([movable, np.zeros(r.count, bool)])
-        return self._separation(everyone, radius, can_move)[: self.humans.count]
+        separated = self._separation(everyone, radius, can_move)
+        return moved if separated is everyone else separated[: self.humans.count]
 
     def _turn(self, dt: float) -> None:
+        """Walkers turn to where they go, the others to their heading goals (`end_step` skips
+        the tick at rest with no heading goal)."""
         h = self.humans
-        if not (h.moving.any() or h.teleop.any()) and np.isnan(h.heading_goal).all():
-            return  # nobody walks and nobody turns to a heading: the tick at rest
         speed = physics.lengths(h.velocity)
         walking = (speed > 0.1) & (h.moving | h.teleop)
         turning = walking | ~np.isnan(h.heading_goal)
@@ -559,12 +574,14 @@ class Engine:
 
     # ---- events --------------------------------------------------------------------------
 
-    def _dispatch_events(self) -> None:
+    def _dispatch_events(self, anyone_moving: bool, heading_goals: BoolArray) -> None:
+        """Wake the humans whose behaviour has something to react to: an arrival, no progress,
+        a heading reached, a timer. `anyone_moving` is whether someone walks this tick,
+        `heading_goals` which rows have a heading to turn to."""
         h = self.humans
         moving = h.moving
         wake = timer = self.wake_tick <= self.tick
         arrived = stuck = aligned = None
-        anyone_moving = bool(moving.any())
         if anyone_moving:  # arrivals and progress concern walkers only
             # a walking human always has a goal
             arrived = moving & (physics.lengths(h.position - h.goal) <= h.stop_distance)
@@ -575,9 +592,7 @@ class Engine:
             self.anchor_tick[progressed | ~moving] = self.tick
             stuck = moving & (self.tick - self.anchor_tick > self.ticks(self.stuck_time))
             wake = wake | arrived | stuck
-        turning = ~np.isnan(h.heading_goal)
-        if anyone_moving:
-            turning &= ~moving
+        turning = heading_goals & ~moving if anyone_moving else heading_goals
         if turning.any():
             aligned = turning & (np.abs(physics.wrap_angle(h.heading - h.heading_goal))
                                  < ALIGNED)

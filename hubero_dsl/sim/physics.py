@@ -22,6 +22,7 @@ if TYPE_CHECKING:
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
+Point = tuple[float, float]
 
 TURN_RATE = 2.5          # rad/s a human turns at
 WALL_MARGIN = 0.02       # m of clearance a body centre keeps beyond "free"
@@ -146,10 +147,26 @@ def _few_kept_out_of_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray
                            radius: FloatArray) -> FloatArray | None:
     """`keep_out_of_walls` for a few bodies, row by row in floats with the arrays' arithmetic;
     None when a coordinate is not finite (the arrays handle those)."""
+    stops = wall_stops(grid, old.tolist(), new.tolist(), radius.tolist())
+    if stops is None:
+        return None
+    if not stops:
+        return new
+    result = new.copy()
+    result[list(stops)] = list(stops.values())
+    return result
+
+
+
+def wall_stops(grid: OccupancyGrid, old: list[Point], new: list[Point], radius: list[float]
+               ) -> dict[int, Point] | None:
+    """`keep_out_of_walls` for a few bodies given as floats: where each body whose move a wall
+    stops or bends ends instead, by row ({} when no wall is in anyone's way); None when a
+    coordinate is not finite (the arrays handle those). The same answers as the arrays, bit
+    for bit (tests/sim/test_physics.py)."""
     rows: list[int] = []
     moves: list[_Move] = []
-    for row, ((x0, y0), (x1, y1), r) in enumerate(
-            zip(old.tolist(), new.tolist(), radius.tolist(), strict=True)):
+    for row, ((x0, y0), (x1, y1), r) in enumerate(zip(old, new, radius, strict=True)):
         if not math.isfinite(x0 + y0 + x1 + y1):
             return None
         dx, dy = x1 - x0, y1 - y0
@@ -162,13 +179,11 @@ def _few_kept_out_of_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray
             rows.append(row)
             moves.append(_Move(x0, y0, x1, y1, needed))
     if not moves:
-        return new
-    result = new.copy()
-    result[rows] = _few_slid_along_walls(grid, moves)
-    return result
+        return {}
+    return dict(zip(rows, _few_slid_along_walls(grid, moves), strict=True))
 
 
-def _few_slid_along_walls(grid: OccupancyGrid, moves: list[_Move]) -> list[tuple[float, float]]:
+def _few_slid_along_walls(grid: OccupancyGrid, moves: list[_Move]) -> list[Point]:
     """`_slide_along_walls` for a few moves, in floats: the full move, then x alone, then y
     alone, then none, each tried for the moves the one before did not fit. A trial is sampled
     for walls on its way only when it ends somewhere acceptable (a body pressed into a corner
