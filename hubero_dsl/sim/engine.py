@@ -548,10 +548,15 @@ class Engine:
 
     def _separate(self, moved: FloatArray, movable: np.ndarray) -> FloatArray:
         r = self.robots
-        if self.humans.count + r.count < 2:
+        count = self.humans.count + r.count
+        if count < 2:
             return moved
         if not r.count:
             return self._separation(moved, self.humans.radius, movable)
+        if count <= physics.FEW_BODIES and not physics.any_overlap(
+                moved.tolist() + r.position.tolist(),
+                self.humans.radius.tolist() + r.radius.tolist()):
+            return moved  # a household and its robot, nobody touching: no arrays joined
         everyone = np.concatenate([moved, r.position])
         radius = np.concatenate([self.humans.radius, r.radius])
         can_move = np.concatenate([movable, np.zeros(r.count, bool)])

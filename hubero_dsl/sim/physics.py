@@ -49,7 +49,7 @@ class BodySeparation:
         if len(position) < 2:
             return position
         if len(position) <= FEW_BODIES:
-            if not _few_overlap(position, radius):
+            if not any_overlap(position.tolist(), radius.tolist()):
                 return position
             return separate_bodies(position, radius, movable)
         reach = np.full(len(position), 2.0 * float(radius.max()))
@@ -60,9 +60,9 @@ class BodySeparation:
         return separate_bodies(position, radius, movable)
 
 
-def _few_overlap(position: FloatArray, radius: FloatArray) -> bool:
+def any_overlap(position: list[Point], radius: list[float]) -> bool:
     """Whether any two of a few bodies overlap, checked in floats pair by pair."""
-    bodies = list(zip(position.tolist(), radius.tolist(), strict=True))
+    bodies = list(zip(position, radius, strict=True))
     for i, ((xi, yi), ri) in enumerate(bodies):
         for (xj, yj), rj in bodies[i + 1:]:
             if math.hypot(xi - xj, yi - yj) < ri + rj:

@@ -16,7 +16,7 @@ is the controller's error: `ControllerError`, naming the robot, the time and the
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -132,16 +132,20 @@ class Robots:
                 if command is None:
                     command = self._ask(i, self._observe(i, time, humans, position_of), time)
                 wanted.append(self._move(i, command, dt))
-        if not (self.count <= physics.FEW_BODIES and self._moved_few(wanted, dt)):
-            self._moved_many(wanted, dt)
+        velocity = self._moved_few(wanted, dt) if self.count <= physics.FEW_BODIES else None
+        if velocity is None:
+            velocity = self._moved_many(wanted, dt)
         # a holonomic robot faces where it goes (numpy's functions on floats: the values its
         # arrays would give)
-        for i, (vx, vy) in zip(self._holonomic, self.velocity[self._holonomic].tolist(),
-                               strict=True):
+        for i in self._holonomic:
+            vx, vy = velocity[i]
             if np.hypot(vx, vy) > 1e-6:
                 self.heading[i] = np.arctan2(vy, vx)
 
-    def _moved_many(self, wanted: list[tuple[float, float]], dt: float) -> None:
+    def _moved_many(self, wanted: list[tuple[float, float]], dt: float
+                    ) -> Sequence[Sequence[float]]:
+        """Move every robot at the velocities `wanted`, never through a wall; the velocities
+        they moved at."""
         velocity = np.array(wanted, dtype=np.float64).reshape(self.count, 2)
         old = self.position
         proposed = old + velocity * dt
@@ -152,17 +156,19 @@ class Robots:
         self.velocity = velocity
         self.path_length += np.hypot(step[:, 0], step[:, 1])
         self.position = moved
+        return velocity.tolist()
 
-    def _moved_few(self, wanted: list[tuple[float, float]], dt: float) -> bool:
+    def _moved_few(self, wanted: list[tuple[float, float]], dt: float
+                   ) -> Sequence[Sequence[float]] | None:
         """`_moved_many` for a few robots, in floats with the arrays' arithmetic (numpy's
-        calls on arrays of one row cost more than the arithmetic); False when a coordinate is
+        calls on arrays of one row cost more than the arithmetic); None when a coordinate is
         not finite, which the arrays handle."""
         old = self.position.tolist()
         proposed = [(x + vx * dt, y + vy * dt)
                     for (x, y), (vx, vy) in zip(old, wanted, strict=True)]
         stops = physics.wall_stops(self.grid, old, proposed, self.radius.tolist())
         if stops is None:
-            return False
+            return None
         moved = [stops.get(i, p) for i, p in enumerate(proposed)]
         step = [(mx - x, my - y) for (mx, my), (x, y) in zip(moved, old, strict=True)]
         if any(stops[i] != proposed[i] for i in stops):
@@ -171,7 +177,7 @@ class Robots:
         self.position = np.array(moved, dtype=np.float64).reshape(self.count, 2)
         for i, (sx, sy) in enumerate(step):
             self.path_length[i] += np.hypot(sx, sy)
-        return True
+        return wanted
 
     def _observe(self, i: int, time: float, humans: HumanArrays,
                  position_of: Callable[[Target], tuple[float, float] | None]) -> Observation:
