@@ -49,6 +49,7 @@ from gymnasium.vector.utils import batch_space
 
 from hubero_dsl.errors import InputError
 from hubero_dsl.model.program import Program, RobotSpec
+from hubero_dsl.sim.arrays import FloatArray
 from hubero_dsl.sim.joint import JointSteering
 from hubero_dsl.sim.judge import Judge
 from hubero_dsl.sim.simulation import GlobalPlanners, Simulation
@@ -187,7 +188,9 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
             self._log.observe(sim)
         distance = self._goal_distance()
         gained, self._distance = self._distance - distance, distance
-        gap = self._nearest_gap()
+        humans = sim.engine.humans
+        around = sim.engine.robots.offsets_from(self._row, humans.position)
+        gap = self._nearest_gap(around[1])
         self._gap_min = min(self._gap_min, gap)
         reached = distance <= self.robot_spec.goal_tolerance
         collided = gap <= 0.0
@@ -202,26 +205,26 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
             outcome = "reached" if reached else "collision" if collided else "time limit"
             info = self._episode_info(outcome)
             self._close_log(outcome)
-        return self._observe(), reward, terminated, truncated, info
+        return self._observe(around), reward, terminated, truncated, info
 
     # ---- observations ------------------------------------------------------------------------
 
-    def _observe(self) -> dict[str, npt.NDArray[Any]]:
+    def _observe(self, around: tuple[FloatArray, FloatArray] | None = None
+                 ) -> dict[str, npt.NDArray[Any]]:
         assert self._sim is not None
-        return observe(self._sim, self.robot_spec, self.max_people, self.map_patch)
+        return observe(self._sim, self.robot_spec, self.max_people, self.map_patch, around)
 
     def _goal_distance(self) -> float:
         assert self._sim is not None and self.robot_spec.goal is not None
         return math.dist(self._sim.engine.robots.position[self._row], self.robot_spec.goal)
 
-    def _nearest_gap(self) -> float:
+    def _nearest_gap(self, distance: FloatArray) -> float:
+        """The smallest surface gap between the robot and a person `distance` away (centre to
+        centre, one per human row)."""
         assert self._sim is not None
-        humans = self._sim.engine.humans
-        if not humans.count:
+        if not distance.size:
             return math.inf
-        offset = humans.position - self._sim.engine.robots.position[self._row]
-        gaps = np.hypot(offset[:, 0], offset[:, 1]) - humans.radius - self.robot_spec.radius
-        return float(gaps.min())
+        return float((distance - self._sim.engine.humans.radius).min()) - self.robot_spec.radius
 
     # ---- the end of an episode ---------------------------------------------------------------
 
@@ -282,24 +285,28 @@ def observation_space(program: Program, max_people: int, map_patch: int | None) 
     return spaces.Dict(entries)
 
 
-def observe(sim: Simulation, spec: RobotSpec, max_people: int,
-            map_patch: int | None) -> dict[str, npt.NDArray[Any]]:
-    """What the robot knows now, as the observation space lays it out."""
+def observe(sim: Simulation, spec: RobotSpec, max_people: int, map_patch: int | None,
+            around: tuple[FloatArray, FloatArray] | None = None) -> dict[str, npt.NDArray[Any]]:
+    """What the robot knows now, as the observation space lays it out (`around`: the humans'
+    `Robots.offsets_from` the robot, when the caller has them already)."""
     robots = sim.engine.robots
     i = robots.index_of(spec.name)
-    x, y = robots.position[i]
+    x, y = robots.position[i].tolist()
+    vx, vy = robots.velocity[i].tolist()
     assert spec.goal is not None
-    robot = np.array([x, y, robots.velocity[i, 0], robots.velocity[i, 1], robots.heading[i],
-                      spec.goal[0] - x, spec.goal[1] - y], dtype=np.float32)
+    robot = np.array([x, y, vx, vy, float(robots.heading[i]), spec.goal[0] - x,
+                      spec.goal[1] - y], dtype=np.float32)
     humans = sim.engine.humans
+    around = around or robots.offsets_from(i, humans.position)
+    seen = robots.seen_rows(i, humans.position, humans.radius, around)[:max_people]
+    count = len(seen)
     people = np.zeros((max_people, 5), dtype=np.float32)
     mask = np.zeros(max_people, dtype=np.int8)
-    seen = robots.seen_rows(i, humans.position, humans.radius)[:max_people]
-    count = len(seen)
-    people[:count, 0:2] = humans.position[seen] - robots.position[i]
-    people[:count, 2:4] = humans.velocity[seen]
-    people[:count, 4] = humans.radius[seen]
-    mask[:count] = 1
+    if count:
+        people[:count, 0:2] = around[0][seen]
+        people[:count, 2:4] = humans.velocity[seen]
+        people[:count, 4] = humans.radius[seen]
+        mask[:count] = 1
     observation: dict[str, npt.NDArray[Any]] = {"robot": robot, "people": people, "mask": mask}
     if map_patch is not None:
         observation["map"] = _patch(sim, (float(x), float(y)), map_patch)

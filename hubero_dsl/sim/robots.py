@@ -207,11 +207,12 @@ class Robots:
                                (float(velocity[r, 0]), float(velocity[r, 1])), float(radius[r]))
                      for r in rows)
 
-    def seen_rows(self, i: int, position: FloatArray, radius: FloatArray) -> IntArray:
-        """The rows of the bodies at `position` that robot `i` sees, nearest first."""
+    def seen_rows(self, i: int, position: FloatArray, radius: FloatArray,
+                  around: tuple[FloatArray, FloatArray] | None = None) -> IntArray:
+        """The rows of the bodies at `position` that robot `i` sees, nearest first (`around`:
+        their `offsets_from(i, position)`, when the caller has them already)."""
         spec = self.specs[i]
-        offset = position - self.position[i]
-        distance = np.hypot(offset[:, 0], offset[:, 1])
+        offset, distance = around or self.offsets_from(i, position)
         visible = distance - radius <= spec.sensor_range
         if position is self.position:
             visible[i] = False
@@ -220,6 +221,11 @@ class Robots:
             visible &= np.abs(physics.wrap_angle(bearing)) <= spec.field_of_view / 2
         rows = visible.nonzero()[0]
         return rows[np.argsort(distance[rows], kind="stable")]
+
+    def offsets_from(self, i: int, position: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The offset of each body at `position` from robot `i`'s centre, and its length."""
+        offset = position - self.position[i]
+        return offset, np.hypot(offset[:, 0], offset[:, 1])
 
     def _ask(self, i: int, observation: Observation, time: float) -> tuple[float, float]:
         controller = self.controllers[i]
