@@ -489,12 +489,20 @@ class OccupancyGrid:
 
     def _locate_point(self, x: float, y: float) -> _PointCell:
         """`_locate_fractional` of one finite point, in floats."""
-        row_f = (y - self.origin[1]) / self.resolution
-        col_f = (x - self.origin[0]) / self.resolution
+        x0, y0, resolution, last_row, last_col = self._point_frame
+        row_f = (y - y0) / resolution
+        col_f = (x - x0) / resolution
         row_floor, col_floor = math.floor(row_f), math.floor(col_f)
-        rows, cols = self.occupied.shape
-        row, col = min(max(row_floor, 0), rows - 1), min(max(col_floor, 0), cols - 1)
+        row = 0 if row_floor < 0 else last_row if row_floor > last_row else row_floor
+        col = 0 if col_floor < 0 else last_col if col_floor > last_col else col_floor
         return row_f, col_f, row, col, row == row_floor and col == col_floor
+
+    @cached_property
+    def _point_frame(self) -> tuple[float, float, float, int, int]:
+        """What `_locate_point` reads of the grid, unpacked once (it runs a few times a tick
+        for each body of a small scene)."""
+        rows, cols = self.shape
+        return self.origin[0], self.origin[1], self.resolution, rows - 1, cols - 1
 
     def _probe_point(self, x: float, y: float, cell: _PointCell, *, direction: bool
                      ) -> tuple[float, tuple[float, float]]:
