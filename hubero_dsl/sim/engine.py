@@ -395,7 +395,7 @@ class Engine:
         self._move(None if at_rest else self._velocities(steering, steered))
         heading_goals = ~np.isnan(humans.heading_goal)
         if not at_rest or heading_goals.any():
-            self._turn(self.dt)
+            self._turn(self.dt, heading_goals)
         self.tick += 1
         self._dispatch_events(steering is not None, heading_goals)
         if self.robots.count:
@@ -563,13 +563,13 @@ class Engine:
         separated = self._separation(everyone, radius, can_move)
         return moved if separated is everyone else separated[: self.humans.count]
 
-    def _turn(self, dt: float) -> None:
-        """Walkers turn to where they go, the others to their heading goals (`end_step` skips
-        the tick at rest with no heading goal)."""
+    def _turn(self, dt: float, heading_goals: BoolArray) -> None:
+        """Walkers turn to where they go, the others to their heading goals (the rows of
+        `heading_goals`; `end_step` skips the tick at rest with none)."""
         h = self.humans
         speed = physics.lengths(h.velocity)
         walking = (speed > 0.1) & (h.moving | h.teleop)
-        turning = walking | ~np.isnan(h.heading_goal)
+        turning = walking | heading_goals
         if not turning.any():
             return
         # rows that do not turn keep their heading whatever `wanted` holds for them

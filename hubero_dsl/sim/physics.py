@@ -157,7 +157,6 @@ def _few_kept_out_of_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray
     return result
 
 
-
 def wall_stops(grid: OccupancyGrid, old: list[Point], new: list[Point], radius: list[float]
                ) -> dict[int, Point] | None:
     """`keep_out_of_walls` for a few bodies given as floats: where each body whose move a wall
