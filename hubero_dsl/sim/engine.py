@@ -125,9 +125,10 @@ class Engine:
             return (float(target[0]), float(target[1]))
         if target in self.removed:
             return None
-        if target in self._row_of:
-            x, y = self.humans.position[self._row_of[target]]
-            return (float(x), float(y))
+        row = self._row_of.get(target)
+        if row is not None:
+            x, y = self.humans.position[row].tolist()  # floats, without numpy's scalars
+            return (x, y)
         if target in self.groups:  # a group's centre: where its members face when talking
             x, y = self.humans.position[self.groups[target]].mean(axis=0)
             return (float(x), float(y))
