@@ -354,10 +354,6 @@ class Engine:
 
     # ---- one tick ------------------------------------------------------------------------
 
-    def step(self) -> None:
-        steering = self.begin_step()
-        self.end_step(steering, self.steer(steering))
-
     def begin_step(self) -> Steering | None:
         """A tick's first part: robots move, walkers pass their waypoints, and what the local
         planners are to be asked is gathered (None: nobody walks). `steer` asks them and
