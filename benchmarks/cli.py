@@ -27,6 +27,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from arguments import at_least_one
+
 REPO_ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_SCENARIO = REPO_ROOT / "scenarios" / "living_room.hub"
 PAPER_SCENARIOS = (REPO_ROOT / "scenarios" / "living_room.hub",
@@ -150,7 +152,7 @@ def speed_table(speeds: list[RunSpeed], commands: dict[str, float]) -> str:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenario", nargs="?", type=Path, default=DEFAULT_SCENARIO)
-    parser.add_argument("--repeat", type=int, default=10)
+    parser.add_argument("--repeat", type=at_least_one, default=10)
     parser.add_argument("--runs", type=int, default=5,
                         help="repeats of each paper scenario run (0: skip them)")
     args = parser.parse_args(argv)

@@ -43,6 +43,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from arguments import at_least_one
 
 from hubero_dsl.world.grid import OccupancyGrid
 from hubero_dsl.world.mapfile import save_map
@@ -299,8 +300,8 @@ PEERS: dict[str, tuple[str, Rate]] = {
 
 def main(argv: list[str]) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("sizes", nargs="*", type=int, default=list(SIZES))
-    parser.add_argument("--repeat", type=int, default=3, help="runs of each (best taken)")
+    parser.add_argument("sizes", nargs="*", type=at_least_one, default=list(SIZES))
+    parser.add_argument("--repeat", type=at_least_one, default=3, help="runs of each (best taken)")
     parser.add_argument("--no-peers", action="store_true", help="measure hubero only")
     parser.add_argument("--log-cost", action="store_true",
                         help="time each whole crossing with and without its log instead")

@@ -21,6 +21,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from arguments import at_least_one
+
 REPO_ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = """scenario "A flow through the car park"
 map "{map}"
@@ -50,7 +52,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rate", type=float, default=1.0, help="people per second")
     parser.add_argument("--minutes", type=float, default=10.0, help="simulated minutes")
-    parser.add_argument("--repeat", type=int, default=3, help="runs of each row (best taken)")
+    parser.add_argument("--repeat", type=at_least_one, default=3,
+                        help="runs of each row (best taken)")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as folder:
         scenario = Path(folder) / "flow.hub"

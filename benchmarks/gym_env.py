@@ -36,6 +36,7 @@ from pathlib import Path
 
 import gymnasium
 import numpy as np
+from arguments import at_least_one
 
 import hubero_dsl.gym
 from hubero_dsl.world.mapfile import load_map
@@ -197,11 +198,11 @@ def socnavgym_rate(python: str, folder: Path, people: int, steps: int) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--steps", type=int, default=3000)
-    parser.add_argument("--copies", type=int, default=64)
-    parser.add_argument("--rounds", type=int, default=400,
+    parser.add_argument("--steps", type=at_least_one, default=3000)
+    parser.add_argument("--copies", type=at_least_one, default=64)
+    parser.add_argument("--rounds", type=at_least_one, default=400,
                         help="steps of all the vector env's copies")
-    parser.add_argument("--repeat", type=int, default=3,
+    parser.add_argument("--repeat", type=at_least_one, default=3,
                         help="runs of each measurement, the best reported")
     parser.add_argument("--socnavgym", metavar="PYTHON",
                         help="an interpreter with SocNavGym installed, to time it alongside")

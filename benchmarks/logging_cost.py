@@ -29,6 +29,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+from arguments import at_least_one
 from crossing import write_open_map
 
 from hubero_dsl.log.reader import load_run
@@ -120,10 +121,10 @@ def _live_available() -> bool:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--humans", type=int, default=1000)
+    parser.add_argument("--humans", type=at_least_one, default=1000)
     parser.add_argument("--time-limit", type=float, default=20.0, help="simulated seconds")
     parser.add_argument("--rate", type=float, default=10.0, help="log rate in Hz")
-    parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--repeat", type=at_least_one, default=5)
     parser.add_argument("--workload", choices=sorted(WORKLOADS), default="crossing",
                         help="crossing: N named humans (topics of their own); crowd: one "
                              "crowd of N (aggregate topics)")

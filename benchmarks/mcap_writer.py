@@ -16,6 +16,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from arguments import at_least_one
 from logging_cost import crossing_scenario
 from mcap.reader import make_reader
 from mcap.writer import CompressionType, Writer
@@ -52,9 +53,9 @@ def rewrite(source: Path, target: Path) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--humans", type=int, default=1000)
+    parser.add_argument("--humans", type=at_least_one, default=1000)
     parser.add_argument("--time-limit", type=float, default=20.0, help="simulated seconds")
-    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--repeat", type=at_least_one, default=3)
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as name:
         folder = Path(name)

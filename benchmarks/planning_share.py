@@ -23,6 +23,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+from arguments import at_least_one
 from crossing import circle_radius, scenario_text, window_end, write_open_map
 from flow import SCENARIO as FLOW
 
@@ -98,7 +99,8 @@ def workloads(folder: Path) -> dict[str, Path]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeat", type=int, default=1, help="runs of each (median taken)")
+    parser.add_argument("--repeat", type=at_least_one, default=1,
+                        help="runs of each (median taken)")
     args = parser.parse_args()
     print(f"{'workload':<26} {'wall s':>8} {'planning s':>11} {'share':>7} {'plans':>6}")
     with tempfile.TemporaryDirectory() as name:

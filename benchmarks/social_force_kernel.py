@@ -15,6 +15,7 @@ import math
 import time
 
 import numpy as np
+from arguments import at_least_one
 
 from hubero_dsl.planners.base import Crowd, Drive
 from hubero_dsl.planners.social_force import SocialForceParams, SocialForcePlanner
@@ -86,8 +87,8 @@ def measure(count: int, steps: int) -> tuple[float, float]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=200)
-    parser.add_argument("--sizes", type=int, nargs="+", default=[10, 100, 1000, 3000])
+    parser.add_argument("--steps", type=at_least_one, default=200)
+    parser.add_argument("--sizes", type=at_least_one, nargs="+", default=[10, 100, 1000, 3000])
     args = parser.parse_args()
     print(f"{'N':>6} {'agent-steps/s':>14} {'us/agent-step':>14} {'mean speed':>11}")
     for count in args.sizes:

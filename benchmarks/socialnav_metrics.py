@@ -19,6 +19,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+from arguments import at_least_one
 from logging_cost import crossing_scenario
 
 from hubero_dsl.analysis.metrics import compute_metrics
@@ -42,7 +43,7 @@ def all_pairs(run: LoggedRun) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--humans", type=int, default=1000)
+    parser.add_argument("--humans", type=at_least_one, default=1000)
     parser.add_argument("--time-limit", type=float, default=20.0, help="simulated seconds")
     parser.add_argument("--rate", type=float, default=10.0, help="log rate in Hz")
     args = parser.parse_args()
