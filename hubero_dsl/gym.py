@@ -25,6 +25,10 @@ observations.
 - `terminated` when the robot reaches its goal (within `goal_tolerance`) or touches a person;
   `truncated` at the scenario's `time_limit`. The last step's `info` holds the episode's
   `outcome` (reached / collision / time limit), its `metrics` and the expectations' results.
+- `render_mode="rgb_array"`: `render()` draws the scene top-down (`analysis.frame`: the map,
+  the people, the robot and where it faces, its goal), `render_size` pixels along the map's
+  longer side; `gymnasium.wrappers.RecordVideo` records episodes from it at `render_fps`,
+  one frame a tick.
 
 `HuberoVectorEnv` (`gymnasium.make_vec(..., vectorization_mode="vector_entry_point")`) steps
 `num_envs` episodes of one scenario in one process, with batched observations and automatic
@@ -47,6 +51,7 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from hubero_dsl.analysis.frame import FrameRenderer
 from hubero_dsl.errors import InputError
 from hubero_dsl.model.program import Program, RobotSpec
 from hubero_dsl.sim.arrays import FloatArray
@@ -58,6 +63,7 @@ from hubero_dsl.sim.simulation import GlobalPlanners, Simulation
 Outcome = tuple[dict[str, npt.NDArray[Any]], float, bool, bool, dict[str, Any]]
 
 ENV_ID = "hubero/Scenario-v0"
+RENDER_MODES = ["rgb_array"]
 INTIMATE, PERSONAL = 0.45, 1.2   # m, surface gaps (HuNavSim's bands)
 
 
@@ -109,13 +115,18 @@ def load_scenario(scenario: str | Path | Program, robot: str) -> tuple[Program, 
 class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
     """One episode at a time of a hubero scenario, the robot driven by the actions."""
 
-    metadata: dict[str, Any] = {"render_modes": []}  # noqa: RUF012 - gymnasium's own API
+    metadata: dict[str, Any] = {"render_modes": RENDER_MODES}  # noqa: RUF012 - gymnasium's API
 
     def __init__(self, scenario: str | Path | Program, robot: str, *,
                  variant: str | None = None, max_people: int = 8,
                  map_patch: int | None = None, reward: Reward | None = None,
-                 log: str | Path | None = None) -> None:
+                 log: str | Path | None = None, render_mode: str | None = None,
+                 render_size: int = 480) -> None:
         self.program, self.robot_spec = load_scenario(scenario, robot)
+        self.render_mode = checked_render_mode(render_mode)
+        self.metadata = {**self.metadata, "render_fps": 1.0 / self.program.step}
+        self._renderer = (FrameRenderer(self.program.grid, render_size)
+                          if render_mode is not None else None)
         self.robot_name = robot
         self.variant = variant
         self.max_people = max_people
@@ -160,6 +171,19 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         self._act(action)
         self._simulation().step()
         return self._outcome()
+
+    def render(self) -> npt.NDArray[np.uint8] | None:
+        """The scene now as an RGB array (`render_mode="rgb_array"`), else None."""
+        if self._renderer is None:
+            _warn_not_rendered()
+            return None
+        return self._frame()
+
+    def _frame(self) -> npt.NDArray[np.uint8]:
+        assert self._renderer is not None
+        spec = self.robot_spec
+        return self._renderer.draw(self._simulation(), self.robot_name, spec.goal,
+                                   spec.goal_tolerance)
 
     def close(self) -> None:
         self._close_log(None)
@@ -252,6 +276,18 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         self._log = None
 
 
+def _warn_not_rendered() -> None:
+    gymnasium.logger.warn("render() needs render_mode='rgb_array' when the environment is "
+                          "made; it draws nothing")
+
+
+def checked_render_mode(render_mode: str | None) -> str | None:
+    if render_mode not in (None, *RENDER_MODES):
+        raise InputError(f"render_mode must be one of {', '.join(RENDER_MODES)} or None, "
+                         f"not {render_mode!r}")
+    return render_mode
+
+
 def action_space(spec: RobotSpec) -> spaces.Box:
     top = spec.max_speed if math.isfinite(spec.max_speed) else 2.0 * spec.speed
     if spec.kinematics == "holonomic":
@@ -341,7 +377,7 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
     """`num_envs` episodes of one scenario in one process, batched, with next-step autoreset."""
 
     metadata: dict[str, Any] = {  # noqa: RUF012 - gymnasium's own API
-        "render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+        "render_modes": RENDER_MODES, "autoreset_mode": AutoresetMode.NEXT_STEP}
 
     def __init__(self, scenario: str | Path | Program, robot: str, num_envs: int = 1,
                  **options: Any) -> None:
@@ -350,9 +386,11 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
         log = options.pop("log", None)
         self.envs = [ScenarioEnv(program, robot, log=copy_log(log, i, num_envs), **options)
                      for i in range(num_envs)]
-        planners = self.envs[0]._planners
-        for env in self.envs[1:]:
-            env._planners = planners
+        first = self.envs[0]
+        for env in self.envs[1:]:  # one set of planners' fields and one drawn map for all
+            env._planners, env._renderer = first._planners, first._renderer
+        self.render_mode = first.render_mode
+        self.metadata = {**self.metadata, "render_fps": first.metadata["render_fps"]}
         self.single_action_space = self.envs[0].action_space
         self.single_observation_space = self.envs[0].observation_space
         self.action_space = batch_space(self.single_action_space, num_envs)
@@ -401,6 +439,13 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
         for sim, steering, velocities in zip(sims, steerings, steered, strict=True):
             sim.end_step(steering, velocities)
         return {i: env._outcome() for i, env in zip(going, envs, strict=True)}
+
+    def render(self) -> tuple[npt.NDArray[np.uint8], ...] | None:
+        """Each copy's scene now (`render_mode="rgb_array"`), else None."""
+        if self.render_mode is None:
+            _warn_not_rendered()
+            return None
+        return tuple(env._frame() for env in self.envs)
 
     def close_extras(self, **kwargs: Any) -> None:
         for env in self.envs:
