@@ -58,6 +58,7 @@ from hubero_dsl.sim.arrays import FloatArray
 from hubero_dsl.sim.joint import JointSteering
 from hubero_dsl.sim.judge import Judge
 from hubero_dsl.sim.simulation import GlobalPlanners, Simulation
+from hubero_dsl.socialnav import CONTACT
 
 # observation, reward, terminated, truncated, info: what `Env.step` returns
 Outcome = tuple[dict[str, npt.NDArray[Any]], float, bool, bool, dict[str, Any]]
@@ -217,7 +218,7 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         gap = self._nearest_gap(around[1])
         self._gap_min = min(self._gap_min, gap)
         reached = distance <= self.robot_spec.goal_tolerance
-        collided = gap <= 0.0
+        collided = gap < CONTACT
         assert self._judge is not None
         self._judge.observe()
         self._judge.record()

@@ -28,6 +28,11 @@ FloatArray = npt.NDArray[np.float64]
 INTIMATE, PERSONAL, SOCIAL = 0.45, 1.2, 3.6   # m, surface gaps
 NOT_MOVING = 0.05                              # m/s
 FORCE_A, FORCE_B = 2.1, 0.3                    # m/s^2, m (Helbing & Molnar 1995)
+# m: two bodies whose surface gap is below this are in contact. The engine pushes overlapping
+# bodies apart until they just touch, so a contact's gap comes out as 0 or as a rounding error
+# either side of it (1e-16 m); counting only gaps below 0 would count such a contact or not
+# by the rounding.
+CONTACT = 1e-9
 
 
 @dataclass(frozen=True, slots=True)
@@ -134,7 +139,7 @@ def social_metrics(subject: Track, people: Sequence[Track], *,
         "personal_intrusions": _share((nearest >= INTIMATE) & (nearest < PERSONAL), weights,
                                       total),
         "social_intrusions": _share((nearest >= PERSONAL) & (nearest < SOCIAL), weights, total),
-        "collisions": float(_episodes(gaps < 0.0)),
+        "collisions": float(_episodes(gaps < CONTACT)),
         "time_not_moving": _still_time(time, lengths),
         "jerk": _jerk(time, position),
         "social_work": float((FORCE_A * np.exp(-np.maximum(gaps, 0.0) / FORCE_B)
@@ -381,7 +386,7 @@ def contacts(subject: Track, people: Sequence[Track], *,
         others = _positions(subject, people)
         gaps, _ = _gaps(subject, people, others)
         mine = _velocity(time, subject.position, axis=0) if len(time) > 1 else np.zeros((1, 2))
-        for index, first, last in _runs(gaps < 0.0):
+        for index, first, last in _runs(gaps < CONTACT):
             theirs = (_velocity(time, others[index], axis=0)[first] if len(time) > 1
                       else np.zeros(2))
             towards = others[index, first] - subject.position[first]

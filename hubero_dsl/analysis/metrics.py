@@ -21,7 +21,8 @@ Definitions (docs/analysis.md says the same with examples):
   this human's personal space, placed at its position and turned to its heading. A frame counts
   for the time until the next frame.
 - `collisions`: episodes (runs of consecutive frames) during which the bodies of this actor and
-  another overlapped (centre distance below the sum of the radii), summed over the others.
+  another touched or overlapped (centre distance below the sum of the radii plus
+  `socialnav.CONTACT`), summed over the others.
 - `task_finish_times`: for each task of the human that ended done (SUCCEEDED or PREEMPTED, as
   the language's `LABEL done`), its label, or `kind#task_id` when it has none, to the time it
   ended; a labelled `parallel`/`race`/sequence/`repeat` step also gets an entry, the time this
@@ -40,6 +41,7 @@ import numpy.typing as npt
 from hubero_dsl.analysis import pairs
 from hubero_dsl.analysis.socialnav_log import robot_outcome
 from hubero_dsl.sim.status import TaskStatus
+from hubero_dsl.socialnav import CONTACT
 from hubero_dsl.world.personal_space import contains
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, Shape, ShapeArrays
 
@@ -300,7 +302,7 @@ def collisions(actor: _Actor, others: list[_Actor]) -> int:
     total = 0
     for other in others:
         distance, logged = _distances(actor, other)
-        overlap = logged & (distance < actor.radius + other.radius)
+        overlap = logged & (distance < actor.radius + other.radius + CONTACT)
         starts = overlap[1:] & ~overlap[:-1]
         total += int(starts.sum()) + int(overlap[:1].sum())
     return total

@@ -10,7 +10,8 @@ then compares pair by pair) and places everyone in one (T, A, 2) array, NaN wher
 frame, then:
 
 - `min_distances`: every pair's centre distance (a distance matrix), its running minimum;
-- `collision_counts`: overlap (distance below the sum of the radii) against the frame before;
+- `collision_counts`: contact (distance below the sum of the radii plus `socialnav.CONTACT`)
+  against the frame before;
 - `intrusion_times`: the pairs closer than the owner's personal space reaches (a k-d tree),
   tested against the owner's shape turned to its heading.
 
@@ -26,6 +27,7 @@ import numpy.typing as npt
 from scipy.spatial import cKDTree
 from scipy.spatial.distance import cdist
 
+from hubero_dsl.socialnav import CONTACT
 from hubero_dsl.world.personal_space import contains
 from hubero_dsl.world.shapes import Shape, ShapeArrays
 
@@ -82,7 +84,7 @@ def collision_counts(grid: Grid, radius: FloatArray) -> IntArray:
     """(A,) episodes of overlapping bodies (runs of consecutive frames), per other actor and
     summed, over each actor's own frames."""
     actors = grid.position.shape[1]
-    reach = radius[:, None] + radius[None, :]
+    reach = radius[:, None] + radius[None, :] + CONTACT
     before = np.zeros((actors, actors), dtype=bool)
     starts = np.zeros(actors, dtype=np.intp)
     for frame in grid.position:

@@ -94,6 +94,14 @@ def test_collision_episodes(build_run: Factory, track: Factory) -> None:
     assert metrics.humans["a"].min_distance["b"] == pytest.approx(0.2)
 
 
+def test_bodies_that_just_touch_have_collided(build_run: Factory, track: Factory) -> None:
+    # radius 0.2 each: 0.4 m apart they touch, as the engine leaves bodies it separates
+    a = track("a", [0.0, 1.0, 2.0], [(-1, 0), (0, 0), (-1, 0)])
+    b = track("b", [0.0, 1.0, 2.0], [(0.4, 0)] * 3)
+    params = {"a": {"radius": 0.2}, "b": {"radius": 0.2}}
+    assert compute_metrics(build_run([a, b], params=params)).humans["a"].collisions == 1
+
+
 def test_overlap_from_the_first_frame_is_an_episode(build_run: Factory,
                                                     track: Factory) -> None:
     a = track("a", [0.0, 1.0], [(0, 0), (3, 0)])

@@ -11,7 +11,7 @@ import pytest
 from hubero_dsl.pipeline import check_source, compile_source
 from hubero_dsl.sim.loop import run_program
 from hubero_dsl.sim.simulation import Simulation
-from hubero_dsl.socialnav import METRICS, Track, social_metrics
+from hubero_dsl.socialnav import CONTACT, METRICS, Track, social_metrics
 
 
 def _track(points: list[tuple[float, float]], dt: float = 1.0, radius: float = 0.25) -> Track:
@@ -38,6 +38,21 @@ def test_a_straight_walk_past_a_standing_person() -> None:
     assert m["collisions"] == 0.0 and m["time_not_moving"] == 0.0 and m["jerk"] == 0.0
     gaps = np.array([math.sqrt(5), math.sqrt(2), 1.0, math.sqrt(2)]) - 0.5
     assert m["social_work"] == pytest.approx(float((2.1 * np.exp(-gaps / 0.3)).sum()))
+
+
+@pytest.mark.parametrize("rounding", [0.0, 4e-16, -4e-16])
+def test_bodies_that_just_touch_have_collided_whatever_the_rounding(rounding: float) -> None:
+    # the engine pushes overlapping bodies apart until they touch: a gap of 0, give or take a
+    # rounding error, is a contact
+    subject = _track([(0.0, 0.0), (0.5 + rounding, 0.0), (3.0, 0.0)])
+    person = _track([(1.0, 0.0)] * 3)
+    assert social_metrics(subject, [person])["collisions"] == 1.0
+
+
+def test_a_gap_above_a_nanometre_is_no_contact() -> None:
+    subject = _track([(0.0, 0.0), (0.5 - 2 * CONTACT, 0.0), (3.0, 0.0)])
+    person = _track([(1.0, 0.0)] * 3)
+    assert social_metrics(subject, [person])["collisions"] == 0.0
 
 
 def test_a_zigzag_turns_and_is_inefficient() -> None:
