@@ -24,7 +24,8 @@ observations.
   below 0.45 m and 1.2 m, HuNavSim's bands, as docs/analysis.md defines them).
 - `terminated` when the robot reaches its goal (within `goal_tolerance`) or touches a person;
   `truncated` at the scenario's `time_limit`. The last step's `info` holds the episode's
-  `outcome` (reached / collision / time limit), its `metrics` and the expectations' results.
+  `outcome` (reached / collision / time limit), the robot's social-navigation `metrics` over
+  the episode (`hubero_dsl.socialnav`, as for any run) and the expectations' results.
 - `render_mode="rgb_array"`: `render()` draws the scene top-down (`analysis.frame`: the map,
   the people, the robot and where it faces, its goal), `render_size` pixels along the map's
   longer side; `gymnasium.wrappers.RecordVideo` records episodes from it at `render_fps`,
@@ -56,7 +57,7 @@ from hubero_dsl.errors import InputError
 from hubero_dsl.model.program import Program, RobotSpec
 from hubero_dsl.sim.arrays import FloatArray
 from hubero_dsl.sim.joint import JointSteering
-from hubero_dsl.sim.judge import Judge
+from hubero_dsl.sim.judge import Judge, PlanQuery
 from hubero_dsl.sim.simulation import GlobalPlanners, Simulation
 from hubero_dsl.socialnav import CONTACT
 
@@ -142,9 +143,10 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         self._sim: Simulation | None = None
         self._judge: Judge | None = None
         self._log: Any = None
-        self._gap_min = math.inf
-        # episodes (and a vector env's copies) share the planners' cached fields
+        # episodes (and a vector env's copies) share the planners' cached fields and the
+        # reference plans of the metrics' plan efficiency
         self._planners = GlobalPlanners()
+        self._plan_lengths: dict[PlanQuery, float | None] = {}
 
     # ---- the Env API -------------------------------------------------------------------------
 
@@ -158,8 +160,7 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         self._robot = sim.robot(self.robot_name)
         self._row = sim.engine.robots.index_of(self.robot_name)
         self._sim = sim
-        self._judge = Judge(sim)
-        self._gap_min = math.inf
+        self._judge = Judge(sim, record_tracks=True, plan_lengths=self._plan_lengths)
         self._distance = self._goal_distance()
         if self.log_path is not None:
             from hubero_dsl.log.writer import RunLog
@@ -216,7 +217,6 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         humans = sim.engine.humans
         around = sim.engine.robots.offsets_from(self._row, humans.position)
         gap = self._nearest_gap(around[1])
-        self._gap_min = min(self._gap_min, gap)
         reached = distance <= self.robot_spec.goal_tolerance
         collided = gap < CONTACT
         assert self._judge is not None
@@ -255,16 +255,13 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
 
 
     def _episode_info(self, outcome: str) -> dict[str, Any]:
-        sim = self._sim
-        assert sim is not None
-        assert self._judge is not None
-        verdicts = self._judge.finish()
-        robot = sim.engine.robots
-        index = robot.index_of(self.robot_name)
+        """How the episode ended, the robot's social-navigation metrics over it (as
+        docs/analysis.md defines them) and the scenario's expectations, judged."""
+        sim, judge = self._sim, self._judge
+        assert sim is not None and judge is not None and judge.tracks is not None
+        verdicts = judge.finish()
         return {"outcome": outcome, "time": sim.time,
-                "metrics": {"path_length": float(robot.path_length[index]),
-                            "min_distance": self._gap_min, "time_to_goal":
-                                sim.time if outcome == "reached" else None},
+                "metrics": judge.tracks.metrics(sim, self.robot_name),
                 "expectations": {v.text: bool(v.held) for v in verdicts}}
 
     def _close_log(self, outcome: str | None) -> None:
@@ -390,6 +387,7 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
         first = self.envs[0]
         for env in self.envs[1:]:  # one set of planners' fields and one drawn map for all
             env._planners, env._renderer = first._planners, first._renderer
+            env._plan_lengths = first._plan_lengths
         self.render_mode = first.render_mode
         self.metadata = {**self.metadata, "render_fps": first.metadata["render_fps"]}
         self.single_action_space = self.envs[0].action_space

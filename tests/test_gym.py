@@ -14,6 +14,7 @@ from gymnasium.utils.env_checker import check_env  # noqa: E402
 import hubero_dsl.gym  # noqa: E402 - registers hubero/Scenario-v0
 from hubero_dsl.errors import InputError  # noqa: E402
 from hubero_dsl.log.reader import load_run  # noqa: E402
+from hubero_dsl.socialnav import CONTACT, METRICS  # noqa: E402
 from hubero_dsl.world.mapfile import save_map  # noqa: E402
 from tests.sim.conftest import room_grid  # noqa: E402
 
@@ -78,9 +79,15 @@ def test_driving_to_the_goal_terminates_with_success_and_metrics(tmp_path: Path)
         observation, reward, terminated, truncated, info = env.step(action.astype(np.float32))
         total += reward
     assert terminated and info["outcome"] == "reached"
-    assert info["metrics"]["path_length"] > 7.0 and info["metrics"]["time_to_goal"] < 15.0
+    metrics = info["metrics"]
+    assert metrics["path_length"] > 7.0 and metrics["time_to_goal"] < 15.0
     assert info["expectations"] == {"cart reaches (8, 6) within 20 s": True}
     assert total > 10.0
+    # the robot's social-navigation metrics over the episode, every one a run has
+    assert set(METRICS) <= set(metrics)
+    assert metrics["collisions"] == 0 and metrics["min_distance"] > 0.0
+    assert 0.0 < metrics["path_efficiency"] <= 1.0 and 0.0 < metrics["plan_efficiency"] <= 1.0
+    assert metrics["time_to_goal"] <= info["time"]
 
 
 def test_driving_into_a_person_is_a_collision(tmp_path: Path) -> None:
@@ -95,6 +102,8 @@ def test_driving_into_a_person_is_a_collision(tmp_path: Path) -> None:
         if terminated:
             break
     assert info["outcome"] == "collision" and reward < 0
+    assert info["metrics"]["collisions"] == 1 and info["metrics"]["min_distance"] < CONTACT
+    assert info["metrics"]["time_to_goal"] == float("inf")
 
 
 def test_actions_are_clipped_to_the_box_and_must_be_finite(tmp_path: Path) -> None:

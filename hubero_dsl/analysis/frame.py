@@ -47,7 +47,7 @@ class FrameRenderer:
         self.height = max(2, 2 * round(rows * grid.resolution * self.scale / 2))
         self._origin = grid.origin
         colours = (map_colours(grid)[::-1] * 255).round().astype(np.uint8)  # north up
-        self._background = Image.fromarray(colours, "RGB").resize(
+        self._background = Image.fromarray(colours).resize(
             (self.width, self.height), Image.Resampling.BOX)
 
     def pixel(self, point: Point) -> Point:

@@ -25,6 +25,8 @@ from hubero_dsl.socialnav import Track, member_indices, social_metrics
 if TYPE_CHECKING:
     from hubero_dsl.sim.simulation import Simulation
 
+PlanQuery = tuple[tuple[float, float], tuple[float, float], float]
+
 COMPARE: dict[str, Callable[[float, float], bool]] = {
     "<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
 
@@ -69,66 +71,73 @@ class Tracks:
     time: list[float] = field(default_factory=list)
     humans: list[np.ndarray] = field(default_factory=list)
     robots: list[np.ndarray] = field(default_factory=list)
-    plan_lengths: dict[str, float | None] = field(default_factory=dict)
+    # reference plan lengths by (start, goal, body radius): several runs may share them
+    plan_lengths: dict[PlanQuery, float | None] = field(default_factory=dict)
 
     def record(self, sim: Simulation) -> None:
         self.time.append(sim.time)
         self.humans.append(sim.engine.humans.position.copy())
         self.robots.append(sim.engine.robots.position.copy())
 
-    def track(self, sim: Simulation, name: str) -> Track | None:
+    def tracks(self, sim: Simulation) -> dict[str, Track]:
+        """Every body's track by name, humans then robots (the recordings stacked once)."""
         engine, time = sim.engine, np.asarray(self.time)
-        if name in engine.humans.names:
-            index = engine.index_of(name)
-            return Track(time, np.asarray([p[index] for p in self.humans]),
-                         float(engine.humans.radius[index]))
-        if name in engine.robots.names:
-            index = engine.robots.index_of(name)
-            return Track(time, np.asarray([p[index] for p in self.robots]),
-                         float(engine.robots.radius[index]))
-        return None
+        tracks: dict[str, Track] = {}
+        for names, positions, radius in ((engine.humans.names, self.humans, engine.humans.radius),
+                                         (engine.robots.names, self.robots, engine.robots.radius)):
+            if names:
+                stacked = np.stack(positions)   # (ticks, bodies, 2)
+                tracks |= {name: Track(time, stacked[:, index], float(radius[index]))
+                           for index, name in enumerate(names)}
+        return tracks
 
     def metrics(self, sim: Simulation, subject: str, other: str | None = None
                 ) -> dict[str, float]:
         """The social-navigation metrics of `subject` among every human (or `other` only)."""
-        track = self.track(sim, subject)
-        if track is None or not self.time:
+        tracks = self.tracks(sim) if self.time else {}
+        track = tracks.get(subject)
+        if track is None:
             return {}
         names = [other] if other is not None else [
             h for h in sim.engine.humans.names if h != subject]
-        people = [t for t in (self.track(sim, n) for n in names) if t is not None]
+        present = [n for n in names if n in tracks]
         goal, tolerance, plan_length = None, 0.2, None
         if subject in sim.engine.robots.names:
             spec = sim.engine.robots.specs[sim.engine.robots.index_of(subject)]
             goal, tolerance = spec.goal, spec.goal_tolerance
-            plan_length = self._plan_length(sim, subject, track, goal)
-        present = [n for n in names if self.track(sim, n) is not None]
-        return social_metrics(track, people, goal=goal, goal_tolerance=tolerance,
+            plan_length = self._plan_length(sim, track, goal)
+        return social_metrics(track, [tracks[n] for n in present], goal=goal,
+                              goal_tolerance=tolerance,
                               groups=member_indices(sim.program.groups.values(), present,
                                                     subject),
                               clearance=sim.engine.grid.clearance_at, plan_length=plan_length)
 
-    def _plan_length(self, sim: Simulation, subject: str, track: Track,
-                     goal: tuple[float, float] | None) -> float | None:
+    def _plan_length(self, sim: Simulation, track: Track, goal: tuple[float, float] | None
+                     ) -> float | None:
         """The reference plan's length from the subject's start to its goal, planned once."""
         if goal is None:
             return None
-        if subject not in self.plan_lengths:
-            start = (float(track.position[0, 0]), float(track.position[0, 1]))
-            self.plan_lengths[subject] = reference_plan_length(sim.engine.grid, start, goal,
-                                                               track.radius)
-        return self.plan_lengths[subject]
+        start = (float(track.position[0, 0]), float(track.position[0, 1]))
+        query = (start, goal, track.radius)
+        if query not in self.plan_lengths:
+            self.plan_lengths[query] = reference_plan_length(sim.engine.grid, start, goal,
+                                                             track.radius)
+        return self.plan_lengths[query]
 
 
 class Judge:
     """The verdicts of a run's expectations, and what they need recorded."""
 
-    def __init__(self, sim: Simulation, record_tracks: bool = False) -> None:
+    def __init__(self, sim: Simulation, record_tracks: bool = False,
+                 plan_lengths: dict[PlanQuery, float | None] | None = None) -> None:
+        """`plan_lengths`: reference plan lengths known from other runs on the same map (the
+        Gymnasium env's episodes share theirs), filled in as this run finds more."""
         self.sim = sim
         self.verdicts = [Verdict(e) for e in sim.program.expectations]
         wants = record_tracks or any(isinstance(e.condition, MetricCompare)
                                      for e in sim.program.expectations)
-        self.tracks: Tracks | None = Tracks() if wants else None
+        self.tracks: Tracks | None = (Tracks(plan_lengths={} if plan_lengths is None
+                                             else plan_lengths) if wants else None)
         if self.tracks is not None:
             self.tracks.record(sim)
 
