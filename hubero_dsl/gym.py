@@ -24,8 +24,9 @@ observations.
   below 0.45 m and 1.2 m, HuNavSim's bands, as docs/analysis.md defines them).
 - `terminated` when the robot reaches its goal (within `goal_tolerance`) or touches a person;
   `truncated` at the scenario's `time_limit`. The last step's `info` holds the episode's
-  `outcome` (reached / collision / time limit), the robot's social-navigation `metrics` over
-  the episode (`hubero_dsl.socialnav`, as for any run) and the expectations' results.
+  `outcome` (reached / collision / time limit; `is_success` for Stable-Baselines3's success
+  rate), the robot's social-navigation `metrics` over the episode (`hubero_dsl.socialnav`, as
+  for any run) and the expectations' results.
 - `render_mode="rgb_array"`: `render()` draws the scene top-down (`analysis.frame`: the map,
   the people, the robot and where it faces, its goal), `render_size` pixels along the map's
   longer side; `gymnasium.wrappers.RecordVideo` records episodes from it at `render_fps`,
@@ -260,7 +261,7 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         sim, judge = self._sim, self._judge
         assert sim is not None and judge is not None and judge.tracks is not None
         verdicts = judge.finish()
-        return {"outcome": outcome, "time": sim.time,
+        return {"outcome": outcome, "is_success": outcome == "reached", "time": sim.time,
                 "metrics": judge.tracks.metrics(sim, self.robot_name),
                 "expectations": {v.text: bool(v.held) for v in verdicts}}
 

@@ -78,7 +78,7 @@ def test_driving_to_the_goal_terminates_with_success_and_metrics(tmp_path: Path)
         action = to_goal / max(float(np.linalg.norm(to_goal)), 1e-6)
         observation, reward, terminated, truncated, info = env.step(action.astype(np.float32))
         total += reward
-    assert terminated and info["outcome"] == "reached"
+    assert terminated and info["outcome"] == "reached" and info["is_success"]
     metrics = info["metrics"]
     assert metrics["path_length"] > 7.0 and metrics["time_to_goal"] < 15.0
     assert info["expectations"] == {"cart reaches (8, 6) within 20 s": True}
@@ -101,7 +101,7 @@ def test_driving_into_a_person_is_a_collision(tmp_path: Path) -> None:
         _, reward, terminated, _, info = env.step(np.array([1.0, 0.0], np.float32))
         if terminated:
             break
-    assert info["outcome"] == "collision" and reward < 0
+    assert info["outcome"] == "collision" and not info["is_success"] and reward < 0
     assert info["metrics"]["collisions"] == 1 and info["metrics"]["min_distance"] < CONTACT
     assert info["metrics"]["time_to_goal"] == float("inf")
 
