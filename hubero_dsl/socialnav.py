@@ -324,7 +324,8 @@ def _min_time_to_collision(subject: Track, people: Sequence[Track], others: Floa
     hit = (b < 0) & (disc >= 0) & (a > 0)
     root = np.divide(-b - np.sqrt(np.maximum(disc, 0.0)), 2 * a, out=np.full(a.shape, math.inf),
                      where=hit)
-    ttc = np.where(c <= 0, 0.0, np.where(hit, root, math.inf))
+    in_contact = c < (reach + CONTACT) ** 2 - reach ** 2   # a gap below CONTACT
+    ttc = np.where(in_contact, 0.0, np.where(hit, root, math.inf))
     return float(ttc.min())
 
 

@@ -46,7 +46,8 @@ def test_bodies_that_just_touch_have_collided_whatever_the_rounding(rounding: fl
     # rounding error, is a contact
     subject = _track([(0.0, 0.0), (0.5 + rounding, 0.0), (3.0, 0.0)])
     person = _track([(1.0, 0.0)] * 3)
-    assert social_metrics(subject, [person])["collisions"] == 1.0
+    metrics = social_metrics(subject, [person])
+    assert metrics["collisions"] == 1.0 and metrics["min_time_to_collision"] == 0.0
 
 
 def test_a_gap_above_a_nanometre_is_no_contact() -> None:
