@@ -26,7 +26,8 @@ observations.
   `truncated` at the scenario's `time_limit`. The last step's `info` holds the episode's
   `outcome` (reached / collision / time limit; `is_success` for Stable-Baselines3's success
   rate), the robot's social-navigation `metrics` over the episode (`hubero_dsl.socialnav`, as
-  for any run) and the expectations' results.
+  for any run; `metrics=False` leaves them out, and the positions they are computed from
+  unrecorded) and the expectations' results.
 - `render_mode="rgb_array"`: `render()` draws the scene top-down (`analysis.frame`: the map,
   the people, the robot and where it faces, its goal), `render_size` pixels along the map's
   longer side; `gymnasium.wrappers.RecordVideo` records episodes from it at `render_fps`,
@@ -124,13 +125,14 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
                  variant: str | None = None, max_people: int = 8,
                  map_patch: int | None = None, reward: Reward | None = None,
                  log: str | Path | None = None, render_mode: str | None = None,
-                 render_size: int = 480) -> None:
+                 render_size: int = 480, metrics: bool = True) -> None:
         self.program, self.robot_spec = load_scenario(scenario, robot)
         self.render_mode = checked_render_mode(render_mode)
         self.metadata = {**self.metadata, "render_fps": 1.0 / self.program.step}
         self._renderer = (FrameRenderer(self.program.grid, render_size)
                           if render_mode is not None else None)
         self.robot_name = robot
+        self.metrics = metrics
         self.variant = variant
         self.max_people = max_people
         self.map_patch = map_patch
@@ -161,7 +163,7 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         self._robot = sim.robot(self.robot_name)
         self._row = sim.engine.robots.index_of(self.robot_name)
         self._sim = sim
-        self._judge = Judge(sim, record_tracks=True, plan_lengths=self._plan_lengths)
+        self._judge = Judge(sim, record_tracks=self.metrics, plan_lengths=self._plan_lengths)
         self._distance = self._goal_distance()
         if self.log_path is not None:
             from hubero_dsl.log.writer import RunLog
@@ -259,11 +261,13 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         """How the episode ended, the robot's social-navigation metrics over it (as
         docs/analysis.md defines them) and the scenario's expectations, judged."""
         sim, judge = self._sim, self._judge
-        assert sim is not None and judge is not None and judge.tracks is not None
+        assert sim is not None and judge is not None
         verdicts = judge.finish()
-        return {"outcome": outcome, "is_success": outcome == "reached", "time": sim.time,
-                "metrics": judge.tracks.metrics(sim, self.robot_name),
+        info = {"outcome": outcome, "is_success": outcome == "reached", "time": sim.time,
                 "expectations": {v.text: bool(v.held) for v in verdicts}}
+        if self.metrics and judge.tracks is not None:
+            info["metrics"] = judge.tracks.metrics(sim, self.robot_name)
+        return info
 
     def _close_log(self, outcome: str | None) -> None:
         if self._log is None:

@@ -90,6 +90,19 @@ def test_driving_to_the_goal_terminates_with_success_and_metrics(tmp_path: Path)
     assert metrics["time_to_goal"] <= info["time"]
 
 
+def test_episode_metrics_can_be_left_out(tmp_path: Path) -> None:
+    env = gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(_scenario(tmp_path)), robot="cart",
+                         metrics=False)
+    env.reset(seed=1)
+    assert env.unwrapped._judge.tracks is None  # nothing recorded for them
+    info: dict[str, object] = {}
+    for _ in range(1000):
+        *_, terminated, truncated, info = env.step(np.array([1.0, 0.7], np.float32))
+        if terminated or truncated:
+            break
+    assert info["outcome"] in ("reached", "collision", "time limit") and "metrics" not in info
+
+
 def test_driving_into_a_person_is_a_collision(tmp_path: Path) -> None:
     file = tmp_path / "bump.hub"
     save_map(room_grid(), tmp_path / "room.yaml")
