@@ -11,7 +11,8 @@
 One episode is one run of the scenario from a seed: the humans do their activities, the robot
 named is driven by the actions (the scenario gives it `controller external` and a `goal`).
 `reset(seed=...)` runs the scenario with that seed; the same seed and actions give the same
-observations.
+observations; `reset(options={"variant": NAME})` runs that episode with one of the scenario's
+variants (a vector env's copies then all start it; its automatic resets keep the env's own).
 
 - Observation (`Dict`): `robot` = (x, y, vx, vy, heading, goal x - x, goal y - y), `people` =
   the `max_people` nearest humans the robot's sensors see (relative x, y, their vx, vy,
@@ -158,8 +159,8 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         super().reset(seed=seed)
         self._close_log(None)
         run_seed = seed if seed is not None else int(self.np_random.integers(2**31))
-        sim = Simulation(self.program, variant=self.variant, seed=run_seed,
-                         planners=self._planners)
+        variant = self._variant_of(options)
+        sim = Simulation(self.program, variant=variant, seed=run_seed, planners=self._planners)
         self._robot = sim.robot(self.robot_name)
         self._row = sim.engine.robots.index_of(self.robot_name)
         self._sim = sim
@@ -170,7 +171,21 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
 
             self._log = RunLog(self.log_path, sim, writer_process=False)
             self._log.open()
-        return self._observe(), {"seed": run_seed}
+        return self._observe(), {"seed": run_seed, "variant": variant}
+
+    def _variant_of(self, options: dict[str, Any] | None) -> str | None:
+        """The variant of the episode `reset(options=...)` starts: `{"variant": NAME}` (None
+        for the scenario as written), else the env's own."""
+        unknown = sorted(set(options or {}) - {"variant"})
+        if unknown:
+            raise InputError(f"reset() takes the option 'variant', not {', '.join(unknown)}")
+        if options is None or "variant" not in options:
+            return self.variant
+        variant = options["variant"]
+        if variant is not None and variant not in self.program.variants:
+            known = ", ".join(self.program.variants) or "none"
+            raise InputError(f"unknown variant {variant!r} (the scenario's: {known})")
+        return variant
 
     def step(self, action: npt.NDArray[np.float32]) -> Outcome:
         self._act(action)
@@ -407,7 +422,8 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
         super().reset(seed=seed if isinstance(seed, int) else None)
         seeds = seed if isinstance(seed, list) else [
             None if seed is None else seed + i for i in range(self.num_envs)]
-        observations = [env.reset(seed=s)[0] for env, s in zip(self.envs, seeds, strict=True)]
+        observations = [env.reset(seed=s, options=options)[0]
+                        for env, s in zip(self.envs, seeds, strict=True)]
         self._done[:] = False
         return self._batch(observations), {}
 

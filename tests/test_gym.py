@@ -279,3 +279,24 @@ def test_a_robot_the_environment_cannot_drive_is_refused(tmp_path: Path) -> None
                     "robot cart at (1, 1) { controller navigator; goal (8, 1) }\n")
     with pytest.raises(InputError, match="must have `controller external`"):
         gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(file), robot="cart")
+
+
+def test_an_episode_can_run_a_variant_of_the_scenario(tmp_path: Path) -> None:
+    file = _scenario(tmp_path)
+    file.write_text(file.read_text(encoding="utf-8")
+                    + "variant brisk { speed 1.7 m/s }\n", encoding="utf-8")
+    env = gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(file), robot="cart")
+    _, info = env.reset(seed=3, options={"variant": "brisk"})
+    assert info["variant"] == "brisk"
+    assert (env.unwrapped._sim.engine.humans.speed == 1.7).all()
+    _, info = env.reset(seed=3)                       # the next episode: the env's own
+    assert info["variant"] is None and (env.unwrapped._sim.engine.humans.speed != 1.7).all()
+    with pytest.raises(InputError, match="unknown variant 'slow' \\(the scenario's: brisk\\)"):
+        env.reset(options={"variant": "slow"})
+    with pytest.raises(InputError, match="takes the option 'variant', not crowd"):
+        env.reset(options={"crowd": 3})
+    envs = gymnasium.make_vec(hubero_dsl.gym.ENV_ID, num_envs=2,
+                              vectorization_mode="vector_entry_point", scenario=str(file),
+                              robot="cart")
+    envs.reset(seed=0, options={"variant": "brisk"})
+    assert all((copy._sim.engine.humans.speed == 1.7).all() for copy in envs.unwrapped.envs)
