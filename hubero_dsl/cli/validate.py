@@ -4,12 +4,15 @@
     hubero validate uo-180-180-070.txt --json     # another run of the series, by path
     hubero validate -o fd.png --seed 2            # the fundamental diagram as a picture
     hubero validate --defaults fitted.hub         # with parameters hubero calibrate fitted
+    hubero validate --seeds 4 --json              # four rebuilds a recording, frames pooled
 
 Each recording is rebuilt as a scenario (its corridor drawn from its geometry, people placed
 where they were measured at the first steady frame, desired speeds measured in free flow), run,
 and both are analysed by PedPy: mean speed and specific flow per Voronoi-density bin, and the
 distribution of individual speeds. Prints a table per file; --json prints, per file and bin, the
-measured and simulated mean speed and their relative error. Deterministic per --seed.
+measured and simulated mean speed and their relative error. --seeds N rebuilds each recording
+N times (seeds S, S+1, ...) and pools their frames, so that a bin stands for more than one
+draw of who gets through a gap first. Deterministic per --seed and --seeds.
 
 Files are named as the series names them (uo-AAA-BBB-CCC.txt in cm at 16 fps,
 traj_UNI_CORR_500_NN.txt in m at 25 fps): the name gives the geometry. Needs PedPy
@@ -23,6 +26,8 @@ import argparse
 import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
+
+from hubero_dsl.cli.calibrate import MAX_SEEDS  # one bound on the rebuilds a command runs
 
 if TYPE_CHECKING:
     from hubero_dsl.validation.validate import Validation
@@ -39,6 +44,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                         help="draw the fundamental diagram of data and simulation")
     parser.add_argument("--seed", metavar="S", type=int, default=1,
                         help="seed of the rebuilds (default 1)")
+    parser.add_argument("--seeds", metavar="N", type=int, default=1,
+                        help="rebuilds of each recording, with the seeds S, S+1, ..., their "
+                             f"frames pooled (default 1, at most {MAX_SEEDS})")
     parser.add_argument("--defaults", metavar="FITTED.hub", type=Path,
                         help="a `defaults { }` block for every rebuilt person (as hubero "
                              "calibrate -o writes it)")
@@ -52,19 +60,21 @@ def run(args: argparse.Namespace) -> int:
 
     if args.seed < 0:
         raise InputError(f"--seed must be a whole number of at least 0, got {args.seed}")
+    if not 1 <= args.seeds <= MAX_SEEDS:
+        raise InputError(f"--seeds must be from 1 to {MAX_SEEDS}, got {args.seeds}")
     if args.output is not None:
         check_output(args.output, (*args.files, *([args.defaults] if args.defaults else [])))
     pedpy()  # a missing PedPy is told before any work (and before pandas is imported)
     from hubero_dsl.validation.validate import load_defaults, validate
 
     params = load_defaults(args.defaults) if args.defaults is not None else None
-    results = validate(args.files, seed=args.seed, params=params)
+    results = validate(args.files, seed=args.seed, params=params, seeds=args.seeds)
     if args.output is not None:
         from hubero_dsl.validation.plot import plot_fundamental_diagram
 
         plot_fundamental_diagram(results, args.output)
     if args.json:
-        print(json.dumps({"seed": args.seed,
+        print(json.dumps({"seed": args.seed, "seeds": args.seeds,
                           "files": [r.comparison.to_dict() for r in results]}, indent=2))
     else:
         _print_tables(results)

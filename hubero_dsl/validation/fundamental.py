@@ -17,6 +17,7 @@ the area.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -40,6 +41,18 @@ class Diagram:
     @property
     def empty(self) -> bool:
         return len(self.frames) == 0
+
+
+def pooled(diagrams: Sequence[Diagram]) -> Diagram:
+    """Several runs of one experiment as one diagram: their frames and individual speeds
+    together (each frame counts in its density bin as often as the runs have one), their
+    flows across the line averaged."""
+    if len(diagrams) == 1:
+        return diagrams[0]
+    return Diagram(frames=pd.concat([d.frames for d in diagrams], ignore_index=True),
+                   speeds=np.concatenate([d.speeds for d in diagrams]),
+                   line_flow=float(np.mean([d.line_flow for d in diagrams])),
+                   frame_rate=diagrams[0].frame_rate)
 
 
 def fundamental_diagram(trajectory: Any, experiment: Experiment,

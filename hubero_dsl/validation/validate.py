@@ -31,7 +31,7 @@ from hubero_dsl.validation.experiments import (
     shipped,
     shipped_path,
 )
-from hubero_dsl.validation.fundamental import Diagram, fundamental_diagram
+from hubero_dsl.validation.fundamental import Diagram, fundamental_diagram, pooled
 from hubero_dsl.validation.rebuild import desired_speeds, simulate_experiment
 
 EVERY_FRAME = (0, 2**62)
@@ -79,19 +79,24 @@ def measure(experiments: Sequence[Experiment]) -> list[Measured]:
 
 def simulate_and_compare(measured: Measured, *, seed: int,
                          params: Mapping[str, ParamValue] | None = None,
-                         speed_scale: float = 1.0) -> Validation:
+                         speed_scale: float = 1.0, seeds: int = 1) -> Validation:
     """Rebuild and run one recording (`params` over every person, desired speeds times
-    `speed_scale`) and compare it with the measurement."""
+    `speed_scale`) with the seeds `seed` .. `seed + seeds - 1`, and compare their frames,
+    pooled, with the measurement."""
     experiment = measured.experiment
-    run = simulate_experiment(experiment, measured.trajectory, measured.speeds * speed_scale,
-                              seed=seed, params=params)
-    simulated = fundamental_diagram(run, experiment, steady=EVERY_FRAME)
+    simulated = pooled([
+        fundamental_diagram(simulate_experiment(experiment, measured.trajectory,
+                                                measured.speeds * speed_scale, seed=s,
+                                                params=params),
+                            experiment, steady=EVERY_FRAME)
+        for s in range(seed, seed + seeds)])
     return Validation(measured, simulated, compare(experiment.name, measured.diagram, simulated))
 
 
 def validate(paths: Sequence[Path], *, seed: int = 1,
-             params: Mapping[str, ParamValue] | None = None) -> list[Validation]:
-    return [simulate_and_compare(m, seed=seed, params=params)
+             params: Mapping[str, ParamValue] | None = None,
+             seeds: int = 1) -> list[Validation]:
+    return [simulate_and_compare(m, seed=seed, params=params, seeds=seeds)
             for m in measure(experiments_of(paths))]
 
 

@@ -40,6 +40,23 @@ def test_json_per_file_and_bin_with_a_picture_deterministic_per_seed(cli: Cli,
     assert again.out == first.out
 
 
+def test_several_seeds_pool_their_rebuilds_frames(cli: Cli) -> None:
+    def report(*argv: str) -> dict[str, Any]:
+        outcome = cli("validate", FREE_FLOW, "--json", *argv)
+        assert outcome.status == 0, outcome.err
+        (entry,) = json.loads(outcome.out)["files"]
+        return dict(entry)
+
+    both = report("--seed", "5", "--seeds", "2")
+    alone = [report("--seed", str(seed)) for seed in (5, 6)]
+    frames = [{tuple(b["density"]): b["simulated_frames"] for b in r["bins"]}
+              for r in (both, *alone)]
+    assert frames[0] == {key: frames[1].get(key, 0) + frames[2].get(key, 0)
+                         for key in frames[1].keys() | frames[2].keys()}
+    flows = [r["line_flow"]["simulated"] for r in (both, *alone)]
+    assert flows[0] == pytest.approx((flows[1] + flows[2]) / 2, abs=1e-4)
+
+
 def test_the_table_names_each_bin_and_the_worst_error(cli: Cli) -> None:
     outcome = cli("validate", FREE_FLOW)
     assert outcome.status == 0, outcome.err
@@ -52,6 +69,8 @@ def test_the_table_names_each_bin_and_the_worst_error(cli: Cli) -> None:
     (("uo-050-180-180.txt",), "trajectory file not found"),
     ((".",), "cannot tell which experiment"),
     (("--seed", "-1"), "--seed must be"),
+    (("--seeds", "0"), "--seeds must be from 1 to 100, got 0"),
+    (("--seeds", "101"), "--seeds must be from 1 to 100, got 101"),
     ((FREE_FLOW, "-o", "no/such/folder/fd.png"), "cannot be written"),
     ((FREE_FLOW, "-o", FREE_FLOW), "it is an input of this command"),
 ])
