@@ -6,7 +6,9 @@
 The map is drawn in grey (free space white, obstacles grey, unknown cells light grey). Every
 human gets one colour; its personal space is drawn in its own shape and heading at points spaced
 `spacing` metres apart along its path (as in the HuBeRo paper's figures), plus where it starts
-and ends. Goals are where its navigation tasks (move_to, run_to, sit_down, lie_down) finished.
+and a star wherever one of its navigation tasks (move_to, run_to, sit_down, lie_down)
+succeeded; one whose navigation never succeeded (cut off by the time limit, aborted, or it
+only stood) gets a diamond where it ended instead, so that no star claims a goal not reached.
 The members of a crowd or flow share their crowd's colour and one legend entry, with thin paths
 and no personal spaces, so that a picture of a thousand people stays readable. Robots' paths
 are dotted, each robot in a dark colour of its own. The view is the region the actors used,
@@ -164,12 +166,15 @@ def draw_human(axes: Axes, run: LoggedRun, name: str, colour: Any, *, spacing: f
     start, end = track.position[0], track.position[-1]
     axes.plot(*start, marker="o", markersize=8, color=colour, markeredgecolor="black", zorder=5)
     goals = track.position[goal_frames(run, track)]
-    if len(goals) == 0:
-        goals = end[None, :]
+    if len(goals) == 0:  # where it ended without reaching a goal: not a goal's star
+        axes.plot(*end, marker=NO_GOAL_MARKER, markersize=7, color=colour,
+                  markeredgecolor="black", zorder=5)
+        return
     axes.plot(goals[:, 0], goals[:, 1], linestyle="none", marker="*", markersize=13,
               color=colour, markeredgecolor="black", zorder=5)
 
 
+NO_GOAL_MARKER = "D"
 ROBOT_COLOURS = ("black", "saddlebrown", "navy", "darkgreen", "indigo", "darkred")
 
 
@@ -206,11 +211,20 @@ def set_colours(run: LoggedRun) -> dict[str, Any]:
     return {name: palette[i % len(palette)] for i, name in enumerate(names)}
 
 
-def _marker_handles() -> list[Line2D]:
-    return [Line2D([], [], linestyle="none", marker="o", color="white", markeredgecolor="black",
-                   markersize=8, label="start"),
-            Line2D([], [], linestyle="none", marker="*", color="white", markeredgecolor="black",
-                   markersize=12, label="goal reached")]
+def _marker_handles(humans: Sequence[tuple[LoggedRun, str]]) -> list[Line2D]:
+    """The legend's start, and the ends that the named `humans` (run, name) show: a star
+    where a navigation task succeeded, a diamond where one ended without any."""
+    reached = [len(goal_frames(run, run.humans[name])) > 0 for run, name in humans
+               if len(run.humans[name].position)]
+    handles = [Line2D([], [], linestyle="none", marker="o", color="white",
+                      markeredgecolor="black", markersize=8, label="start")]
+    if any(reached):
+        handles.append(Line2D([], [], linestyle="none", marker="*", color="white",
+                              markeredgecolor="black", markersize=12, label="goal reached"))
+    if not all(reached):
+        handles.append(Line2D([], [], linestyle="none", marker=NO_GOAL_MARKER, color="white",
+                              markeredgecolor="black", markersize=7, label="end, no goal reached"))
+    return handles
 
 
 def _human_handles(run: LoggedRun, palette: dict[str, Any]) -> list[Any]:
@@ -280,7 +294,7 @@ def plot_run(run: LoggedRun, out: str | Path, *, spacing: float = SPACING,
     named = [name for name in run.humans if run.metadata.set_of(name) is None]
     palette = colours(named)
     handles = [*_human_handles(run, palette), *_set_handles(run, crowds),
-               *_robot_handles(run), *_marker_handles()]
+               *_robot_handles(run), *_marker_handles([(run, name) for name in named])]
     figure, axes = (view or View.around([run], whole_map)).figure(_labels(handles))
     draw_map(axes, run.grid)
     for name in sorted(run.humans):
@@ -309,6 +323,8 @@ def plot_overlay(a: LoggedRun, b: LoggedRun, out: str | Path, *, epsilon: float 
     palette = colours(list(a.humans))
     label_a, label_b = labels or (_side_label(a, "A"), _side_label(b, "B"))
     handles = _overlay_handles(chosen, palette, (label_a, label_b), epsilon)
+    handles += _marker_handles([(run, name) for run in (a, b) for name in chosen
+                                if name in run.humans])
     figure, axes = (view or View.around([a, b], whole_map)).figure(_labels(handles))
     draw_map(axes, a.grid)
     for name in chosen:
@@ -332,7 +348,6 @@ def _overlay_handles(humans: Sequence[str], palette: dict[str, Any], sides: tupl
     handles += [Line2D([], [], color="dimgray", linewidth=1.8, label=f"{sides[0]} (solid)"),
                 Line2D([], [], color="dimgray", linewidth=1.8, linestyle=(0, (5, 3)),
                        label=f"{sides[1]} (dashed)")]
-    handles += _marker_handles()
     if epsilon is not None:
         handles.append(Line2D([], [], linestyle="none", marker="X", color="white",
                               markeredgecolor="black", markersize=9,

@@ -15,6 +15,7 @@ from hubero_dsl.analysis.plot import (
     DPI,
     LEGEND_INCHES,
     View,
+    _marker_handles,
     colours,
     legend_inches,
     plot_overlay,
@@ -96,6 +97,19 @@ def test_synthetic_run_with_robot(tmp_path: Path, build_run: Factory, track: Fac
     assert_expected_size(out, [run])
     image = pixels(out)
     assert share_of_colour(image, (0, 0, 0), tolerance=30) > 0.001  # the robot's path
+
+
+def test_a_human_who_reached_no_goal_ends_in_a_diamond_not_a_star(
+        build_run: Factory, track: Factory, living_room_logs: dict[str, Path]) -> None:
+    stood = build_run([track("h", [0.0, 1.0], [(0, 0), (1, 0)])])   # no task succeeded
+    labels = [h.get_label() for h in _marker_handles([(stood, "h")])]
+    assert labels == ["start", "end, no goal reached"]
+    walked = load_run(living_room_logs["circle"])
+    labels = [h.get_label() for h in _marker_handles([(walked, n) for n in walked.humans])]
+    assert labels == ["start", "goal reached"]
+    both = [(stood, "h"), *((walked, n) for n in walked.humans)]
+    assert [h.get_label() for h in _marker_handles(both)] == [
+        "start", "goal reached", "end, no goal reached"]
 
 
 def test_unwritable_output(tmp_path: Path, build_run: Factory, track: Factory) -> None:
