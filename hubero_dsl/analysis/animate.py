@@ -3,8 +3,11 @@
     animate_run(load_run("run.mcap"), "run.gif", max_frames=120, fps=10)
 
 Each frame shows the map, every human's path so far, its body and its personal space in its
-shape and heading, robots, and the time. At most `max_frames` frames are drawn, spread evenly
-over the run, so a long run gives a file of bounded size; `fps` sets the replay speed.
+shape and heading, robots, and the time. The members of a crowd or flow are drawn as `hubero
+plot` draws them: their crowd's colour and one legend entry, thin paths, no personal spaces;
+people a flow never brought are not drawn at all. At most `max_frames` frames are drawn,
+spread evenly over the run, so a long run gives a file of bounded size; `fps` sets the replay
+speed.
 """
 
 from __future__ import annotations
@@ -19,7 +22,16 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle as CirclePatch
 from matplotlib.patches import Polygon
 
-from hubero_dsl.analysis.plot import View, colours, draw_map, personal_space_of, short_shape
+from hubero_dsl.analysis.plot import (
+    View,
+    colours,
+    draw_map,
+    people_legend,
+    personal_space_of,
+    place_legend,
+    robot_colours,
+    set_colours,
+)
 from hubero_dsl.errors import InputError
 from hubero_dsl.world.personal_space import outline
 
@@ -31,6 +43,8 @@ FloatArray = npt.NDArray[np.float64]
 MAX_FRAMES = 120
 FPS = 10
 GIF_DPI = 70
+_NAMED_TRAIL = {"linewidth": 1.6}
+_MEMBER_TRAIL = {"linewidth": 0.8, "alpha": 0.55}   # as `hubero plot` draws a crowd's member
 
 
 def frame_times(run: LoggedRun, max_frames: int) -> FloatArray:
@@ -54,40 +68,48 @@ def _at(time: FloatArray, values: FloatArray, when: float) -> FloatArray:
 class _Scene:
     """The artists of one replay, moved to each instant in turn."""
 
-    def __init__(self, run: LoggedRun, axes: Any) -> None:
+    def __init__(self, run: LoggedRun, axes: Any, palette: dict[str, Any],
+                 crowds: dict[str, Any]) -> None:
         self.run = run
-        self.palette = colours(list(run.humans))
         self.trails: dict[str, Line2D] = {}
         self.bodies: dict[str, CirclePatch] = {}
         self.spaces: dict[str, Polygon] = {}
         self.robots: dict[str, CirclePatch] = {}
         for name in sorted(run.humans):
-            colour = self.palette[name]
-            self.trails[name], = axes.plot([], [], color=colour, linewidth=1.6, zorder=3,
-                                           label=f"{name}: "
-                                                 f"{short_shape(personal_space_of(run, name))}")
-            self.spaces[name] = axes.add_patch(Polygon(np.zeros((3, 2)), closed=True,
-                                                       facecolor=colour, edgecolor=colour,
-                                                       alpha=0.25, zorder=2))
+            if not len(run.humans[name].time):
+                continue  # a flow's person who never came
+            crowd = run.metadata.set_of(name)
+            colour = palette[name] if crowd is None else crowds[crowd]
+            self.trails[name], = axes.plot([], [], color=colour, zorder=3,
+                                           **(_NAMED_TRAIL if crowd is None else _MEMBER_TRAIL))
+            if crowd is None:
+                self.spaces[name] = axes.add_patch(Polygon(
+                    np.zeros((3, 2)), closed=True, facecolor=colour, edgecolor=colour,
+                    alpha=0.25, zorder=2))
             radius = run.metadata.params.get(name, {}).get("radius", 0.2)
             self.bodies[name] = axes.add_patch(CirclePatch(
                 (0.0, 0.0), float(radius) if isinstance(radius, int | float) else 0.2,
                 facecolor=colour, edgecolor="black", zorder=4))
-        for name in sorted(run.robots):
-            self.robots[name] = axes.add_patch(CirclePatch((0.0, 0.0), 0.3, facecolor="black",
+        for name, colour in robot_colours(list(run.robots)).items():
+            self.robots[name] = axes.add_patch(CirclePatch((0.0, 0.0), 0.3, facecolor=colour,
                                                            zorder=4))
         self.clock = axes.text(0.02, 0.97, "", transform=axes.transAxes, va="top",
                                fontsize=11, bbox={"facecolor": "white", "alpha": 0.8})
 
     def show(self, when: float) -> list[Artist]:
-        for name, track in self.run.humans.items():
-            if len(track.time) == 0:
-                continue
+        for name, trail in self.trails.items():
+            track = self.run.humans[name]
             shown = track.time <= when
-            self.trails[name].set_data(track.position[shown, 0], track.position[shown, 1])
+            trail.set_data(track.position[shown, 0], track.position[shown, 1])
+            # a flow's person is in the scene from the first frame logged of them to the last
+            here = bool(track.time[0] <= when <= track.time[-1])
+            self.bodies[name].set_visible(here)
             where = _at(track.time, track.position, when)
-            heading = float(_at(track.time, track.heading, when))
-            self.spaces[name].set_xy(outline(personal_space_of(self.run, name), where, heading))
+            if name in self.spaces:
+                self.spaces[name].set_visible(here)
+                heading = float(_at(track.time, track.heading, when))
+                self.spaces[name].set_xy(outline(personal_space_of(self.run, name), where,
+                                                 heading))
             self.bodies[name].set_center((float(where[0]), float(where[1])))
         for name, robot in self.run.robots.items():
             if len(robot.time):
@@ -105,16 +127,16 @@ def animate_run(run: LoggedRun, out: str | Path, *, max_frames: int = MAX_FRAMES
 
     if max_frames < 1 or fps < 1:
         raise InputError("an animation needs at least one frame and one frame per second")
-    labels = [f"{name}: {short_shape(personal_space_of(run, name))}" for name in run.humans]
-    figure, axes = View.around([run], whole_map).figure(labels)
+    crowds = set_colours(run)
+    palette = colours([name for name in run.humans if run.metadata.set_of(name) is None])
+    handles = people_legend(run, palette, crowds)
+    figure, axes = View.around([run], whole_map).figure([str(h.get_label()) for h in handles])
     figure.set_dpi(GIF_DPI)
     draw_map(axes, run.grid)
     axes.set_title(f"{run.metadata.title}"
                    + (f" [{run.metadata.variant}]" if run.metadata.variant else ""), fontsize=11)
-    scene = _Scene(run, axes)
-    box = axes.get_position()
-    figure.legend(loc="upper left", bbox_to_anchor=(box.x1 + 0.01, box.y1), fontsize=9,
-                  borderaxespad=0.0)
+    scene = _Scene(run, axes, palette, crowds)
+    place_legend(figure, axes, handles)
     times = frame_times(run, max_frames)
     animation = FuncAnimation(figure, scene.show, frames=list(times), blit=False)
     out = Path(out)

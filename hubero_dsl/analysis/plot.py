@@ -211,6 +211,14 @@ def set_colours(run: LoggedRun) -> dict[str, Any]:
     return {name: palette[i % len(palette)] for i, name in enumerate(names)}
 
 
+def people_legend(run: LoggedRun, palette: dict[str, Any], crowds: dict[str, Any]
+                  ) -> list[Any]:
+    """The legend's entries for a run's bodies: each named human (`palette`, from `colours`)
+    with its personal space, each crowd and flow once (`crowds`, from `set_colours`) with the
+    people it brought, each robot."""
+    return [*_human_handles(run, palette), *_set_handles(run, crowds), *_robot_handles(run)]
+
+
 def _marker_handles(humans: Sequence[tuple[LoggedRun, str]]) -> list[Line2D]:
     """The legend's start, and the ends that the named `humans` (run, name) show: a star
     where a navigation task succeeded, a diamond where one ended without any."""
@@ -263,7 +271,8 @@ def _set_handles(run: LoggedRun, palette: dict[str, Any]) -> list[Line2D]:
             for name in sorted(palette)]
 
 
-def _legend(figure: Figure, axes: Axes, handles: list[Any]) -> None:
+def place_legend(figure: Figure, axes: Axes, handles: list[Any]) -> None:
+    """The legend in its column right of the map."""
     box = axes.get_position()
     figure.legend(handles=handles, loc="upper left", bbox_to_anchor=(box.x1 + 0.01, box.y1),
                   fontsize=LEGEND_FONT, frameon=True, labelspacing=0.8, handlelength=2.6,
@@ -293,8 +302,8 @@ def plot_run(run: LoggedRun, out: str | Path, *, spacing: float = SPACING,
     crowds = set_colours(run)
     named = [name for name in run.humans if run.metadata.set_of(name) is None]
     palette = colours(named)
-    handles = [*_human_handles(run, palette), *_set_handles(run, crowds),
-               *_robot_handles(run), *_marker_handles([(run, name) for name in named])]
+    handles = [*people_legend(run, palette, crowds),
+               *_marker_handles([(run, name) for name in named])]
     figure, axes = (view or View.around([run], whole_map)).figure(_labels(handles))
     draw_map(axes, run.grid)
     for name in sorted(run.humans):
@@ -305,7 +314,7 @@ def plot_run(run: LoggedRun, out: str | Path, *, spacing: float = SPACING,
             draw_member(axes, run, name, crowds[crowd])
     draw_robots(axes, run)
     axes.set_title(_title(run), fontsize=11)
-    _legend(figure, axes, handles)
+    place_legend(figure, axes, handles)
     return save(figure, out)
 
 
@@ -337,7 +346,7 @@ def plot_overlay(a: LoggedRun, b: LoggedRun, out: str | Path, *, epsilon: float 
     draw_robots(axes, a)
     draw_robots(axes, b, dashed=True)
     axes.set_title(f"{a.metadata.title}: {label_a} vs {label_b}", fontsize=11)
-    _legend(figure, axes, handles)
+    place_legend(figure, axes, handles)
     return save(figure, out)
 
 

@@ -39,18 +39,62 @@ def test_the_log_names_crowds_and_groups(lounge: Path) -> None:
 def test_a_crowd_is_one_colour_and_one_legend_entry(lounge: Path, tmp_path: Path,
                                                     monkeypatch: pytest.MonkeyPatch) -> None:
     legends: list[list[str]] = []
-    original = plot_module._legend
+    original = plot_module.place_legend
 
     def spy(figure: Figure, axes: Any, handles: list[Any]) -> None:
         legends.append([str(h.get_label()) for h in handles])
         original(figure, axes, handles)
 
-    monkeypatch.setattr(plot_module, "_legend", spy)
+    monkeypatch.setattr(plot_module, "place_legend", spy)
     plot_module.plot_run(load_run(lounge), tmp_path / "lounge.png")
     labels = legends[0]
     assert "crowd visitors (8 people)" in labels
     assert not any(label.startswith("visitors_") for label in labels)
     assert any(label.startswith("mum:") for label in labels) and "robot cart" in labels
+
+
+def test_the_replay_draws_a_crowd_as_the_picture_does(lounge: Path, tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    from matplotlib.figure import Figure as Canvas
+
+    from hubero_dsl.analysis import animate
+
+    run = load_run(lounge)
+    legends: list[list[str]] = []
+    original = animate.place_legend
+
+    def spy(figure: Figure, axes: Any, handles: list[Any]) -> None:
+        legends.append([str(h.get_label()) for h in handles])
+        original(figure, axes, handles)
+
+    monkeypatch.setattr(animate, "place_legend", spy)
+    animate.animate_run(run, tmp_path / "lounge.gif", max_frames=2)
+    assert "crowd visitors (8 people)" in legends[0]
+    assert not any(label.startswith("visitors_") for label in legends[0])
+    named = [n for n in run.humans if run.metadata.set_of(n) is None]
+    scene = animate._Scene(run, Canvas().subplots(), plot_module.colours(named),
+                           plot_module.set_colours(run))
+    members = [n for n in run.humans if run.metadata.set_of(n) == "visitors"]
+    assert members and not any(m in scene.spaces for m in members)   # no personal spaces
+    assert len({tuple(scene.trails[m].get_color()) for m in members}) == 1  # one colour
+    assert "mum" in scene.spaces
+
+
+def test_a_replay_shows_someone_only_while_they_are_in_the_scene(build_run: Any,
+                                                                 track: Any) -> None:
+    from matplotlib.figure import Figure as Canvas
+
+    from hubero_dsl.analysis.animate import _Scene
+
+    late = build_run([track("early", [0.0, 1.0, 2.0, 3.0], [(0, 0), (1, 0), (2, 0), (3, 0)]),
+                      track("late", [1.0, 2.0], [(0, 1), (1, 1)])])
+    scene = _Scene(late, Canvas().subplots(), {"early": "red", "late": "blue"}, {})
+    scene.show(0.5)
+    assert scene.bodies["early"].get_visible() and not scene.bodies["late"].get_visible()
+    scene.show(1.5)
+    assert scene.bodies["late"].get_visible()
+    scene.show(2.5)                     # gone after its last frame (a flow's person who left)
+    assert not scene.bodies["late"].get_visible() and scene.bodies["early"].get_visible()
 
 
 def test_diff_takes_a_crowds_name(lounge: Path, capsys: pytest.CaptureFixture[str]) -> None:
