@@ -36,16 +36,22 @@ def test_the_log_names_crowds_and_groups(lounge: Path) -> None:
     assert metadata.set_of("visitors_3") == "visitors" and metadata.set_of("mum") is None
 
 
-def test_a_crowd_is_one_colour_and_one_legend_entry(lounge: Path, tmp_path: Path,
-                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+def _legends(module: Any, monkeypatch: pytest.MonkeyPatch) -> list[list[str]]:
+    """The labels of every legend `module` places from now on (its `place_legend` spied on)."""
     legends: list[list[str]] = []
-    original = plot_module.place_legend
+    original = module.place_legend
 
     def spy(figure: Figure, axes: Any, handles: list[Any]) -> None:
         legends.append([str(h.get_label()) for h in handles])
         original(figure, axes, handles)
 
-    monkeypatch.setattr(plot_module, "place_legend", spy)
+    monkeypatch.setattr(module, "place_legend", spy)
+    return legends
+
+
+def test_a_crowd_is_one_colour_and_one_legend_entry(lounge: Path, tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    legends = _legends(plot_module, monkeypatch)
     plot_module.plot_run(load_run(lounge), tmp_path / "lounge.png")
     labels = legends[0]
     assert "crowd visitors (8 people)" in labels
@@ -60,14 +66,7 @@ def test_the_replay_draws_a_crowd_as_the_picture_does(lounge: Path, tmp_path: Pa
     from hubero_dsl.analysis import animate
 
     run = load_run(lounge)
-    legends: list[list[str]] = []
-    original = animate.place_legend
-
-    def spy(figure: Figure, axes: Any, handles: list[Any]) -> None:
-        legends.append([str(h.get_label()) for h in handles])
-        original(figure, axes, handles)
-
-    monkeypatch.setattr(animate, "place_legend", spy)
+    legends = _legends(animate, monkeypatch)
     animate.animate_run(run, tmp_path / "lounge.gif", max_frames=2)
     assert "crowd visitors (8 people)" in legends[0]
     assert not any(label.startswith("visitors_") for label in legends[0])
