@@ -73,6 +73,10 @@ class Tracks:
     robots: list[np.ndarray] = field(default_factory=list)
     # reference plan lengths by (start, goal, body radius): several runs may share them
     plan_lengths: dict[PlanQuery, float | None] = field(default_factory=dict)
+    # metrics by (subject, other, ticks recorded): every expectation on one subject, and the
+    # Gymnasium env's episode info, read one computation
+    _metrics: dict[tuple[str, str | None, int], dict[str, float]] = field(
+        default_factory=dict, repr=False)
 
     def record(self, sim: Simulation) -> None:
         self.time.append(sim.time)
@@ -94,6 +98,13 @@ class Tracks:
     def metrics(self, sim: Simulation, subject: str, other: str | None = None
                 ) -> dict[str, float]:
         """The social-navigation metrics of `subject` among every human (or `other` only)."""
+        key = (subject, other, len(self.time))
+        if key not in self._metrics:
+            self._metrics[key] = self._computed_metrics(sim, subject, other)
+        return self._metrics[key]
+
+    def _computed_metrics(self, sim: Simulation, subject: str, other: str | None
+                          ) -> dict[str, float]:
         tracks = self.tracks(sim) if self.time else {}
         track = tracks.get(subject)
         if track is None:
