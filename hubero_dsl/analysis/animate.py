@@ -23,6 +23,7 @@ from matplotlib.patches import Circle as CirclePatch
 from matplotlib.patches import Polygon
 
 from hubero_dsl.analysis.plot import (
+    MEMBER_PATH,
     View,
     colours,
     draw_map,
@@ -44,7 +45,6 @@ MAX_FRAMES = 120
 FPS = 10
 GIF_DPI = 70
 _NAMED_TRAIL = {"linewidth": 1.6}
-_MEMBER_TRAIL = {"linewidth": 0.8, "alpha": 0.55}   # as `hubero plot` draws a crowd's member
 
 
 def frame_times(run: LoggedRun, max_frames: int) -> FloatArray:
@@ -81,7 +81,7 @@ class _Scene:
             crowd = run.metadata.set_of(name)
             colour = palette[name] if crowd is None else crowds[crowd]
             self.trails[name], = axes.plot([], [], color=colour, zorder=3,
-                                           **(_NAMED_TRAIL if crowd is None else _MEMBER_TRAIL))
+                                           **(_NAMED_TRAIL if crowd is None else MEMBER_PATH))
             if crowd is None:
                 self.spaces[name] = axes.add_patch(Polygon(
                     np.zeros((3, 2)), closed=True, facecolor=colour, edgecolor=colour,

@@ -175,6 +175,7 @@ def draw_human(axes: Axes, run: LoggedRun, name: str, colour: Any, *, spacing: f
 
 
 NO_GOAL_MARKER = "D"
+MEMBER_PATH: dict[str, Any] = {"linewidth": 0.8, "alpha": 0.55}  # a crowd's member: thin, faint
 ROBOT_COLOURS = ("black", "saddlebrown", "navy", "darkgreen", "indigo", "darkred")
 
 
@@ -197,8 +198,8 @@ def draw_member(axes: Axes, run: LoggedRun, name: str, colour: Any) -> None:
     """A crowd's or flow's member: a thin path and a small start, no personal spaces."""
     track = run.humans[name]
     if len(track.position):
-        axes.plot(track.position[:, 0], track.position[:, 1], color=colour, linewidth=0.8,
-                  alpha=0.55, zorder=3)
+        axes.plot(track.position[:, 0], track.position[:, 1], color=colour, zorder=3,
+                  **MEMBER_PATH)
         axes.plot(*track.position[0], marker="o", markersize=3, color=colour, zorder=4)
 
 
