@@ -38,6 +38,17 @@ MAX_EVALUATIONS = 10_000
 MAX_SEEDS = 100
 
 
+def check_seeds(seed: int, seeds: int) -> None:
+    """--seed and --seeds, as `calibrate` and `validate` take them (each seed is a rebuild of
+    every recording)."""
+    from hubero_dsl.errors import InputError
+
+    if seed < 0:
+        raise InputError(f"--seed must be a whole number of at least 0, got {seed}")
+    if not 1 <= seeds <= MAX_SEEDS:
+        raise InputError(f"--seeds must be from 1 to {MAX_SEEDS}, got {seeds}")
+
+
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     parser: argparse.ArgumentParser = subparsers.add_parser(
         "calibrate", help="fit human parameters to measured trajectories (PedPy, scipy)",
@@ -88,10 +99,7 @@ def run(args: argparse.Namespace) -> int:
     if not 1 <= args.evaluations <= MAX_EVALUATIONS:
         raise InputError(f"--evaluations must be from 1 to {MAX_EVALUATIONS}, "
                          f"got {args.evaluations}")
-    if args.seed < 0:
-        raise InputError(f"--seed must be a whole number of at least 0, got {args.seed}")
-    if not 1 <= args.seeds <= MAX_SEEDS:
-        raise InputError(f"--seeds must be from 1 to {MAX_SEEDS}, got {args.seeds}")
+    check_seeds(args.seed, args.seeds)
     train = args.train or [shipped_path(n) for n in DEFAULT_TRAIN]
     test = args.test if args.test is not None else (
         [] if args.train else [shipped_path(n) for n in DEFAULT_TEST])

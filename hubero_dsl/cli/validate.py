@@ -27,7 +27,7 @@ import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from hubero_dsl.cli.calibrate import MAX_SEEDS  # one bound on the rebuilds a command runs
+from hubero_dsl.cli.calibrate import MAX_SEEDS, check_seeds
 
 if TYPE_CHECKING:
     from hubero_dsl.validation.validate import Validation
@@ -54,14 +54,10 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hubero_dsl.errors import InputError
     from hubero_dsl.files import check_output
     from hubero_dsl.validation.experiments import pedpy
 
-    if args.seed < 0:
-        raise InputError(f"--seed must be a whole number of at least 0, got {args.seed}")
-    if not 1 <= args.seeds <= MAX_SEEDS:
-        raise InputError(f"--seeds must be from 1 to {MAX_SEEDS}, got {args.seeds}")
+    check_seeds(args.seed, args.seeds)
     if args.output is not None:
         check_output(args.output, (*args.files, *([args.defaults] if args.defaults else [])))
     pedpy()  # a missing PedPy is told before any work (and before pandas is imported)
