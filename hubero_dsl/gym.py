@@ -61,6 +61,7 @@ from hubero_dsl.model.program import Program, RobotSpec
 from hubero_dsl.sim.arrays import FloatArray
 from hubero_dsl.sim.joint import JointSteering
 from hubero_dsl.sim.judge import Judge, PlanQuery
+from hubero_dsl.sim.lockstep import Lockstep
 from hubero_dsl.sim.simulation import GlobalPlanners, Simulation
 from hubero_dsl.socialnav import CONTACT
 
@@ -416,6 +417,7 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self._done = np.zeros(num_envs, dtype=bool)
         self._steering = JointSteering()
+        self._lockstep = Lockstep()
 
     def reset(self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
               ) -> tuple[dict[str, npt.NDArray[Any]], dict[str, Any]]:
@@ -454,10 +456,9 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
         for i, env in zip(going, envs, strict=True):
             env._act(actions[i])
         sims = [env._simulation() for env in envs]
-        steerings = [sim.begin_step() for sim in sims]
+        steerings = Simulation.begin_steps(sims, self._lockstep)
         steered = self._steering.steer([sim.engine for sim in sims], steerings)
-        for sim, steering, velocities in zip(sims, steerings, steered, strict=True):
-            sim.end_step(steering, velocities)
+        Simulation.end_steps(sims, steerings, steered, self._lockstep)
         return {i: env._outcome() for i, env in zip(going, envs, strict=True)}
 
     def render(self) -> tuple[npt.NDArray[np.uint8], ...] | None:

@@ -20,8 +20,9 @@ import numpy as np
 from hubero_dsl.errors import SimulationError
 from hubero_dsl.planners.base import Crowd, Drive, NoPath
 from hubero_dsl.sim import physics
-from hubero_dsl.sim.arrays import BoolArray, FloatArray, HumanArrays, IntArray, PathPool
+from hubero_dsl.sim.arrays import FloatArray, HumanArrays, IntArray, PathPool
 from hubero_dsl.sim.behaviours import Behaviour
+from hubero_dsl.sim.lockstep import Lockstep
 from hubero_dsl.sim.reactions import Reactions
 from hubero_dsl.sim.robots import Robots
 from hubero_dsl.sim.status import Posture, TaskEvent, TaskHandle, TaskStatus
@@ -37,11 +38,8 @@ if TYPE_CHECKING:
 
 NEVER = np.iinfo(np.int64).max
 LOOKAHEAD = 0.6         # m: a waypoint this close counts as passed
-ALIGNED = math.radians(3.0)
-PROGRESS = 0.5          # m a walking human must make within `stuck_time`
 GROUP_SPACING = 0.7     # m between neighbours of a walking group
 GROUP_PULL = 1.0        # 1/s: m/s towards the group's centre per metre too far from it
-_STANDING = int(Posture.STANDING)  # an int compares with the posture array faster than an enum
 
 
 @dataclass(frozen=True, slots=True)
@@ -88,6 +86,7 @@ class Engine:
         self._not_robot.setflags(write=False)
         self._crowd_shapes: tuple[ShapeArrays, ShapeArrays, ShapeArrays] | None = None
         self._separation = physics.BodySeparation()
+        self._lockstep = Lockstep()
         self.groups = dict(groups or {})  # a group's name -> its members' rows
         self._reactions = (Reactions(humans.reaction, dt) if humans.reaction is not None
                            else None)
@@ -357,10 +356,14 @@ class Engine:
     def begin_step(self) -> Steering | None:
         """A tick's first part: robots move, walkers pass their waypoints, and what the local
         planners are to be asked is gathered (None: nobody walks). `steer` asks them and
-        `end_step` moves everyone; a vector environment asks for all its copies at once."""
+        `end_step` moves everyone; a vector environment asks for all its copies at once
+        (`Lockstep`)."""
+        return self._lockstep.begin_step([self])[0]
+
+    def steering(self) -> Steering | None:
+        """`begin_step` once the robots have moved: walkers pass their waypoints, and what
+        the local planners are to be asked is gathered (None: nobody walks)."""
         humans = self.humans
-        if self.robots.count:
-            self.robots.advance(self.dt, self.tick, humans, self.position_of)
         rows = humans.moving.nonzero()[0]
         if not len(rows):
             return None
@@ -385,52 +388,9 @@ class Engine:
 
     def end_step(self, steering: Steering | None, steered: list[FloatArray]) -> None:
         """A tick's last part: with the planners' velocities (`steer`), everyone moves, then
-        the tick's events are dispatched."""
-        humans = self.humans
-        # nobody walks (`begin_step` gave None) and nobody is teleoperated: the tick at rest
-        at_rest = steering is None and not humans.teleop.any()
-        self._move(None if at_rest else self._velocities(steering, steered))
-        heading_goals = ~np.isnan(humans.heading_goal)
-        if not at_rest or heading_goals.any():
-            self._turn(self.dt, heading_goals)
-        self.tick += 1
-        self._dispatch_events(steering is not None, heading_goals)
-        if self.robots.count:
-            self.robots.settle(self.tick, self.dt, self.ticks(self.stuck_time), self.position_of,
-                               self.finish_robot, self.standing_at)
-
-    def _move(self, velocity: FloatArray | None) -> None:
-        """Everyone moves at `velocity` (None at rest: zero), kept apart and out of walls."""
-        dt = self.dt
-        humans = self.humans
-        old = humans.position
-        moved = old + (0.0 if velocity is None else velocity * dt)
-        movable = humans.posture == _STANDING
-        if not movable.all():
-            moved[~movable] = old[~movable]
-        separated = self._separate(moved, movable)
-        if not np.isfinite(separated).all():  # before the walls, which would hide it as a stop
-            self._diverged(separated)
-        if velocity is None and separated is moved:
-            # at rest and nobody overlaps: nobody moved, so the walls stop no one and no one
-            # walked any length (the values the arithmetic below would give)
-            humans.velocity = np.zeros(old.shape)
-            humans.position = moved
-            return
-        moved = self._keep_out_of_walls(old, separated)
-        step = moved - old
-        humans.velocity = step / dt
-        humans.path_length += physics.lengths(step)
-        humans.position = moved
-
-    def _keep_out_of_walls(self, old: FloatArray, moved: FloatArray) -> FloatArray:
-        present = self.humans.present
-        if present is None:
-            return physics.keep_out_of_walls(self.grid, old, moved, self.humans.radius)
-        rows = present.nonzero()[0]  # the absent wait off the map, where there are no walls
-        moved[rows] = physics.keep_out_of_walls(self.grid, old[rows], moved[rows],
-                                                self.humans.radius[rows])
-        return moved
+        the tick's events are dispatched (`Lockstep`, which ends many engines' ticks at once
+        for a vector environment)."""
+        self._lockstep.end_step([self], [steering], [steered])
 
     def _diverged(self, moved: FloatArray) -> None:
         """A position that is not a finite number is an error of the run: the parameters drove
@@ -559,52 +519,6 @@ class Engine:
         can_move = np.concatenate([movable, np.zeros(r.count, bool)])
         separated = self._separation(everyone, radius, can_move)
         return moved if separated is everyone else separated[: self.humans.count]
-
-    def _turn(self, dt: float, heading_goals: BoolArray) -> None:
-        """Walkers turn to where they go, the others to their heading goals (the rows of
-        `heading_goals`; `end_step` skips the tick at rest with none)."""
-        h = self.humans
-        speed = physics.lengths(h.velocity)
-        walking = (speed > 0.1) & (h.moving | h.teleop)
-        turning = walking | heading_goals
-        if not turning.any():
-            return
-        # rows that do not turn keep their heading whatever `wanted` holds for them
-        wanted = np.where(walking, np.arctan2(h.velocity[:, 1], h.velocity[:, 0]),
-                          h.heading_goal)
-        h.heading = physics.turn_towards(h.heading, wanted, turning, dt)
-
-    # ---- events --------------------------------------------------------------------------
-
-    def _dispatch_events(self, anyone_moving: bool, heading_goals: BoolArray) -> None:
-        """Wake the humans whose behaviour has something to react to: an arrival, no progress,
-        a heading reached, a timer. `anyone_moving` is whether someone walks this tick,
-        `heading_goals` which rows have a heading to turn to."""
-        h = self.humans
-        moving = h.moving
-        wake = timer = self.wake_tick <= self.tick
-        arrived = stuck = aligned = None
-        if anyone_moving:  # arrivals and progress concern walkers only
-            # a walking human always has a goal
-            arrived = moving & (physics.lengths(h.position - h.goal) <= h.stop_distance)
-            progressed = physics.lengths(h.position - self.anchor) > PROGRESS
-            if progressed.any():
-                self.anchor[progressed] = h.position[progressed]
-            # a standing human's anchor is set afresh when it starts walking (`walk_to`)
-            self.anchor_tick[progressed | ~moving] = self.tick
-            stuck = moving & (self.tick - self.anchor_tick > self.ticks(self.stuck_time))
-            wake = wake | arrived | stuck
-        turning = heading_goals & ~moving if anyone_moving else heading_goals
-        if turning.any():
-            aligned = turning & (np.abs(physics.wrap_angle(h.heading - h.heading_goal))
-                                 < ALIGNED)
-            wake = wake | aligned
-        if not wake.any():
-            return
-        for index in wake.nonzero()[0]:
-            self._wake(int(index), arrived is not None and bool(arrived[index]),
-                       aligned is not None and bool(aligned[index]),
-                       stuck is not None and bool(stuck[index]), bool(timer[index]))
 
     def _wake(self, index: int, arrived: bool, aligned: bool, stuck: bool, timer: bool) -> None:
         h = self.humans

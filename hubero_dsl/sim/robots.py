@@ -15,6 +15,7 @@ is the controller's error: `ControllerError`, naming the robot, the time and the
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -118,9 +119,11 @@ class Robots:
 
     # ---- one tick ----------------------------------------------------------------------------
 
-    def advance(self, dt: float, tick: int, humans: HumanArrays,
-                position_of: Callable[[Target], tuple[float, float] | None]) -> None:
-        """Ask every controller, shape the commands, move (never through a wall)."""
+    def wanted(self, dt: float, tick: int, humans: HumanArrays,
+               position_of: Callable[[Target], tuple[float, float] | None]
+               ) -> list[tuple[float, float]]:
+        """The velocity each robot is to move at this tick: its command (the controller
+        asked, unless the API gave one) shaped by its kinematics and limits."""
         time = tick * dt
         wanted = []
         for i in range(self.count):
@@ -132,35 +135,19 @@ class Robots:
                 if command is None:
                     command = self._ask(i, self._observe(i, time, humans, position_of), time)
                 wanted.append(self._move(i, command, dt))
-        velocity = self._moved_few(wanted, dt) if self.count <= physics.FEW_BODIES else None
-        if velocity is None:
-            velocity = self._moved_many(wanted, dt)
-        # a holonomic robot faces where it goes (numpy's functions on floats: the values its
-        # arrays would give)
+        return wanted
+
+    def _face(self, velocity: Sequence[Sequence[float]]) -> None:
+        """A holonomic robot faces where it goes (numpy's functions on floats: the values its
+        arrays would give)."""
         for i in self._holonomic:
             vx, vy = velocity[i]
             if np.hypot(vx, vy) > 1e-6:
                 self.heading[i] = np.arctan2(vy, vx)
 
-    def _moved_many(self, wanted: list[tuple[float, float]], dt: float
-                    ) -> Sequence[Sequence[float]]:
-        """Move every robot at the velocities `wanted`, never through a wall; the velocities
-        they moved at."""
-        velocity = np.array(wanted, dtype=np.float64).reshape(self.count, 2)
-        old = self.position
-        proposed = old + velocity * dt
-        moved = physics.keep_out_of_walls(self.grid, old, proposed, self.radius)
-        step = moved - old
-        if moved is not proposed and not np.array_equal(moved, proposed):
-            velocity = step / dt  # stopped or slid by a wall: the velocity it had
-        self.velocity = velocity
-        self.path_length += np.hypot(step[:, 0], step[:, 1])
-        self.position = moved
-        return velocity.tolist()
-
     def _moved_few(self, wanted: list[tuple[float, float]], dt: float
                    ) -> Sequence[Sequence[float]] | None:
-        """`_moved_many` for a few robots, in floats with the arrays' arithmetic (numpy's
+        """`move_fleets` for a few robots, in floats with the arrays' arithmetic (numpy's
         calls on arrays of one row cost more than the arithmetic); None when a coordinate is
         not finite, which the arrays handle."""
         old = self.position.tolist()
@@ -172,7 +159,7 @@ class Robots:
         moved = [stops.get(i, p) for i, p in enumerate(proposed)]
         step = [(mx - x, my - y) for (mx, my), (x, y) in zip(moved, old, strict=True)]
         if any(stops[i] != proposed[i] for i in stops):
-            wanted = [(sx / dt, sy / dt) for sx, sy in step]  # as `_moved_many`: every row
+            wanted = [(sx / dt, sy / dt) for sx, sy in step]  # as `move_fleets`: every row
         self.velocity = np.array(wanted, dtype=np.float64).reshape(self.count, 2)
         self.position = np.array(moved, dtype=np.float64).reshape(self.count, 2)
         for i, (sx, sy) in enumerate(step):
@@ -340,6 +327,41 @@ class Robots:
             self._anchor[i] = self.position[i]
             self._anchor_tick[i] = tick
         return tick - int(self._anchor_tick[i]) > stuck_ticks
+
+
+def move_fleets(fleets: Sequence[Robots], wanted: Sequence[list[tuple[float, float]]],
+                dt: float) -> None:
+    """Move the robots of one simulation, or of many at once (a vector environment's copies,
+    on one map), at the velocities `wanted` (`Robots.wanted`), never through a wall. Each
+    robot moves as it would alone: the walls are kept out for all rows in one call, and a
+    fleet in which a wall stopped or bent someone's move takes the velocities of its steps
+    (every row's, as alone)."""
+    if len(fleets) == 1 and fleets[0].count <= physics.FEW_BODIES:
+        few = fleets[0]._moved_few(list(wanted[0]), dt)
+        if few is not None:
+            fleets[0]._face(few)
+            return
+    velocity = np.array([v for fleet in wanted for v in fleet], dtype=np.float64).reshape(-1, 2)
+    if not len(velocity):
+        return
+    old = np.concatenate([fleet.position for fleet in fleets])
+    proposed = old + velocity * dt
+    moved = physics.keep_out_of_walls(fleets[0].grid, old, proposed,
+                                      np.concatenate([fleet.radius for fleet in fleets]))
+    step = moved - old
+    starts = np.cumsum([0] + [fleet.count for fleet in fleets]).tolist()
+    if moved is not proposed:
+        stopped = (moved != proposed).any(axis=1)
+        for start, end in itertools.pairwise(starts):
+            if stopped[start:end].any():
+                velocity[start:end] = step[start:end] / dt
+    walked = np.concatenate([fleet.path_length for fleet in fleets]) + np.hypot(step[:, 0],
+                                                                                 step[:, 1])
+    rows = velocity.tolist()
+    for fleet, (start, end) in zip(fleets, itertools.pairwise(starts), strict=True):
+        fleet.velocity, fleet.position = velocity[start:end], moved[start:end]
+        fleet.path_length = walked[start:end]
+        fleet._face(rows[start:end])
 
 
 def _override(table: dict[int, tuple[float, float]], index: int,

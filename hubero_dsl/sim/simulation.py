@@ -33,6 +33,7 @@ from hubero_dsl.sim.conditions import Conditions, LabelBook
 from hubero_dsl.sim.engine import Engine, Steering
 from hubero_dsl.sim.flows import Flows
 from hubero_dsl.sim.handles import HumanHandle, RobotHandle
+from hubero_dsl.sim.lockstep import Lockstep
 from hubero_dsl.sim.robots import Robots, robot_body
 from hubero_dsl.sim.scheduler import Scheduler
 from hubero_dsl.sim.status import TaskEvent, TaskHandle
@@ -199,13 +200,37 @@ class Simulation:
 
     def begin_step(self) -> Steering | None:
         """`step` up to the local planners (`Engine.begin_step`); `end_step` finishes it."""
+        self._before_step()
+        return self._begin_advance()
+
+    @staticmethod
+    def begin_steps(sims: list[Simulation], lockstep: Lockstep) -> list[Steering | None]:
+        """`begin_step` of simulations of one scenario, their engines' ticks begun together
+        (`Lockstep`): what each would do alone."""
+        for sim in sims:
+            sim._before_step()
+            sim._update_flows()
+        return lockstep.begin_step([sim.engine for sim in sims])
+
+    def _before_step(self) -> None:
         if self.scheduler is not None:
             self.scheduler.update()
-        return self._begin_advance()
 
     def end_step(self, steering: Steering | None, steered: list[FloatArray]) -> None:
         """The rest of `step`, given the local planners' answers (`Engine.steer`)."""
         self.engine.end_step(steering, steered)
+        self._after_step()
+
+    @staticmethod
+    def end_steps(sims: list[Simulation], steerings: list[Steering | None],
+                  steered: list[list[FloatArray]], lockstep: Lockstep) -> None:
+        """`end_step` of simulations of one scenario, their engines' ticks ended together
+        (`Lockstep`): what each would do alone."""
+        lockstep.end_step([sim.engine for sim in sims], steerings, steered)
+        for sim in sims:
+            sim._after_step()
+
+    def _after_step(self) -> None:
         if self.scheduler is not None:
             self.scheduler.after_step()
 
@@ -217,9 +242,12 @@ class Simulation:
 
     def _begin_advance(self) -> Steering | None:
         """The world's part up to the local planners: flows, then `Engine.begin_step`."""
+        self._update_flows()
+        return self.engine.begin_step()
+
+    def _update_flows(self) -> None:
         if self.flows is not None:
             self.flows.update()
-        return self.engine.begin_step()
 
     def run_until(self, done: Callable[[], bool], *, time_limit: float | None = None) -> bool:
         """Step until `done()` holds (True) or the time limit passes (False)."""

@@ -7,6 +7,7 @@ import copy
 import numpy as np
 import pytest
 
+from hubero_dsl.sim.lockstep import Lockstep, _Rows
 from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.sim.status import Posture
 from tests.sim.conftest import ScenarioFactory
@@ -15,8 +16,9 @@ from tests.sim.conftest import ScenarioFactory
 def moved_both_ways(sim: Simulation) -> tuple[Simulation, Simulation]:
     """The engine's move of this tick at rest (`None`) and at an explicit zero velocity."""
     at_rest, at_zero = copy.deepcopy(sim), copy.deepcopy(sim)
-    at_rest.engine._move(None)
-    at_zero.engine._move(np.zeros(sim.engine.humans.position.shape))
+    at_rest_rows, at_zero_rows = _Rows([at_rest.engine]), _Rows([at_zero.engine])
+    Lockstep()._move(at_rest_rows, None)
+    Lockstep()._move(at_zero_rows, np.zeros(sim.engine.humans.position.shape))
     return at_rest, at_zero
 
 
