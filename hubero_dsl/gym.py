@@ -45,6 +45,7 @@ searched once for all of them, and each episode still plans as it would alone.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -58,10 +59,12 @@ from gymnasium.vector.utils import batch_space
 from hubero_dsl.analysis.frame import FrameRenderer
 from hubero_dsl.errors import InputError
 from hubero_dsl.model.program import Program, RobotSpec
-from hubero_dsl.sim.arrays import FloatArray
+from hubero_dsl.sim.arrays import FloatArray, IntArray
 from hubero_dsl.sim.joint import JointSteering
 from hubero_dsl.sim.judge import Judge, PlanQuery
 from hubero_dsl.sim.lockstep import Lockstep
+from hubero_dsl.sim.physics import wrap_angle
+from hubero_dsl.sim.robots import Robots
 from hubero_dsl.sim.simulation import GlobalPlanners, Simulation
 from hubero_dsl.socialnav import CONTACT
 
@@ -172,7 +175,8 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
 
             self._log = RunLog(self.log_path, sim, writer_process=False)
             self._log.open()
-        return self._observe(), {"seed": run_seed, "variant": variant}
+        return self._observation(sense([sim], self.robot_spec, self.max_people), 0), {
+            "seed": run_seed, "variant": variant}
 
     def _variant_of(self, options: dict[str, Any] | None) -> str | None:
         """The variant of the episode `reset(options=...)` starts: `{"variant": NAME}` (None
@@ -190,8 +194,9 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
 
     def step(self, action: npt.NDArray[np.float32]) -> Outcome:
         self._act(action)
-        self._simulation().step()
-        return self._outcome()
+        sim = self._simulation()
+        sim.step()
+        return self._outcome(sense([sim], self.robot_spec, self.max_people), 0)
 
     def render(self) -> npt.NDArray[np.uint8] | None:
         """The scene now as an RGB array (`render_mode="rgb_array"`), else None."""
@@ -226,16 +231,15 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         (low_1, high_1), (low_2, high_2) = self._action_bounds  # the box's clipping, in floats
         self._robot.drive(min(max(first, low_1), high_1), min(max(second, low_2), high_2))
 
-    def _outcome(self) -> Outcome:
-        """What the tick just made gives: observation, reward, whether and how it ended."""
+    def _outcome(self, senses: Senses, index: int) -> Outcome:
+        """What the tick just made gives: observation, reward, whether and how it ended
+        (`senses`: what the robot sees now, row `index` of them)."""
         sim = self._simulation()
         if self._log is not None:
             self._log.observe(sim)
         distance = self._goal_distance()
         gained, self._distance = self._distance - distance, distance
-        humans = sim.engine.humans
-        around = sim.engine.robots.offsets_from(self._row, humans.position)
-        gap = self._nearest_gap(around[1])
+        gap = float(senses.gap[index])
         reached = distance <= self.robot_spec.goal_tolerance
         collided = gap < CONTACT
         assert self._judge is not None
@@ -249,26 +253,17 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
             outcome = "reached" if reached else "collision" if collided else "time limit"
             info = self._episode_info(outcome)
             self._close_log(outcome)
-        return self._observe(around), reward, terminated, truncated, info
+        return self._observation(senses, index), reward, terminated, truncated, info
 
     # ---- observations ------------------------------------------------------------------------
 
-    def _observe(self, around: tuple[FloatArray, FloatArray] | None = None
-                 ) -> dict[str, npt.NDArray[Any]]:
+    def _observation(self, senses: Senses, index: int) -> dict[str, npt.NDArray[Any]]:
         assert self._sim is not None
-        return observe(self._sim, self.robot_spec, self.max_people, self.map_patch, around)
+        return senses.observation(index, self._sim, self.map_patch)
 
     def _goal_distance(self) -> float:
         assert self._sim is not None and self.robot_spec.goal is not None
         return math.dist(self._sim.engine.robots.position[self._row], self.robot_spec.goal)
-
-    def _nearest_gap(self, distance: FloatArray) -> float:
-        """The smallest surface gap between the robot and a person `distance` away (centre to
-        centre, one per human row)."""
-        assert self._sim is not None
-        if not distance.size:
-            return math.inf
-        return float((distance - self._sim.engine.humans.radius).min()) - self.robot_spec.radius
 
     # ---- the end of an episode ---------------------------------------------------------------
 
@@ -340,32 +335,105 @@ def observation_space(program: Program, max_people: int, map_patch: int | None) 
     return spaces.Dict(entries)
 
 
-def observe(sim: Simulation, spec: RobotSpec, max_people: int, map_patch: int | None,
-            around: tuple[FloatArray, FloatArray] | None = None) -> dict[str, npt.NDArray[Any]]:
-    """What the robot knows now, as the observation space lays it out (`around`: the humans'
-    `Robots.offsets_from` the robot, when the caller has them already)."""
-    robots = sim.engine.robots
-    i = robots.index_of(spec.name)
-    x, y = robots.position[i].tolist()
-    vx, vy = robots.velocity[i].tolist()
+@dataclass(slots=True)
+class Senses:
+    """What the robots of several episodes see now, as their observations lay it out (row i:
+    episode i): `robot` (E, 7), `people` (E, max_people, 5) and `mask` (E, max_people), and
+    `gap`, the smallest surface gap between each robot and a person (inf: nobody there)."""
+
+    robot: npt.NDArray[np.float32]
+    people: npt.NDArray[np.float32]
+    mask: npt.NDArray[np.int8]
+    gap: FloatArray
+
+    def observation(self, index: int, sim: Simulation, map_patch: int | None
+                    ) -> dict[str, npt.NDArray[Any]]:
+        """Episode `index`'s observation (`sim`: its simulation, for the map patch)."""
+        observation = {"robot": self.robot[index], "people": self.people[index],
+                       "mask": self.mask[index]}
+        if map_patch is not None:
+            x, y = self.robot[index, :2].tolist()
+            observation["map"] = _patch(sim, (x, y), map_patch)
+        return observation
+
+
+def sense(sims: list[Simulation], spec: RobotSpec, max_people: int) -> Senses:
+    """What robot `spec` sees now in each simulation (one scenario's episodes, all at once):
+    itself and its goal, and the `max_people` nearest humans within its sensor range and
+    field of view (`Robots.seen_rows`), nearest first; every episode's rows as alone."""
+    episodes = len(sims)
+    states = [_robot_state(sim.engine.robots, spec.name) for sim in sims]  # x, y, vx, vy, h
     assert spec.goal is not None
-    robot = np.array([x, y, vx, vy, float(robots.heading[i]), spec.goal[0] - x,
-                      spec.goal[1] - y], dtype=np.float32)
-    humans = sim.engine.humans
-    around = around or robots.offsets_from(i, humans.position)
-    seen = robots.seen_rows(i, humans.position, humans.radius, around)[:max_people]
-    count = len(seen)
-    people = np.zeros((max_people, 5), dtype=np.float32)
-    mask = np.zeros(max_people, dtype=np.int8)
-    if count:
-        people[:count, 0:2] = around[0][seen]
-        people[:count, 2:4] = humans.velocity[seen]
-        people[:count, 4] = humans.radius[seen]
-        mask[:count] = 1
-    observation: dict[str, npt.NDArray[Any]] = {"robot": robot, "people": people, "mask": mask}
-    if map_patch is not None:
-        observation["map"] = _patch(sim, (float(x), float(y)), map_patch)
-    return observation
+    goal_x, goal_y = spec.goal
+    robot = np.array([[*state, goal_x - state[0], goal_y - state[1]] for state in states],
+                     dtype=np.float32)
+    here = np.array([state[:2] for state in states])
+    humans = [sim.engine.humans for sim in sims]
+    counts = [h.count for h in humans]
+    world = (np.zeros(counts[0], dtype=np.intp) if episodes == 1
+             else np.repeat(np.arange(episodes), counts))
+    position = _joined([h.position for h in humans])
+    radius = _joined([h.radius for h in humans])
+    offset = position - (here if episodes == 1 else here[world])  # one robot: broadcast
+    distance = np.hypot(offset[:, 0], offset[:, 1])
+    surface = distance - radius
+    gap = _nearest_gaps(surface, counts) - spec.radius
+    seen, rank = _nearest_seen(offset, distance, surface, world, states, spec, max_people)
+    # row `max_people * episode + rank` of the flattened arrays: one index per person seen
+    people = np.zeros((episodes * max_people, 5), dtype=np.float32)
+    mask = np.zeros(episodes * max_people, dtype=np.int8)
+    if len(seen):
+        slot = rank if episodes == 1 else world[seen] * max_people + rank
+        people[slot, 0:2] = offset[seen]
+        people[slot, 2:4] = _joined([h.velocity for h in humans])[seen]
+        people[slot, 4] = radius[seen]
+        mask[slot] = 1
+    return Senses(robot, people.reshape(episodes, max_people, 5),
+                  mask.reshape(episodes, max_people), gap)
+
+
+def _robot_state(robots: Robots, name: str) -> list[float]:
+    """x, y, vx, vy, heading of robot `name`, as floats."""
+    i = robots.index_of(name)
+    return [*robots.position[i].tolist(), *robots.velocity[i].tolist(), float(robots.heading[i])]
+
+
+def _joined(arrays: list[FloatArray]) -> FloatArray:
+    return arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
+
+
+def _nearest_gaps(surface: FloatArray, counts: list[int]) -> FloatArray:
+    """The smallest of each episode's `surface` gaps (its `counts` rows; inf: none)."""
+    if len(counts) == 1:
+        return surface.min(keepdims=True) if counts[0] else np.array([math.inf])
+    gap = np.full(len(counts), math.inf)
+    someone = np.flatnonzero(counts)
+    if len(someone):
+        gap[someone] = np.minimum.reduceat(surface, np.cumsum([0, *counts])[someone])
+    return gap
+
+
+def _nearest_seen(offset: FloatArray, distance: FloatArray, surface: FloatArray,
+                  world: IntArray, states: list[list[float]], spec: RobotSpec, max_people: int
+                  ) -> tuple[IntArray, IntArray]:
+    """The rows each robot sees (within its sensor range and field of view), nearest first
+    and at most `max_people` of each episode (`world`), and each one's rank among them
+    (`states`: each robot's `_robot_state`)."""
+    visible = surface <= spec.sensor_range
+    if spec.field_of_view < 2 * math.pi:
+        heading = np.array([state[4] for state in states])
+        bearing = np.arctan2(offset[:, 1], offset[:, 0]) - heading[world]
+        visible &= np.abs(wrap_angle(bearing)) <= spec.field_of_view / 2
+    rows = visible.nonzero()[0]
+    if len(states) == 1:  # one episode: nearest first, its rank its place
+        if len(rows) > 1:
+            rows = rows[np.argsort(distance[rows], kind="stable")][:max_people]
+        return rows, np.arange(len(rows))
+    rows = rows[np.lexsort((distance[rows], world[rows]))]  # by episode, then nearest first
+    worlds = world[rows]
+    rank = np.arange(len(rows)) - np.searchsorted(worlds, worlds)
+    kept = rank < max_people
+    return rows[kept], rank[kept]
 
 
 def _patch(sim: Simulation, centre: tuple[float, float], size: int) -> npt.NDArray[np.int8]:
@@ -452,6 +520,8 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
     def _tick(self, actions: npt.NDArray[np.float32]) -> dict[int, Outcome]:
         """One tick of every copy whose episode goes on; their walkers are steered together."""
         going = [i for i in range(self.num_envs) if not self._done[i]]
+        if not going:
+            return {}
         envs = [self.envs[i] for i in going]
         for i, env in zip(going, envs, strict=True):
             env._act(actions[i])
@@ -459,7 +529,9 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
         steerings = Simulation.begin_steps(sims, self._lockstep)
         steered = self._steering.steer([sim.engine for sim in sims], steerings)
         Simulation.end_steps(sims, steerings, steered, self._lockstep)
-        return {i: env._outcome() for i, env in zip(going, envs, strict=True)}
+        senses = sense(sims, envs[0].robot_spec, envs[0].max_people)
+        return {i: env._outcome(senses, row) for row, (i, env) in enumerate(zip(going, envs,
+                                                                                strict=True))}
 
     def render(self) -> tuple[npt.NDArray[np.uint8], ...] | None:
         """Each copy's scene now (`render_mode="rgb_array"`), else None."""

@@ -1,11 +1,12 @@
-"""The engine: one tick of the world, and the services behaviours use to command humans.
+"""The engine: the world's state, and the services behaviours use to command humans.
 
-A tick is array work: robots advance, every walking human's next waypoint is found, the local
-planners turn targets into velocities (all humans of a planner at once; `begin_step`, `steer`
-and `end_step` split the tick there, so that a vector environment can ask the planners for all
-its copies in one call), bodies move, are kept apart and out of walls, and turn. Then events
-(arrived, aligned, timer, stuck) are detected with array comparisons, and only the humans with
-an event wake their behaviour.
+A tick is array work, split in three so that a vector environment can do each part for all its
+copies at once: robots advance, every walking human's next waypoint is found and what the
+local planners are to be asked is gathered (`Lockstep.begin_step`, then `Engine.steering`);
+the local planners turn targets into velocities (`steer`, all humans of a planner at once);
+bodies move, are kept apart and out of walls, and turn, then events (arrived, aligned, timer,
+stuck) are detected with array comparisons, and only the humans with an event wake their
+behaviour (`Lockstep.end_step`).
 """
 
 from __future__ import annotations
@@ -22,7 +23,6 @@ from hubero_dsl.planners.base import Crowd, Drive, NoPath
 from hubero_dsl.sim import physics
 from hubero_dsl.sim.arrays import FloatArray, HumanArrays, IntArray, PathPool
 from hubero_dsl.sim.behaviours import Behaviour
-from hubero_dsl.sim.lockstep import Lockstep
 from hubero_dsl.sim.reactions import Reactions
 from hubero_dsl.sim.robots import Robots
 from hubero_dsl.sim.status import Posture, TaskEvent, TaskHandle, TaskStatus
@@ -55,7 +55,7 @@ class Part:
 class Steering:
     """What a tick asks of the local planners: everyone as a Crowd, and who each steers."""
 
-    crowd: Crowd
+    crowd: Crowd | None  # None: not gathered (`JointSteering` stacks the engines' bodies)
     parts: list[Part]
 
 
@@ -86,7 +86,6 @@ class Engine:
         self._not_robot.setflags(write=False)
         self._crowd_shapes: tuple[ShapeArrays, ShapeArrays, ShapeArrays] | None = None
         self._separation = physics.BodySeparation()
-        self._lockstep = Lockstep()
         self.groups = dict(groups or {})  # a group's name -> its members' rows
         self._reactions = (Reactions(humans.reaction, dt) if humans.reaction is not None
                            else None)
@@ -353,16 +352,11 @@ class Engine:
 
     # ---- one tick ------------------------------------------------------------------------
 
-    def begin_step(self) -> Steering | None:
-        """A tick's first part: robots move, walkers pass their waypoints, and what the local
-        planners are to be asked is gathered (None: nobody walks). `steer` asks them and
-        `end_step` moves everyone; a vector environment asks for all its copies at once
-        (`Lockstep`)."""
-        return self._lockstep.begin_step([self])[0]
-
-    def steering(self) -> Steering | None:
-        """`begin_step` once the robots have moved: walkers pass their waypoints, and what
-        the local planners are to be asked is gathered (None: nobody walks)."""
+    def steering(self, crowd: bool = True) -> Steering | None:
+        """A tick's first part once the robots have moved (`Lockstep.begin_step`): walkers
+        pass their waypoints, and what the local planners are to be asked is gathered (None:
+        nobody walks), everyone as a Crowd unless `crowd` is False. `steer` asks them, and
+        `Lockstep.end_step` moves everyone."""
         humans = self.humans
         rows = humans.moving.nonzero()[0]
         if not len(rows):
@@ -373,24 +367,19 @@ class Engine:
         else:
             parts = [(name, (mask & humans.moving).nonzero()[0])
                      for name, mask in self._local_mask.items()]
-        return Steering(self.crowd(), [Part(name, steer, self._drive(steer))
+        return Steering(self.crowd() if crowd else None, [Part(name, steer, self._drive(steer))
                                        for name, steer in parts if len(steer)])
 
     def steer(self, steering: Steering | None) -> list[FloatArray]:
         """The local planners' velocities for each part of `steering`."""
         if steering is None:
             return []
-        return [self._local[part.planner].velocities(steering.crowd, part.drive, self.dt)
+        crowd = steering.crowd if steering.crowd is not None else self.crowd()
+        return [self._local[part.planner].velocities(crowd, part.drive, self.dt)
                 for part in steering.parts]
 
     def local_planner(self, name: str) -> LocalPlanner:
         return self._local[name]
-
-    def end_step(self, steering: Steering | None, steered: list[FloatArray]) -> None:
-        """A tick's last part: with the planners' velocities (`steer`), everyone moves, then
-        the tick's events are dispatched (`Lockstep`, which ends many engines' ticks at once
-        for a vector environment)."""
-        self._lockstep.end_step([self], [steering], [steered])
 
     def _diverged(self, moved: FloatArray) -> None:
         """A position that is not a finite number is an error of the run: the parameters drove

@@ -20,8 +20,9 @@ import dataclasses
 import numpy as np
 
 from hubero_dsl.planners.base import Crowd, Drive, LocalPlanner, joined_planner
-from hubero_dsl.sim.arrays import FloatArray
+from hubero_dsl.sim.arrays import BoolArray, FloatArray, HumanArrays, IntArray
 from hubero_dsl.sim.engine import Engine, Steering
+from hubero_dsl.sim.robots import Robots
 from hubero_dsl.world.shapes import ShapeArrays
 
 
@@ -31,6 +32,10 @@ class JointSteering:
 
     def __init__(self) -> None:
         self._joined: dict[str, tuple[list[LocalPlanner], LocalPlanner | None]] = {}
+        # the stack's personal spaces, whether each row is a robot, and its world, kept for
+        # as long as the engines' shape arrays are the same objects (held here, so that none
+        # of them is freed and another takes its place unnoticed)
+        self._layout: tuple[list[ShapeArrays], ShapeArrays, BoolArray, IntArray] | None = None
 
     def steer(self, engines: list[Engine], steerings: list[Steering | None]
               ) -> list[list[FloatArray]]:
@@ -40,10 +45,8 @@ class JointSteering:
         answers = [[np.zeros((0, 2))] * len(parts.get(i, [])) for i in range(len(engines))]
         if not parts:
             return answers
-        crowds = [s.crowd if s is not None else e.crowd() for e, s in zip(engines, steerings,
-                                                                           strict=True)]
-        starts = np.cumsum([0] + [crowd.count for crowd in crowds]).tolist()
-        stack = _stacked(crowds)
+        stack = self._stacked(engines)
+        starts = np.cumsum([0] + [e.humans.count + e.robots.count for e in engines]).tolist()
         for name in sorted({part.planner for copy in parts.values() for part in copy}):
             asked = [(i, j) for i, copy in parts.items() for j, part in enumerate(copy)
                      if part.planner == name]
@@ -51,7 +54,7 @@ class JointSteering:
             if planner is None:  # steered copy by copy, as a single run is
                 for i, j in asked:
                     answers[i][j] = engines[i].local_planner(name).velocities(
-                        crowds[i], parts[i][j].drive, engines[i].dt)
+                        engines[i].crowd(), parts[i][j].drive, engines[i].dt)
                 continue
             drive = _stacked_drive([parts[i][j].drive for i, j in asked],
                                    [starts[i] for i, _ in asked])
@@ -60,6 +63,26 @@ class JointSteering:
             for (i, j), start, end in zip(asked, [0, *ends[:-1]], ends, strict=True):
                 answers[i][j] = velocity[start:end]
         return answers
+
+    def _stacked(self, engines: list[Engine]) -> Crowd:
+        """Every engine's crowd (humans, then robots), one after another, each a world of its
+        own; the rows' shapes, kinds and worlds are joined again only when they change."""
+        bodies: list[HumanArrays | Robots] = [b for e in engines for b in (e.humans, e.robots)]
+        spaces = [b.personal_space for b in bodies]
+        kept = self._layout
+        if kept is None or len(kept[0]) != len(spaces) or any(
+                a is not b for a, b in zip(kept[0], spaces, strict=True)):
+            sizes = [len(b.radius) for b in bodies]
+            kept = self._layout = (spaces, ShapeArrays.stacked(spaces),
+                                   np.repeat(np.tile([False, True], len(engines)), sizes),
+                                   np.repeat(np.arange(len(engines)),
+                                             [e.humans.count + e.robots.count for e in engines]))
+        _, shapes, is_robot, world = kept
+        return Crowd(position=np.concatenate([b.position for b in bodies]),
+                     velocity=np.concatenate([b.velocity for b in bodies]),
+                     heading=np.concatenate([b.heading for b in bodies]),
+                     radius=np.concatenate([b.radius for b in bodies]),
+                     personal_space=shapes, is_robot=is_robot, world=world)
 
     def _planner(self, name: str, engines: list[Engine]) -> LocalPlanner | None:
         planners = [engine.local_planner(name) for engine in engines]
@@ -70,17 +93,6 @@ class JointSteering:
         joined = joined_planner(planners)
         self._joined[name] = (planners, joined)
         return joined
-
-
-def _stacked(crowds: list[Crowd]) -> Crowd:
-    """The crowds' rows one after another, each crowd a world of its own."""
-    return Crowd(position=np.concatenate([c.position for c in crowds]),
-                 velocity=np.concatenate([c.velocity for c in crowds]),
-                 heading=np.concatenate([c.heading for c in crowds]),
-                 radius=np.concatenate([c.radius for c in crowds]),
-                 personal_space=ShapeArrays.stacked([c.personal_space for c in crowds]),
-                 is_robot=np.concatenate([c.is_robot for c in crowds]),
-                 world=np.repeat(np.arange(len(crowds)), [c.count for c in crowds]))
 
 
 def _stacked_drive(drives: list[Drive], offsets: list[int]) -> Drive:

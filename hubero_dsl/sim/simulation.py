@@ -126,6 +126,7 @@ class Simulation:
         self.params = draw_params(program, variant, self.seed)
         self._shared_planners = planners
         self.engine = self._build_engine(build_controllers(program, controllers or {}))
+        self._lockstep = Lockstep()  # the engine's tick, array by array
         self._ids = itertools.count(1)
         places = {name: pose.xy for name, pose in program.places.items()}
         self._humans = {name: HumanHandle(self.engine, name, places, self._ids)
@@ -199,51 +200,40 @@ class Simulation:
         self.end_step(steering, self.engine.steer(steering))
 
     def begin_step(self) -> Steering | None:
-        """`step` up to the local planners (`Engine.begin_step`); `end_step` finishes it."""
-        self._before_step()
-        return self._begin_advance()
+        """`step` up to the local planners (`Lockstep.begin_step`); `end_step` finishes it."""
+        return Simulation.begin_steps([self], self._lockstep)[0]
+
+    def end_step(self, steering: Steering | None, steered: list[FloatArray]) -> None:
+        """The rest of `step`, given the local planners' answers (`Engine.steer`)."""
+        Simulation.end_steps([self], [steering], [steered], self._lockstep)
 
     @staticmethod
     def begin_steps(sims: list[Simulation], lockstep: Lockstep) -> list[Steering | None]:
         """`begin_step` of simulations of one scenario, their engines' ticks begun together
-        (`Lockstep`): what each would do alone."""
+        by `lockstep`: what each would do alone."""
         for sim in sims:
-            sim._before_step()
+            if sim.scheduler is not None:
+                sim.scheduler.update()
             sim._update_flows()
         return lockstep.begin_step([sim.engine for sim in sims])
-
-    def _before_step(self) -> None:
-        if self.scheduler is not None:
-            self.scheduler.update()
-
-    def end_step(self, steering: Steering | None, steered: list[FloatArray]) -> None:
-        """The rest of `step`, given the local planners' answers (`Engine.steer`)."""
-        self.engine.end_step(steering, steered)
-        self._after_step()
 
     @staticmethod
     def end_steps(sims: list[Simulation], steerings: list[Steering | None],
                   steered: list[list[FloatArray]], lockstep: Lockstep) -> None:
         """`end_step` of simulations of one scenario, their engines' ticks ended together
-        (`Lockstep`): what each would do alone."""
+        by `lockstep`: what each would do alone."""
         lockstep.end_step([sim.engine for sim in sims], steerings, steered)
         for sim in sims:
-            sim._after_step()
-
-    def _after_step(self) -> None:
-        if self.scheduler is not None:
-            self.scheduler.after_step()
+            if sim.scheduler is not None:
+                sim.scheduler.after_step()
 
     def advance(self) -> None:
         """The world's part of a tick: flows bring people in and see them off, then everyone
         moves."""
-        steering = self._begin_advance()
-        self.engine.end_step(steering, self.engine.steer(steering))
-
-    def _begin_advance(self) -> Steering | None:
-        """The world's part up to the local planners: flows, then `Engine.begin_step`."""
         self._update_flows()
-        return self.engine.begin_step()
+        engines = [self.engine]
+        steering = self._lockstep.begin_step(engines)[0]
+        self._lockstep.end_step(engines, [steering], [self.engine.steer(steering)])
 
     def _update_flows(self) -> None:
         if self.flows is not None:
