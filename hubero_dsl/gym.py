@@ -383,7 +383,7 @@ def sense(sims: list[Simulation], spec: RobotSpec, max_people: int) -> Senses:
     people = np.zeros((episodes * max_people, 5), dtype=np.float32)
     mask = np.zeros(episodes * max_people, dtype=np.int8)
     if len(seen):
-        slot = rank if episodes == 1 else world[seen] * max_people + rank
+        slot = slice(0, len(seen)) if episodes == 1 else world[seen] * max_people + rank
         people[slot, 0:2] = offset[seen]
         people[slot, 2:4] = _joined([h.velocity for h in humans])[seen]
         people[slot, 4] = radius[seen]

@@ -41,38 +41,84 @@ class LabelBook:
 
 
 class Conditions:
-    """Judges conditions now: the engine's positions and time, the scheduler's labels."""
+    """Judges conditions now: the engine's positions and time, the scheduler's labels.
+
+    A condition that is asked again and again (an `expect` every tick, a `wait until`) is
+    turned once into a function of the world: names resolved to the engine's rows, the
+    comparison chosen, so that each tick only reads positions and compares.
+    """
 
     def __init__(self, engine: Engine, labels: LabelBook) -> None:
         self.engine = engine
         self.labels = labels
+        # by the condition's identity; the condition is kept, so its id is never reused
+        self._tests: dict[int, tuple[c.Condition, Callable[[], bool]]] = {}
 
     def holds(self, condition: c.Condition) -> bool:
+        kept = self._tests.get(id(condition))
+        if kept is None:
+            kept = self._tests[id(condition)] = (condition, self._test(condition))
+        return kept[1]()
+
+    def _test(self, condition: c.Condition) -> Callable[[], bool]:
+        """A function telling whether `condition` holds now."""
         match condition:
             case c.LabelCondition(label=label, event=event):
-                return self.labels.holds(label.name, event)
+                return lambda: self.labels.holds(label.name, event)
             case c.Reaches(subject=subject, target=target):
-                gap = self._distance(subject, target)
-                return gap is not None and gap <= self._tolerance(subject)
+                return self._within(subject, target, operator.le,
+                                    self.engine.goal_tolerance_of(subject))
             case c.DistanceTo(subject=subject, target=target, operator=op, threshold=threshold):
-                gap = self._distance(subject, target)
-                return gap is not None and COMPARE[op](gap, threshold)
+                return self._within(subject, target, COMPARE[op], threshold)
             case c.Inside(subject=subject, area=area):
-                where = self.engine.position_of(subject)
-                return where is not None and bool(shapely.contains_xy(area, *where))
+                def inside() -> bool:
+                    where = self.engine.position_of(subject)
+                    return where is not None and bool(shapely.contains_xy(area, *where))
+                return inside
             case c.CountInside(members=members, area=area, operator=op, threshold=threshold):
-                return COMPARE[op](self._count_inside(members, area), threshold)
+                compare = COMPARE[op]
+                return lambda: compare(self._count_inside(members, area), threshold)
             case c.TimeCompare(operator=op, threshold=threshold):
                 # `time >= 2 s` holds at the tick that reaches 2 s despite rounding
-                return COMPARE[op](self.engine.time, threshold - 1e-9
-                                   if op in (">=", "<") else threshold)
+                compare = COMPARE[op]
+                bound = threshold - 1e-9 if op in (">=", "<") else threshold
+                return lambda: compare(self.engine.time, bound)
             case c.Not(operand=operand):
-                return not self.holds(operand)
+                test = self._test(operand)
+                return lambda: not test()
             case c.AllOf(operands=operands):
-                return all(self.holds(o) for o in operands)
+                tests = [self._test(o) for o in operands]
+                return lambda: all(t() for t in tests)
             case c.AnyOf(operands=operands):
-                return any(self.holds(o) for o in operands)
+                tests = [self._test(o) for o in operands]
+                return lambda: any(t() for t in tests)
         raise TypeError(f"unknown condition {condition!r}")
+
+    def _within(self, subject: str, target: Target, compare: Callable[[float, float], bool],
+                bound: float) -> Callable[[], bool]:
+        """Whether the distance between `subject` and `target` compares with `bound` (never
+        when either is gone)."""
+        here, there = self._locator(subject), self._locator(target)
+
+        def holds() -> bool:
+            a, b = here(), there()
+            return a is not None and b is not None and compare(
+                math.hypot(b[0] - a[0], b[1] - a[1]), bound)
+        return holds
+
+    def _locator(self, target: Target) -> Callable[[], tuple[float, float] | None]:
+        """Where `target` is now (`Engine.position_of`), with a human's row found once."""
+        engine = self.engine
+        if isinstance(target, str) and target in engine.humans.names:
+            row = engine.index_of(target)
+
+            def human() -> tuple[float, float] | None:
+                if target in engine.removed:
+                    return None
+                x, y = engine.humans.position[row].tolist()
+                return (x, y)
+            return human
+        return lambda: engine.position_of(target)
 
     def _count_inside(self, members: tuple[str, ...], area: object) -> int:
         where = [p for p in (self.engine.position_of(m) for m in members) if p is not None]
@@ -80,13 +126,3 @@ class Conditions:
             return 0
         points = np.asarray(where)
         return int(np.count_nonzero(shapely.contains_xy(area, points[:, 0], points[:, 1])))
-
-    def _distance(self, subject: str, target: Target) -> float | None:
-        here = self.engine.position_of(subject)
-        there = self.engine.position_of(target)
-        if here is None or there is None:
-            return None
-        return math.hypot(there[0] - here[0], there[1] - here[1])
-
-    def _tolerance(self, subject: str) -> float:
-        return self.engine.goal_tolerance_of(subject)
