@@ -145,6 +145,9 @@ class Judge:
         Gymnasium env's episodes share theirs), filled in as this run finds more."""
         self.sim = sim
         self.verdicts = [Verdict(e) for e in sim.program.expectations]
+        # the verdicts judged tick by tick (metrics wait for the end), while undecided
+        self._watched = [(v, condition) for v in self.verdicts
+                         if not isinstance(condition := v.expectation.condition, MetricCompare)]
         wants = record_tracks or any(isinstance(e.condition, MetricCompare)
                                      for e in sim.program.expectations)
         self.tracks: Tracks | None = (Tracks(plan_lengths={} if plan_lengths is None
@@ -154,12 +157,15 @@ class Judge:
 
     def observe(self) -> None:
         """After a tick: conditions as they hold now; positions for the metrics."""
+        if not self._watched:
+            return
         sim = self.sim
         assert sim.scheduler is not None
-        for verdict in self.verdicts:
-            condition = verdict.expectation.condition
-            if verdict.held is None and not isinstance(condition, MetricCompare):
-                verdict.observe(sim.scheduler.conditions.holds(condition), sim.time)
+        holds, time = sim.scheduler.conditions.holds, sim.time
+        for verdict, condition in self._watched:
+            verdict.observe(holds(condition), time)
+        if any(verdict.held is not None for verdict, _ in self._watched):
+            self._watched = [watched for watched in self._watched if watched[0].held is None]
 
     def record(self) -> None:
         if self.tracks is not None and (not self.tracks.time

@@ -76,6 +76,7 @@ class Scheduler:
 
     def __post_init__(self) -> None:
         self.conditions = Conditions(self.engine, self.labels)
+        self._last_tick = self.engine.ticks(self.time_limit)
         self._scopes = label_scopes(self.graph)
         self._label_of_member = {m: s.label for s in self._scopes.values() for m in s.members}
         self.tokens = []
@@ -111,7 +112,7 @@ class Scheduler:
         if all(self._idle_forever(t) for t in self.tokens) and not (
                 self.keep_alive is not None and self.keep_alive()):
             self.state = RunState.COMPLETED
-        elif self.engine.tick >= self.engine.ticks(self.time_limit):
+        elif self.engine.tick >= self._last_tick:
             self.state = RunState.TIMED_OUT
             self.reason = f"time limit of {self.time_limit:g} s reached"
 
