@@ -138,11 +138,11 @@ class Robots:
         return wanted
 
     def _face(self, velocity: Sequence[Sequence[float]]) -> None:
-        """A holonomic robot faces where it goes (numpy's functions on floats: the values its
+        """A holonomic robot faces where it goes (numpy's arctan2 on floats: the values its
         arrays would give)."""
         for i in self._holonomic:
             vx, vy = velocity[i]
-            if np.hypot(vx, vy) > 1e-6:
+            if math.hypot(vx, vy) > 1e-6:
                 self.heading[i] = np.arctan2(vy, vx)
 
     def _moved_few(self, wanted: list[tuple[float, float]], dt: float
@@ -349,7 +349,7 @@ def move_fleets(fleets: Sequence[Robots], wanted: Sequence[list[tuple[float, flo
     moved = physics.keep_out_of_walls(fleets[0].grid, old, proposed,
                                       np.concatenate([fleet.radius for fleet in fleets]))
     step = moved - old
-    starts = np.cumsum([0] + [fleet.count for fleet in fleets]).tolist()
+    starts = list(itertools.accumulate((fleet.count for fleet in fleets), initial=0))
     if moved is not proposed:
         stopped = (moved != proposed).any(axis=1)
         for start, end in itertools.pairwise(starts):
