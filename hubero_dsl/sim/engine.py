@@ -381,16 +381,20 @@ class Engine:
     def local_planner(self, name: str) -> LocalPlanner:
         return self._local[name]
 
-    def _diverged(self, moved: FloatArray) -> None:
-        """A position that is not a finite number is an error of the run: the parameters drove
-        the model out of range. It is reported, never written to the log as a jump."""
+    def diverged(self, moved: FloatArray) -> None:
+        """Raise for the humans whose position `moved` is not a finite number: an error of the
+        run (the parameters drove the model out of range), never written to the log as a
+        jump."""
         bad = [self.humans.names[i] for i in np.flatnonzero(~np.isfinite(moved).all(axis=1))]
         shown = ", ".join(bad[:5]) + (f" and {len(bad) - 5} more" if len(bad) > 5 else "")
         raise SimulationError(
             f"the simulation diverged at t = {self.time + self.dt:g} s: the position of {shown} "
             "is not a finite number (check the force parameters and the step)")
 
-    def _velocities(self, steering: Steering | None, steered: list[FloatArray]) -> FloatArray:
+    def velocities(self, steering: Steering | None, steered: list[FloatArray]) -> FloatArray:
+        """Every human's velocity this tick: the local planners' answers (`steered`, one per
+        part of `steering`) kept together in groups and adjusted to robots, teleoperation's
+        where it drives, zero for the others."""
         humans = self.humans
         velocity = np.zeros(humans.velocity.shape)
         if steering is not None:
@@ -492,7 +496,9 @@ class Engine:
             cached = self._crowd_shapes = (h, r, ShapeArrays.stacked([h, r]))
         return cached[2]
 
-    def _separate(self, moved: FloatArray, movable: np.ndarray) -> FloatArray:
+    def separated(self, moved: FloatArray, movable: np.ndarray) -> FloatArray:
+        """The humans at `moved` pushed apart from each other and from the robots (which do
+        not move); `moved` itself when nobody overlaps."""
         r = self.robots
         count = self.humans.count + r.count
         if count < 2:
@@ -509,7 +515,8 @@ class Engine:
         separated = self._separation(everyone, radius, can_move)
         return moved if separated is everyone else separated[: self.humans.count]
 
-    def _wake(self, index: int, arrived: bool, aligned: bool, stuck: bool, timer: bool) -> None:
+    def wake(self, index: int, arrived: bool, aligned: bool, stuck: bool, timer: bool) -> None:
+        """Human `index`'s events of this tick, handed to its behaviour."""
         h = self.humans
         behaviour = self.behaviour[index]
         if arrived:

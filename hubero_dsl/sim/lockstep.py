@@ -46,6 +46,7 @@ class Lockstep:
 
     def __init__(self) -> None:
         self._overlaps = PairFinder(skin=0.6)
+        self._worlds: IntArray | None = None  # the engine of each row the finder was built on
 
     def begin_step(self, engines: Sequence[Engine]) -> list[Steering | None]:
         """A tick's first part for each engine: the robots of all of them move together
@@ -73,7 +74,7 @@ class Lockstep:
         active = [s is not None or bool(e.humans.teleop.any())
                   for e, s in zip(engines, steerings, strict=True)]
         velocity = (None if not any(active) else rows.join([
-            e._velocities(s, v) if on else np.zeros(e.humans.velocity.shape)
+            e.velocities(s, v) if on else np.zeros(e.humans.velocity.shape)
             for e, s, v, on in zip(engines, steerings, steered, active, strict=True)]))
         self._move(rows, velocity)
         heading_goals = ~np.isnan(rows.humans.heading_goal)
@@ -101,7 +102,7 @@ class Lockstep:
         if not np.isfinite(separated).all():  # before the walls, which would hide it as a stop
             bad = int(np.flatnonzero(~np.isfinite(separated).all(axis=1))[0])
             engine, part = rows.engine_of(bad)
-            engine._diverged(rows.part(separated, part))
+            engine.diverged(rows.part(separated, part))
         if velocity is None and separated is moved:
             # at rest and nobody overlaps: nobody moved, so the walls stop no one and no one
             # walked any length (the values the arithmetic below would give)
@@ -120,14 +121,14 @@ class Lockstep:
         nobody overlaps."""
         engines = rows.engines
         if len(engines) == 1:
-            return engines[0]._separate(moved, movable)
+            return engines[0].separated(moved, movable)
         overlapping = self._overlapping(rows, moved)
         if not overlapping:
             return moved
         separated = moved.copy()
         for part in overlapping:
             start, end = rows.starts[part], rows.starts[part + 1]
-            separated[start:end] = engines[part]._separate(moved[start:end],
+            separated[start:end] = engines[part].separated(moved[start:end],
                                                            movable[start:end])
         return separated
 
@@ -141,6 +142,9 @@ class Lockstep:
                                 np.repeat(np.arange(len(engines)), [r.count for r in robots])])
         if not np.isfinite(position).all() or not len(radius):
             return list(range(len(engines)))  # each engine's own separation reports it
+        if self._worlds is None or not np.array_equal(self._worlds, world):
+            # rows changed engines (another set of copies ticks): the finder's pairs are void
+            self._overlaps, self._worlds = PairFinder(skin=0.6), world
         pairs = self._overlaps.find(position, np.full(len(radius), 2.0 * float(radius.max())),
                                     world)
         hit = radius[pairs.first] + radius[pairs.second] > pairs.distance
@@ -274,7 +278,7 @@ def _dispatch_events(rows: _Rows, walkers: list[bool], heading_goals: BoolArray)
         return
     for row in wake.nonzero()[0].tolist():
         engine, part = rows.engine_of(row)
-        engine._wake(row - rows.starts[part], arrived is not None and bool(arrived[row]),
+        engine.wake(row - rows.starts[part], arrived is not None and bool(arrived[row]),
                      aligned is not None and bool(aligned[row]),
                      stuck is not None and bool(stuck[row]), bool(timer[row]))
 

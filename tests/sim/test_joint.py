@@ -10,6 +10,7 @@ import pytest
 from hubero_dsl.planners.base import Crowd, Drive
 from hubero_dsl.sim.arrays import FloatArray
 from hubero_dsl.sim.joint import JointSteering
+from hubero_dsl.sim.lockstep import Lockstep
 from hubero_dsl.sim.simulation import Simulation
 from tests.sim.conftest import ScenarioFactory
 
@@ -54,13 +55,11 @@ def test_copies_steered_together_move_as_each_alone(scenario: ScenarioFactory,
         for sim in together:
             planners = sim.engine._local
             planners["social_force"] = Opaque(planners["social_force"])
-    joint, walked = JointSteering(), 0
+    joint, lockstep, walked = JointSteering(), Lockstep(), 0
     for _ in range(300):
-        steerings = [sim.begin_step() for sim in together]
-        for sim, steering, steered in zip(together, steerings,
-                                          joint.steer([s.engine for s in together], steerings),
-                                          strict=True):
-            sim.end_step(steering, steered)
+        steerings = Simulation.begin_steps(together, lockstep)
+        steered = joint.steer([s.engine for s in together], steerings)
+        Simulation.end_steps(together, steerings, steered, lockstep)
         for sim in alone:
             sim.step()
         for mine, theirs in zip(together, alone, strict=True):
