@@ -57,7 +57,8 @@ def cli_subprocess() -> Callable[..., Outcome]:
 
 def _run_subprocess(*argv: str, cwd: Path | None = None, **env: str) -> Outcome:
     if cwd is None:  # never the checkout: `hubero run` writes its log to ./runs/
-        cwd = Path(tempfile.mkdtemp(prefix="hubero-cli-"))
+        with tempfile.TemporaryDirectory(prefix="hubero-cli-") as folder:
+            return _run_subprocess(*argv, cwd=Path(folder), **env)
     environment = {k: v for k, v in os.environ.items()
                    if k not in ("FORCE_COLOR", "HUBERO_DEBUG")}
     environment.update(env)
