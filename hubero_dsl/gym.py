@@ -62,7 +62,7 @@ from hubero_dsl.model.program import Program, RobotSpec
 from hubero_dsl.sim.arrays import FloatArray, IntArray
 from hubero_dsl.sim.joint import JointSteering
 from hubero_dsl.sim.judge import Judge, PlanQuery
-from hubero_dsl.sim.lockstep import Lockstep
+from hubero_dsl.sim.lockstep import Lockstep, joined
 from hubero_dsl.sim.physics import wrap_angle
 from hubero_dsl.sim.robots import Robots
 from hubero_dsl.sim.simulation import GlobalPlanners, Simulation
@@ -339,12 +339,14 @@ def observation_space(program: Program, max_people: int, map_patch: int | None) 
 class Senses:
     """What the robots of several episodes see now, as their observations lay it out (row i:
     episode i): `robot` (E, 7), `people` (E, max_people, 5) and `mask` (E, max_people), and
-    `gap`, the smallest surface gap between each robot and a person (inf: nobody there)."""
+    `gap`, the smallest surface gap between each robot and a person (inf: nobody there);
+    `position`, each robot's, unrounded."""
 
     robot: npt.NDArray[np.float32]
     people: npt.NDArray[np.float32]
     mask: npt.NDArray[np.int8]
     gap: FloatArray
+    position: FloatArray
 
     def observation(self, index: int, sim: Simulation, map_patch: int | None
                     ) -> dict[str, npt.NDArray[Any]]:
@@ -352,7 +354,7 @@ class Senses:
         observation = {"robot": self.robot[index], "people": self.people[index],
                        "mask": self.mask[index]}
         if map_patch is not None:
-            x, y = self.robot[index, :2].tolist()
+            x, y = self.position[index].tolist()
             observation["map"] = _patch(sim, (x, y), map_patch)
         return observation
 
@@ -372,8 +374,8 @@ def sense(sims: list[Simulation], spec: RobotSpec, max_people: int) -> Senses:
     counts = [h.count for h in humans]
     world = (np.zeros(counts[0], dtype=np.intp) if episodes == 1
              else np.repeat(np.arange(episodes), counts))
-    position = _joined([h.position for h in humans])
-    radius = _joined([h.radius for h in humans])
+    position = joined([h.position for h in humans])
+    radius = joined([h.radius for h in humans])
     offset = position - (here if episodes == 1 else here[world])  # one robot: broadcast
     distance = np.hypot(offset[:, 0], offset[:, 1])
     surface = distance - radius
@@ -385,21 +387,17 @@ def sense(sims: list[Simulation], spec: RobotSpec, max_people: int) -> Senses:
     if len(seen):
         slot = slice(0, len(seen)) if episodes == 1 else world[seen] * max_people + rank
         people[slot, 0:2] = offset[seen]
-        people[slot, 2:4] = _joined([h.velocity for h in humans])[seen]
+        people[slot, 2:4] = joined([h.velocity for h in humans])[seen]
         people[slot, 4] = radius[seen]
         mask[slot] = 1
     return Senses(robot, people.reshape(episodes, max_people, 5),
-                  mask.reshape(episodes, max_people), gap)
+                  mask.reshape(episodes, max_people), gap, here)
 
 
 def _robot_state(robots: Robots, name: str) -> list[float]:
     """x, y, vx, vy, heading of robot `name`, as floats."""
     i = robots.index_of(name)
     return [*robots.position[i].tolist(), *robots.velocity[i].tolist(), float(robots.heading[i])]
-
-
-def _joined(arrays: list[FloatArray]) -> FloatArray:
-    return arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
 
 
 def _nearest_gaps(surface: FloatArray, counts: list[int]) -> FloatArray:
@@ -518,7 +516,8 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
         return self._batch(observations), rewards, terminated, truncated, infos
 
     def _tick(self, actions: npt.NDArray[np.float32]) -> dict[int, Outcome]:
-        """One tick of every copy whose episode goes on; their walkers are steered together."""
+        """One tick of every copy whose episode goes on, its array work done for all of them
+        at once (`Lockstep`, `JointSteering`, `sense`)."""
         going = [i for i in range(self.num_envs) if not self._done[i]]
         if not going:
             return {}

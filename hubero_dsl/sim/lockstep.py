@@ -151,6 +151,11 @@ class Lockstep:
         return sorted(set(world[pairs.first[hit]].tolist()))
 
 
+def joined(arrays: list[_Array]) -> _Array:
+    """Arrays one after another; one array itself (numpy's concatenate copies)."""
+    return arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
+
+
 def _check_shared(engines: Sequence[Engine]) -> None:
     first = engines[0]
     if len(engines) > 1 and any(e.grid is not first.grid or e.dt != first.dt for e in engines):
@@ -208,7 +213,7 @@ class _Rows:
 
     def join(self, arrays: list[_Array]) -> _Array:
         """The engines' arrays, one after another (one engine's array itself)."""
-        return arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
+        return joined(arrays)
 
     def part(self, array: _Array, index: int) -> _Array:
         return array[self.starts[index]:self.starts[index + 1]]
