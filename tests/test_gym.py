@@ -235,6 +235,40 @@ def test_the_vector_envs_copies_are_the_single_envs_exactly(tmp_path: Path) -> N
     assert 100 < met < 3 * 450  # the robots saw people, and not always (range, view)
 
 
+LOUNGE = Path(__file__).resolve().parents[1] / "scenarios" / "lounge_crowd.hub"
+
+
+def test_copies_among_a_crowd_a_group_and_a_robot_are_the_single_envs_exactly(
+        tmp_path: Path) -> None:
+    # the shipped lounge crowd (8 visitors wandering, a family walking as a group, a robot
+    # with the reference navigator, metric expectations) with a driven robot added, which
+    # a child meets curiously: every part of a tick done for the copies together
+    text = LOUNGE.read_text(encoding="utf-8").replace(
+        'map "../maps/', f'map "{LOUNGE.parents[1] / "maps"}/').replace(
+        "radius 0.15 m; speed 0.9 m/s", "radius 0.15 m; speed 0.9 m/s; robot_reaction curious")
+    file = tmp_path / "lounge_gym.hub"
+    file.write_text(text + "robot bot at (-4.0, 1.0) { controller external; goal (2.0, 4.5) }\n",
+                    encoding="utf-8")
+    copies = 3
+    envs = gymnasium.make_vec(hubero_dsl.gym.ENV_ID, num_envs=copies,
+                              vectorization_mode="vector_entry_point", scenario=str(file),
+                              robot="bot")
+    observations, _ = envs.reset(seed=5)
+    singles = [gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(file), robot="bot")
+               for _ in range(copies)]
+    alone = [env.reset(seed=5 + i)[0] for i, env in enumerate(singles)]
+    rng = np.random.default_rng(1)
+    for _ in range(300):
+        actions = rng.uniform(-1.0, 1.0, size=(copies, 2)).astype(np.float32)
+        observations, rewards, *_ = envs.step(actions)
+        for i, env in enumerate(singles):
+            alone[i], reward, *_ = env.step(actions[i])
+            assert reward == rewards[i]
+        for key in observations:
+            np.testing.assert_array_equal(np.stack([o[key] for o in alone]), observations[key])
+    assert observations["mask"].sum() > 0  # the driven robots see people
+
+
 def test_an_observation_holds_whom_the_robots_sensors_see(tmp_path: Path) -> None:
     limited = _scenario(tmp_path).read_text(encoding="utf-8").replace(
         "radius 0.3 m", "radius 0.3 m; sensor_range 4 m; field_of_view 200 deg")
