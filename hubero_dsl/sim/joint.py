@@ -16,6 +16,7 @@ neighbours, whose pushes may be summed in another order (a difference in the las
 from __future__ import annotations
 
 import dataclasses
+import itertools
 
 import numpy as np
 
@@ -46,7 +47,8 @@ class JointSteering:
         if not parts:
             return answers
         stack = self._stacked(engines)
-        starts = np.cumsum([0] + [e.humans.count + e.robots.count for e in engines]).tolist()
+        starts = list(itertools.accumulate((e.humans.count + e.robots.count for e in engines),
+                                           initial=0))
         for name in sorted({part.planner for copy in parts.values() for part in copy}):
             asked = [(i, j) for i, copy in parts.items() for j, part in enumerate(copy)
                      if part.planner == name]
