@@ -224,10 +224,14 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
 
     def _act(self, action: npt.NDArray[np.float32]) -> None:
         """Hand the robot the action for the coming tick (the controller is not asked)."""
+        self._act_floats(np.asarray(action, dtype=np.float64).reshape(2).tolist(), action)
+
+    def _act_floats(self, action: list[float], given: object) -> None:
+        """`_act` with the action as two floats (`given`: as the caller gave it)."""
         self._simulation()
-        first, second = np.asarray(action, dtype=np.float64).reshape(2).tolist()
+        first, second = action
         if not math.isfinite(first + second):
-            raise ValueError(f"an action is two finite numbers, not {action!r}")
+            raise ValueError(f"an action is two finite numbers, not {given!r}")
         (low_1, high_1), (low_2, high_2) = self._action_bounds  # the box's clipping, in floats
         self._robot.drive(min(max(first, low_1), high_1), min(max(second, low_2), high_2))
 
@@ -522,8 +526,9 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
         if not going:
             return {}
         envs = [self.envs[i] for i in going]
+        rows = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, 2).tolist()
         for i, env in zip(going, envs, strict=True):
-            env._act(actions[i])
+            env._act_floats(rows[i], actions[i])
         sims = [env._simulation() for env in envs]
         steerings = Simulation.begin_steps(sims, self._lockstep)
         steered = self._steering.steer([sim.engine for sim in sims], steerings)
