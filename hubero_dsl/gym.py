@@ -63,8 +63,7 @@ from hubero_dsl.sim.arrays import FloatArray, IntArray
 from hubero_dsl.sim.joint import JointSteering
 from hubero_dsl.sim.judge import Judge, PlanQuery
 from hubero_dsl.sim.lockstep import Lockstep, joined
-from hubero_dsl.sim.physics import wrap_angle
-from hubero_dsl.sim.robots import Robots
+from hubero_dsl.sim.robots import Robots, in_view
 from hubero_dsl.sim.simulation import GlobalPlanners, Simulation
 from hubero_dsl.socialnav import CONTACT
 
@@ -271,7 +270,6 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
 
     # ---- the end of an episode ---------------------------------------------------------------
 
-
     def _episode_info(self, outcome: str) -> dict[str, Any]:
         """How the episode ended, the robot's social-navigation metrics over it (as
         docs/analysis.md defines them) and the scenario's expectations, judged."""
@@ -421,11 +419,9 @@ def _nearest_seen(offset: FloatArray, distance: FloatArray, surface: FloatArray,
     """The rows each robot sees (within its sensor range and field of view), nearest first
     and at most `max_people` of each episode (`world`), and each one's rank among them
     (`states`: each robot's `_robot_state`)."""
-    visible = surface <= spec.sensor_range
-    if spec.field_of_view < 2 * math.pi:
-        heading = np.array([state[4] for state in states])
-        bearing = np.arctan2(offset[:, 1], offset[:, 0]) - heading[world]
-        visible &= np.abs(wrap_angle(bearing)) <= spec.field_of_view / 2
+    heading = (states[0][4] if len(states) == 1
+               else np.array([state[4] for state in states])[world])
+    visible = in_view(spec, offset, surface, heading)
     rows = visible.nonzero()[0]
     if len(states) == 1:  # one episode: nearest first, its rank its place
         if len(rows) > 1:

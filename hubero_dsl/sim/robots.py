@@ -27,7 +27,7 @@ from hubero_dsl.controllers.base import Neighbour, Observation, RobotBody, Robot
 from hubero_dsl.errors import SimulationError
 from hubero_dsl.model.tasks import Target, Task
 from hubero_dsl.sim import physics
-from hubero_dsl.sim.arrays import FloatArray, HumanArrays, IntArray
+from hubero_dsl.sim.arrays import BoolArray, FloatArray, HumanArrays, IntArray
 from hubero_dsl.sim.status import TaskHandle, TaskStatus
 from hubero_dsl.world.shapes import Circle, ShapeArrays
 
@@ -194,18 +194,12 @@ class Robots:
                                (float(velocity[r, 0]), float(velocity[r, 1])), float(radius[r]))
                      for r in rows)
 
-    def seen_rows(self, i: int, position: FloatArray, radius: FloatArray,
-                  around: tuple[FloatArray, FloatArray] | None = None) -> IntArray:
-        """The rows of the bodies at `position` that robot `i` sees, nearest first (`around`:
-        their `offsets_from(i, position)`, when the caller has them already)."""
-        spec = self.specs[i]
-        offset, distance = around or self.offsets_from(i, position)
-        visible = distance - radius <= spec.sensor_range
+    def seen_rows(self, i: int, position: FloatArray, radius: FloatArray) -> IntArray:
+        """The rows of the bodies at `position` that robot `i` sees, nearest first."""
+        offset, distance = self.offsets_from(i, position)
+        visible = in_view(self.specs[i], offset, distance - radius, float(self.heading[i]))
         if position is self.position:
             visible[i] = False
-        if spec.field_of_view < 2 * math.pi:
-            bearing = np.arctan2(offset[:, 1], offset[:, 0]) - self.heading[i]
-            visible &= np.abs(physics.wrap_angle(bearing)) <= spec.field_of_view / 2
         rows = visible.nonzero()[0]
         return rows[np.argsort(distance[rows], kind="stable")]
 
@@ -327,6 +321,18 @@ class Robots:
             self._anchor[i] = self.position[i]
             self._anchor_tick[i] = tick
         return tick - int(self._anchor_tick[i]) > stuck_ticks
+
+
+def in_view(spec: RobotSpec, offset: FloatArray, surface: FloatArray,
+            heading: float | FloatArray) -> BoolArray:
+    """Which bodies a robot of `spec` facing `heading` (per body, or one for all) sees: those
+    within its sensor range (`surface`: each body's surface distance from the robot's centre)
+    and its field of view (`offset`: each body's centre from the robot's)."""
+    visible = surface <= spec.sensor_range
+    if spec.field_of_view < 2 * math.pi:
+        bearing = np.arctan2(offset[:, 1], offset[:, 0]) - heading
+        visible &= np.abs(physics.wrap_angle(bearing)) <= spec.field_of_view / 2
+    return visible
 
 
 def move_fleets(fleets: Sequence[Robots], wanted: Sequence[list[tuple[float, float]]],
