@@ -98,27 +98,13 @@ class Conditions:
                 bound: float) -> Callable[[], bool]:
         """Whether the distance between `subject` and `target` compares with `bound` (never
         when either is gone)."""
-        here, there = self._locator(subject), self._locator(target)
+        here, there = self.engine.locator(subject), self.engine.locator(target)
 
         def holds() -> bool:
             a, b = here(), there()
             return a is not None and b is not None and compare(
                 math.hypot(b[0] - a[0], b[1] - a[1]), bound)
         return holds
-
-    def _locator(self, target: Target) -> Callable[[], tuple[float, float] | None]:
-        """Where `target` is now (`Engine.position_of`), with a human's row found once."""
-        engine = self.engine
-        if isinstance(target, str) and target in engine.humans.names:
-            row = engine.index_of(target)
-
-            def human() -> tuple[float, float] | None:
-                if target in engine.removed:
-                    return None
-                x, y = engine.humans.position[row].tolist()
-                return (x, y)
-            return human
-        return lambda: engine.position_of(target)
 
     def _count_inside(self, members: tuple[str, ...], area: object) -> int:
         where = [p for p in (self.engine.position_of(m) for m in members) if p is not None]

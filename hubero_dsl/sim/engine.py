@@ -132,6 +132,21 @@ class Engine:
             return (float(x), float(y))
         return self.robots.position_of(target)
 
+    def locator(self, target: tuple[float, float] | str
+                ) -> Callable[[], tuple[float, float] | None]:
+        """`position_of(target)` as a function, a human's row found once (a condition asks
+        where someone is every tick)."""
+        row = self._row_of.get(target) if isinstance(target, str) else None
+        if row is None:
+            return lambda: self.position_of(target)
+
+        def human() -> tuple[float, float] | None:
+            if target in self.removed:
+                return None
+            x, y = self.humans.position[row].tolist()
+            return (x, y)
+        return human
+
     def goal_tolerance_of(self, name: str) -> float:
         """How close `name` must come to a target to have reached it."""
         if name in self._row_of:

@@ -148,15 +148,15 @@ class Judge:
         # the verdicts judged tick by tick (metrics wait for the end), while undecided
         self._watched = [(v, condition) for v in self.verdicts
                          if not isinstance(condition := v.expectation.condition, MetricCompare)]
-        wants = record_tracks or any(isinstance(e.condition, MetricCompare)
-                                     for e in sim.program.expectations)
+        wants = record_tracks or len(self._watched) < len(self.verdicts)  # a metric's expect
         self.tracks: Tracks | None = (Tracks(plan_lengths={} if plan_lengths is None
                                              else plan_lengths) if wants else None)
         if self.tracks is not None:
             self.tracks.record(sim)
 
     def observe(self) -> None:
-        """After a tick: conditions as they hold now; positions for the metrics."""
+        """After a tick: the undecided expectations' conditions as they hold now (`record`
+        keeps the positions the metrics need)."""
         if not self._watched:
             return
         sim = self.sim
