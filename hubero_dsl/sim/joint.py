@@ -33,10 +33,11 @@ class JointSteering:
 
     def __init__(self) -> None:
         self._joined: dict[str, tuple[list[LocalPlanner], LocalPlanner | None]] = {}
-        # the stack's personal spaces, whether each row is a robot, and its world, kept for
-        # as long as the engines' shape arrays are the same objects (held here, so that none
-        # of them is freed and another takes its place unnoticed)
-        self._layout: tuple[list[ShapeArrays], ShapeArrays, BoolArray, IntArray] | None = None
+        # the stack's personal spaces, whether each row is a robot, its world and where each
+        # world starts, kept for as long as the engines' shape arrays are the same objects
+        # (held here, so that none of them is freed and another takes its place unnoticed)
+        self._layout: tuple[list[ShapeArrays], ShapeArrays, BoolArray, IntArray,
+                            list[int]] | None = None
 
     def steer(self, engines: list[Engine], steerings: list[Steering | None]
               ) -> list[list[FloatArray]]:
@@ -46,9 +47,7 @@ class JointSteering:
         answers = [[np.zeros((0, 2))] * len(parts.get(i, [])) for i in range(len(engines))]
         if not parts:
             return answers
-        stack = self._stacked(engines)
-        starts = list(itertools.accumulate((e.humans.count + e.robots.count for e in engines),
-                                           initial=0))
+        stack, starts = self._stacked(engines)
         for name in sorted({part.planner for copy in parts.values() for part in copy}):
             asked = [(i, j) for i, copy in parts.items() for j, part in enumerate(copy)
                      if part.planner == name]
@@ -66,25 +65,27 @@ class JointSteering:
                 answers[i][j] = velocity[start:end]
         return answers
 
-    def _stacked(self, engines: list[Engine]) -> Crowd:
+    def _stacked(self, engines: list[Engine]) -> tuple[Crowd, list[int]]:
         """Every engine's crowd (humans, then robots), one after another, each a world of its
-        own; the rows' shapes, kinds and worlds are joined again only when they change."""
+        own, and the row where each starts; the rows' shapes, kinds and worlds are joined
+        again only when they change."""
         bodies: list[HumanArrays | Robots] = [b for e in engines for b in (e.humans, e.robots)]
         spaces = [b.personal_space for b in bodies]
         kept = self._layout
         if kept is None or len(kept[0]) != len(spaces) or any(
                 a is not b for a, b in zip(kept[0], spaces, strict=True)):
             sizes = [len(b.radius) for b in bodies]
+            counts = [e.humans.count + e.robots.count for e in engines]
             kept = self._layout = (spaces, ShapeArrays.stacked(spaces),
                                    np.repeat(np.tile([False, True], len(engines)), sizes),
-                                   np.repeat(np.arange(len(engines)),
-                                             [e.humans.count + e.robots.count for e in engines]))
-        _, shapes, is_robot, world = kept
+                                   np.repeat(np.arange(len(engines)), counts),
+                                   list(itertools.accumulate(counts, initial=0)))
+        _, shapes, is_robot, world, starts = kept
         return Crowd(position=np.concatenate([b.position for b in bodies]),
                      velocity=np.concatenate([b.velocity for b in bodies]),
                      heading=np.concatenate([b.heading for b in bodies]),
                      radius=np.concatenate([b.radius for b in bodies]),
-                     personal_space=shapes, is_robot=is_robot, world=world)
+                     personal_space=shapes, is_robot=is_robot, world=world), starts
 
     def _planner(self, name: str, engines: list[Engine]) -> LocalPlanner | None:
         planners = [engine.local_planner(name) for engine in engines]
