@@ -518,11 +518,15 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
     def _tick(self, actions: npt.NDArray[np.float32]) -> dict[int, Outcome]:
         """One tick of every copy whose episode goes on, its array work done for all of them
         at once (`Lockstep`, `JointSteering`, `sense`)."""
+        given = np.asarray(actions, dtype=np.float64)
+        if given.size != 2 * self.num_envs:
+            raise ValueError(f"actions are one row of two numbers per copy, "
+                             f"{self.num_envs} x 2, not an array of shape {given.shape}")
+        rows = given.reshape(self.num_envs, 2).tolist()
         going = [i for i in range(self.num_envs) if not self._done[i]]
         if not going:
             return {}
         envs = [self.envs[i] for i in going]
-        rows = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, 2).tolist()
         for i, env in zip(going, envs, strict=True):
             env._act_floats(rows[i], actions[i])
         sims = [env._simulation() for env in envs]

@@ -200,6 +200,10 @@ def test_the_vector_env_batches_and_resets_by_itself(tmp_path: Path) -> None:
             np.tile([0.0, 0.0], (3, 1)).astype(np.float32))
         ended = ended or bool((terminated | truncated).all())
     assert ended and rewards.shape == (3,)
+    with pytest.raises(ValueError, match="one row of two numbers per copy, 3 x 2"):
+        envs.step(np.zeros((2, 2), dtype=np.float32))
+    with pytest.raises(ValueError, match="two finite numbers"):
+        envs.step(np.array([[0.0, 0.0], [np.nan, 0.0], [0.0, 0.0]], dtype=np.float32))
     envs.close()
 
 
