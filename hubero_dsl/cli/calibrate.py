@@ -16,10 +16,10 @@ fit's, to refine it over more seeds) rather than from hubero's defaults. Determi
 --seed and --seeds. Needs PedPy (pip install 'hubero[validate]').
 
 Parameters that can be fitted: relaxation_time, social_force.A, social_force.B,
-social_force.B_wall, social_force.space_at_rest, social_force.time_gap, social_force.kappa,
-personal_space (the radius of a circle), speed_scale (a factor on the measured desired
-speeds). Exit 0 when fitted, 2 for bad input or
-a missing PedPy.
+social_force.B_wall, social_force.space_at_rest, social_force.time_gap,
+social_force.time_gap_lane, social_force.kappa, personal_space (the radius of a circle),
+speed_scale (a factor on the measured desired speeds). Exit 0 when fitted, 2 for bad input
+or a missing PedPy.
 """
 
 from __future__ import annotations

@@ -146,6 +146,12 @@ class SocialForceParams(PlannerParams):
         "Time gap kept to whoever is in one's path, s: the desired speed is capped at the "
         "distance one can walk towards the target before touching them, divided by it "
         "(Tordeux, Chraibi & Seyfried's 2016 collision-free speed model; 0 = no cap)."))
+    time_gap_lane: float = Field(default=1.0, gt=0.0, le=1.0, description=(
+        "Half-width of the lane ahead in which someone sets the time gap, as a share of the "
+        "two bodies' radii: 1 = anyone one would touch walking on (the corridor of Tordeux et "
+        "al.'s model); 0.5 = only someone whose centre is within about a body's width of "
+        "one's line, so that people in a bottleneck follow in staggered lanes closer than "
+        "their shoulders (the zipper effect, Hoogendoorn & Daamen 2005)."))
 
     @classmethod
     def inert_above(cls, step: float) -> dict[str, float]:
@@ -171,6 +177,7 @@ class _RowParams:
     anticipation: Column
     space_at_rest: Column
     time_gap: Column
+    time_gap_lane: Column
 
     @staticmethod
     def from_models(models: list[SocialForceParams]) -> _RowParams:
@@ -189,7 +196,8 @@ class _RowParams:
             side_preference=_column(values("side_preference")),
             anticipation=_column(values("anticipation")),
             space_at_rest=_column(values("space_at_rest")),
-            time_gap=_column(values("time_gap")))
+            time_gap=_column(values("time_gap")),
+            time_gap_lane=_column(values("time_gap_lane")))
 
     def padded(self, rows: int) -> _RowParams:
         """Columns long enough for `rows` bodies; bodies without a model get the defaults.
@@ -544,7 +552,8 @@ def _keep_time_gap(crowd: Crowd, drive: Drive, params: _RowParams,
     """`drive` with each desired speed capped at the free distance ahead over the time gap.
 
     The free distance is how far a human can walk straight towards its target before its body
-    touches a neighbour's (within its interaction range) that lies across that line; the cap
+    touches a neighbour's (within its interaction range) whose centre lies in its lane: closer
+    to that line than `time_gap_lane` times the two radii (1: anyone it would touch); the cap
     makes speed fall with headway, as in Tordeux et al.'s collision-free speed model, whose
     speed-headway relation reproduces the fundamental diagram of corridors and bottlenecks.
     """
@@ -564,7 +573,8 @@ def _keep_time_gap(crowd: Crowd, drive: Drive, params: _RowParams,
         along = sign * (pairs.offset_x * heading[receiver, 0]
                         + pairs.offset_y * heading[receiver, 1])
         across_squared = pairs.distance * pairs.distance - along * along
-        in_path = (along > 0.0) & (across_squared < contact * contact)
+        lane = contact * _at(params.time_gap_lane, receiver)
+        in_path = (along > 0.0) & (across_squared < lane * lane)
         if reacts is not None:
             in_path &= reacts
         hit = in_path.nonzero()[0]

@@ -67,6 +67,8 @@ FITTABLE: dict[str, Fittable] = {f.name: f for f in (
              "share of the personal space kept standing still"),
     Fittable("social_force.time_gap", 0.0, 2.0, 0.0, "s",
              "time gap kept to whoever is in one's path"),
+    Fittable("social_force.time_gap_lane", 0.25, 1.0, 1.0, "",
+             "half-width of the lane ahead that sets the time gap, per two radii"),
     Fittable("social_force.kappa", 0.0, 3000.0, 3000.0, "", "sliding friction between bodies"),
     Fittable("speed_scale", 0.7, 1.4, 1.0, "", "factor on the measured desired speeds"),
 )}

@@ -196,10 +196,12 @@ def test_at_the_desired_speed_the_whole_personal_space_counts() -> None:
     np.testing.assert_array_equal(first_velocities(0.0), first_velocities(1.0))
 
 
-def follow_slow_leader(time_gap: float, beside: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+def follow_slow_leader(time_gap: float, beside: float = 0.0,
+                       lane: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """A walker (desired 1.3 m/s) starting 3 m behind a leader who walks at 0.5 m/s, `beside`
     metres to the side of the walker's line, with no social push: only the time gap acts."""
-    params = [SocialForceParams(A=0.0, side_preference=0.0, time_gap=time_gap)] * 2
+    params = [SocialForceParams(A=0.0, side_preference=0.0, time_gap=time_gap,
+                                time_gap_lane=lane)] * 2
     scene = Scene(position=[[-3.0, 0.0], [0.0, beside]], target=[[20.0, 0.0], [20.0, beside]],
                   shapes=[Circle(0.3)] * 2, radius=np.array([0.2, 0.2]),
                   speed=np.array([1.3, 0.5]), params=params)
@@ -229,6 +231,18 @@ def test_a_time_gap_leaves_people_off_ones_path_alone() -> None:
     # touching distance across the line is the limit: 0.35 m to the side still blocks
     _, blocked = follow_slow_leader(time_gap=1.0, beside=0.35)
     assert blocked[passing, 0, 0].max() < 0.7
+
+
+def test_a_narrower_lane_leaves_the_next_lane_alone() -> None:
+    # 0.3 m to the side: within the two radii (0.4 m), so the full lane blocks (above), but
+    # outside half of them, a lane of its own as in a bottleneck's staggered lanes
+    next_lane, fast = follow_slow_leader(time_gap=1.0, beside=0.3, lane=0.5)
+    without, _ = follow_slow_leader(time_gap=0.0, beside=0.3)
+    np.testing.assert_array_equal(next_lane, without)
+    assert fast[40:75, 0, 0].min() > 1.2   # 2-3.75 s: walking up at its own speed
+    # someone within half of the radii, 0.15 m to the side, is still followed
+    _, blocked = follow_slow_leader(time_gap=1.0, beside=0.15, lane=0.5)
+    assert blocked[100:160, 0, 0].max() < 0.7
 
 
 def test_no_time_gap_is_the_plain_model_bit_for_bit() -> None:
