@@ -72,6 +72,12 @@ Outcome = tuple[dict[str, npt.NDArray[Any]], float, bool, bool, dict[str, Any]]
 
 ENV_ID = "hubero/Scenario-v0"
 RENDER_MODES = ["rgb_array"]
+# Bounds of the options that size what the env allocates: the people an observation lists,
+# the map patch's side in cells, a frame's longer side in pixels, a vector env's copies.
+MAX_PEOPLE_SEEN = 4096
+MAX_MAP_PATCH = 2049
+MAX_RENDER_SIZE = 4096
+MAX_COPIES = 4096
 INTIMATE, PERSONAL = 0.45, 1.2   # m, surface gaps (HuNavSim's bands)
 
 
@@ -132,6 +138,10 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
                  render_size: int = 480, metrics: bool = True) -> None:
         self.program, self.robot_spec = load_scenario(scenario, robot)
         self.render_mode = checked_render_mode(render_mode)
+        whole_number("max_people", max_people, 0, MAX_PEOPLE_SEEN)
+        if map_patch is not None:
+            whole_number("map_patch", map_patch, 1, MAX_MAP_PATCH)
+        whole_number("render_size", render_size, 16, MAX_RENDER_SIZE)
         self.metadata = {**self.metadata, "render_fps": 1.0 / self.program.step}
         self._renderer = (FrameRenderer(self.program.grid, render_size)
                           if render_mode is not None else None)
@@ -295,6 +305,15 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
 def _warn_not_rendered() -> None:
     gymnasium.logger.warn("render() needs render_mode='rgb_array' when the environment is "
                           "made; it draws nothing")
+
+
+def whole_number(name: str, value: object, low: int, high: int) -> None:
+    """InputError unless `value` is an int from `low` to `high` (an option of the env: the
+    arrays it sizes are allocated at once)."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) \
+            or not low <= value <= high:
+        raise InputError(f"{name} must be a whole number from {low:,} to {high:,}, "
+                         f"not {value!r}")
 
 
 def checked_render_mode(render_mode: str | None) -> str | None:
@@ -467,6 +486,7 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
     def __init__(self, scenario: str | Path | Program, robot: str, num_envs: int = 1,
                  **options: Any) -> None:
         program, _ = load_scenario(scenario, robot)
+        whole_number("num_envs", num_envs, 1, MAX_COPIES)
         self.num_envs = num_envs
         log = options.pop("log", None)
         self.envs = [ScenarioEnv(program, robot, log=copy_log(log, i, num_envs), **options)
@@ -488,6 +508,9 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
     def reset(self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
               ) -> tuple[dict[str, npt.NDArray[Any]], dict[str, Any]]:
         super().reset(seed=seed if isinstance(seed, int) else None)
+        if isinstance(seed, list) and len(seed) != self.num_envs:
+            raise ValueError(f"reset() takes one seed per copy ({self.num_envs}) or one "
+                             f"seed, not a list of {len(seed)}")
         seeds = seed if isinstance(seed, list) else [
             None if seed is None else seed + i for i in range(self.num_envs)]
         observations = [env.reset(seed=s, options=options)[0]

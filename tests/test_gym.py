@@ -319,6 +319,37 @@ def test_a_robot_the_environment_cannot_drive_is_refused(tmp_path: Path) -> None
         gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(file), robot="cart")
 
 
+@pytest.mark.parametrize(("option", "value", "words"), [
+    ("max_people", -2, "max_people must be a whole number from 0 to 4,096, not -2"),
+    ("max_people", 10**7, "max_people must be a whole number from 0 to 4,096, not 10000000"),
+    ("max_people", 2.5, "max_people must be a whole number from 0 to 4,096, not 2.5"),
+    ("map_patch", 0, "map_patch must be a whole number from 1 to 2,049, not 0"),
+    ("map_patch", 10**6, "map_patch must be a whole number from 1 to 2,049, not 1000000"),
+    ("map_patch", True, "map_patch must be a whole number from 1 to 2,049, not True"),
+    ("render_size", 10**6, "render_size must be a whole number from 16 to 4,096"),
+])
+def test_options_that_size_the_arrays_are_bounded(tmp_path: Path, option: str, value: object,
+                                                  words: str) -> None:
+    # refused when the env is made, before anything is allocated (a million-cell patch
+    # would be a terabyte)
+    with pytest.raises(InputError, match=words):
+        gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(_scenario(tmp_path)), robot="cart",
+                       render_mode="rgb_array", **{option: value})
+
+
+def test_a_vector_envs_copies_and_seeds_are_checked(tmp_path: Path) -> None:
+    for copies in (0, 10**6, 2.5):
+        with pytest.raises(InputError, match="num_envs must be a whole number from 1 to 4,096"):
+            gymnasium.make_vec(hubero_dsl.gym.ENV_ID, num_envs=copies,
+                               vectorization_mode="vector_entry_point",
+                               scenario=str(_scenario(tmp_path)), robot="cart")
+    envs = gymnasium.make_vec(hubero_dsl.gym.ENV_ID, num_envs=3,
+                              vectorization_mode="vector_entry_point",
+                              scenario=str(_scenario(tmp_path)), robot="cart")
+    with pytest.raises(ValueError, match="one seed per copy \\(3\\) or one seed, not a list of 2"):
+        envs.reset(seed=[1, 2])
+
+
 def test_an_episode_can_run_a_variant_of_the_scenario(tmp_path: Path) -> None:
     file = _scenario(tmp_path)
     file.write_text(file.read_text(encoding="utf-8")
