@@ -35,6 +35,7 @@ if TYPE_CHECKING:
 DEFAULT_TRAIN = ("uo-050-180-180", "uo-145-180-180", "uo-180-180-120")
 DEFAULT_TEST = ("uo-100-180-180", "uo-180-180-070")
 MAX_EVALUATIONS = 10_000
+MAX_JOBS = 256  # worker processes: each holds a rebuild and PedPy (about 200 MB)
 MAX_SEEDS = 100
 
 
@@ -100,6 +101,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--evaluations must be from 1 to {MAX_EVALUATIONS}, "
                          f"got {args.evaluations}")
     check_seeds(args.seed, args.seeds)
+    if args.jobs is not None and not 1 <= args.jobs <= MAX_JOBS:
+        raise InputError(f"--jobs must be from 1 to {MAX_JOBS}, got {args.jobs}")
     train = args.train or [shipped_path(n) for n in DEFAULT_TRAIN]
     test = args.test if args.test is not None else (
         [] if args.train else [shipped_path(n) for n in DEFAULT_TEST])
