@@ -55,6 +55,20 @@ def test_the_defaults_block_is_valid_language() -> None:
     assert set(FITTABLE) >= set(fitted)
 
 
+@pytest.mark.parametrize("end", ["low", "high"])
+def test_every_fittable_parameter_at_its_bounds_is_a_valid_value(end: str) -> None:
+    # the search's bounds lie within what the language accepts, so no set it tries is refused
+    fitted = {f.name: getattr(f, end) for f in FITTABLE.values()}
+    block = Calibration(fitted, 0.01, 5, (), ()).defaults_block(["uo-050-180-180"])
+    map_yaml = Path(__file__).resolve().parents[2] / "maps" / "rimea_corridor.yaml"
+    program = compile_source(f'scenario "x"\nmap "{map_yaml}"\n{block}'
+                             'human a at (1.0, 1.0)\n')
+    params = program.resolved_params()["a"]
+    for name, value in fitted.items():
+        if name.startswith("social_force."):
+            assert params[name] == value
+
+
 def test_the_block_holds_the_values_exactly_as_they_were_run() -> None:
     fitted = {"relaxation_time": 0.2318, "social_force.space_at_rest": 0.7951,
               "personal_space": 0.4432}
