@@ -175,17 +175,17 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         variant = self._variant_of(options)
         sim = Simulation(self.program, variant=variant, seed=run_seed, planners=self._planners)
         self._robot = sim.robot(self.robot_name)
-        self._row = sim.engine.robots.index_of(self.robot_name)
         self._sim = sim
         self._judge = Judge(sim, record_tracks=self.metrics, plan_lengths=self._plan_lengths)
-        self._distance = self._goal_distance()
+        self._last_tick = sim.engine.ticks(self.program.time_limit)
+        senses = sense([sim], self.robot_spec, self.max_people)
+        self._distance = self._goal_distance(senses, 0)
         if self.log_path is not None:
             from hubero_dsl.log.writer import RunLog
 
             self._log = RunLog(self.log_path, sim, writer_process=False)
             self._log.open()
-        return self._observation(sense([sim], self.robot_spec, self.max_people), 0), {
-            "seed": run_seed, "variant": variant}
+        return self._observation(senses, 0), {"seed": run_seed, "variant": variant}
 
     def _variant_of(self, options: dict[str, Any] | None) -> str | None:
         """The variant of the episode `reset(options=...)` starts: `{"variant": NAME}` (None
@@ -250,7 +250,7 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         sim = self._simulation()
         if self._log is not None:
             self._log.observe(sim)
-        distance = self._goal_distance()
+        distance = self._goal_distance(senses, index)
         gained, self._distance = self._distance - distance, distance
         gap = float(senses.gap[index])
         reached = distance <= self.robot_spec.goal_tolerance
@@ -258,7 +258,7 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         assert self._judge is not None
         self._judge.observe()
         self._judge.record()
-        truncated = sim.tick >= sim.engine.ticks(self.program.time_limit)
+        truncated = sim.tick >= self._last_tick
         terminated = reached or collided
         reward = self.reward_function(gained, gap, reached, collided, sim.dt)
         info: dict[str, Any] = {}
@@ -274,9 +274,9 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         assert self._sim is not None
         return senses.observation(index, self._sim, self.map_patch)
 
-    def _goal_distance(self) -> float:
-        assert self._sim is not None and self.robot_spec.goal is not None
-        return math.dist(self._sim.engine.robots.position[self._row], self.robot_spec.goal)
+    def _goal_distance(self, senses: Senses, index: int) -> float:
+        assert self.robot_spec.goal is not None
+        return math.dist(senses.places[index], self.robot_spec.goal)
 
     # ---- the end of an episode ---------------------------------------------------------------
 
@@ -361,13 +361,13 @@ class Senses:
     """What the robots of several episodes see now, as their observations lay it out (row i:
     episode i): `robot` (E, 7), `people` (E, max_people, 5) and `mask` (E, max_people), and
     `gap`, the smallest surface gap between each robot and a person (inf: nobody there);
-    `position`, each robot's, unrounded."""
+    `places`, each robot's (x, y), unrounded."""
 
     robot: npt.NDArray[np.float32]
     people: npt.NDArray[np.float32]
     mask: npt.NDArray[np.int8]
     gap: FloatArray
-    position: FloatArray
+    places: list[list[float]]
 
     def observation(self, index: int, sim: Simulation, map_patch: int | None
                     ) -> dict[str, npt.NDArray[Any]]:
@@ -375,7 +375,7 @@ class Senses:
         observation = {"robot": self.robot[index], "people": self.people[index],
                        "mask": self.mask[index]}
         if map_patch is not None:
-            x, y = self.position[index].tolist()
+            x, y = self.places[index]
             observation["map"] = _patch(sim, (x, y), map_patch)
         return observation
 
@@ -390,7 +390,8 @@ def sense(sims: list[Simulation], spec: RobotSpec, max_people: int) -> Senses:
     goal_x, goal_y = spec.goal
     robot = np.array([[*state, goal_x - state[0], goal_y - state[1]] for state in states],
                      dtype=np.float32)
-    here = np.array([state[:2] for state in states])
+    places = [state[:2] for state in states]
+    here = np.array(places)
     humans = [sim.engine.humans for sim in sims]
     counts = [h.count for h in humans]
     world = (np.zeros(counts[0], dtype=np.intp) if episodes == 1
@@ -412,7 +413,7 @@ def sense(sims: list[Simulation], spec: RobotSpec, max_people: int) -> Senses:
         people[slot, 4] = radius[seen]
         mask[slot] = 1
     return Senses(robot, people.reshape(episodes, max_people, 5),
-                  mask.reshape(episodes, max_people), gap, here)
+                  mask.reshape(episodes, max_people), gap, places)
 
 
 def _robot_state(robots: Robots, name: str) -> list[float]:
