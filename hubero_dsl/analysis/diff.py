@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -25,6 +25,7 @@ import shapely
 
 from hubero_dsl.analysis.metrics import (
     DECIMALS,
+    NO_STATUS,
     HumanMetrics,
     RunMetrics,
     Scalar,
@@ -149,12 +150,8 @@ def _robot_diffs(a: LoggedRun, b: LoggedRun, epsilon: float) -> dict[str, HumanD
 
 def _number_deltas(a: dict[str, float], b: dict[str, float]) -> tuple[MetricDelta, ...]:
     """B - A of each metric; None where either side is not finite (no goal, no people)."""
-    rows = []
-    for name in sorted(set(a) | set(b)):
-        left, right = (_finite(side.get(name)) for side in (a, b))
-        delta = _rounded(right - left) if left is not None and right is not None else None
-        rows.append(MetricDelta(name, left, right, delta))
-    return tuple(rows)
+    return tuple(_compared(name, _finite(a.get(name)), _finite(b.get(name)))
+                 for name in sorted(set(a) | set(b)))
 
 
 def _side(run: LoggedRun) -> RunSide:
@@ -230,16 +227,8 @@ def metric_deltas(a: HumanMetrics, b: HumanMetrics, places_a: dict[str, str] | N
     """Every metric either run has, in table order, with B - A where both are numbers.
     `places_*` rename unlabelled tasks (see `task_places`) so the two runs' tasks line up."""
     values_a, values_b = _metric_values(a, places_a or {}), _metric_values(b, places_b or {})
-    rows = []
-    for name in sorted(set(values_a) | set(values_b), key=_order):
-        left, right = _tidy(values_a.get(name)), _tidy(values_b.get(name))
-        delta: float | int | None = None
-        if isinstance(left, int) and isinstance(right, int):
-            delta = right - left
-        elif isinstance(left, int | float) and isinstance(right, int | float):
-            delta = _rounded(float(right) - float(left))
-        rows.append(MetricDelta(name, left, right, delta))
-    return tuple(rows)
+    return tuple(_compared(name, _tidy(values_a.get(name)), _tidy(values_b.get(name)))
+                 for name in sorted(set(values_a) | set(values_b), key=_order))
 
 
 def _line(position: FloatArray) -> shapely.LineString | None:
@@ -288,6 +277,129 @@ def parameter_changes(a: dict[str, Any], b: dict[str, Any]) -> dict[str, tuple[s
     return {key: (describe_value(a[key]) if key in a else missing,
                   describe_value(b[key]) if key in b else missing)
             for key in sorted(set(a) | set(b)) if a.get(key) != b.get(key)}
+
+
+# ---- crowds and flows, each as a whole ------------------------------------------------------
+
+# How a crowd's members' metric becomes the crowd's: over the members with a value on a side.
+_SET_METRICS = (("path_length", "mean"), ("duration", "mean"), ("mean_speed", "mean"),
+                ("max_speed", "max"), ("min_distance", "min"),
+                ("personal_space_intrusion_time", "sum"), ("collisions", "sum"),
+                ("succeeded", "count"))
+SUCCEEDED = "SUCCEEDED"
+
+
+@dataclass(frozen=True)
+class SetDiff:
+    """A crowd's or flow's members compared as a whole. `metrics` holds, on each side, how
+    many `members` were in the scene, their mean path length, duration and speed, their top
+    speed, the closest any of them came to anyone (`min_distance`), their intrusions and
+    collisions summed, and how many ended their last task `succeeded`; then how far their
+    paths moved: the median Fréchet distance, the largest Hausdorff distance, how many were
+    ever more than epsilon apart from themselves, and the first instant one was."""
+
+    name: str
+    kind: str
+    members: int
+    metrics: tuple[MetricDelta, ...]
+    frechet_median: float | None
+    hausdorff_max: float | None
+    diverged: int
+    first_diverged_at: float | None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind, "members": self.members,
+                "metrics": {m.name: {"a": m.a, "b": m.b, "delta": m.delta}
+                            for m in self.metrics},
+                "frechet_median": self.frechet_median, "hausdorff_max": self.hausdorff_max,
+                "diverged": self.diverged, "first_diverged_at": self.first_diverged_at}
+
+
+def set_diffs(diff: RunDiff, sets: dict[str, tuple[str, tuple[str, ...]]]
+              ) -> dict[str, SetDiff]:
+    """Each crowd and flow of `sets` (name -> kind, members; a log's `metadata.sets`) as a
+    whole; groups are left out, their members being humans named one by one. A flow's
+    metrics on a side count the members who came in that run."""
+    result = {}
+    for name, (kind, members) in sorted(sets.items()):
+        humans = [diff.humans[m] for m in members if m in diff.humans]
+        if kind == "group" or not humans:
+            continue
+        came = {side: [h for h in humans if kind != "flow" or _came(h, side)]
+                for side in ("a", "b")}
+        metrics = (_compared("members", len(came["a"]), len(came["b"])),
+                   *(_set_metric(came, metric, how) for metric, how in _SET_METRICS))
+        frechet = [h.frechet for h in humans if h.frechet is not None]
+        hausdorff = [h.hausdorff for h in humans if h.hausdorff is not None]
+        apart = [h.diverged_at for h in humans if h.diverged_at is not None]
+        result[name] = SetDiff(
+            name, kind, len(humans), metrics,
+            _rounded(float(np.median(frechet))) if frechet else None,
+            max(hausdorff) if hausdorff else None, len(apart), min(apart) if apart else None)
+    return result
+
+
+def _came(human: HumanDiff, side: str) -> bool:
+    """Whether a flow's member came in the run of `side` (it had a task: flows give their
+    people theirs when they come)."""
+    status = human.metric("final_status")
+    return status is not None and getattr(status, side) not in (None, NO_STATUS)
+
+
+def _set_metric(came: dict[str, list[HumanDiff]], metric: str, how: str) -> MetricDelta:
+    def side(which: str) -> float | int | None:
+        return aggregate([getattr(m, which) for h in came[which] for m in h.metrics
+                          if m.name == metric or m.name.startswith(f"{metric}.")
+                          or (metric == "succeeded" and m.name == "final_status")], how)
+    return _compared(metric, side("a"), side("b"))
+
+
+def _compared(name: str, left: Scalar | None, right: Scalar | None) -> MetricDelta:
+    """A metric's two sides and B - A (None unless both are numbers)."""
+    delta: float | int | None = None
+    if isinstance(left, int) and isinstance(right, int):
+        delta = right - left
+    elif isinstance(left, int | float) and isinstance(right, int | float):
+        delta = _rounded(float(right) - float(left))
+    return MetricDelta(name, left, right, delta)
+
+
+def aggregate(values: Sequence[Scalar | None], how: str) -> float | int | None:
+    """`values` (one per member; None where it has none) summed up `how`: mean, max, min, sum,
+    or count (of SUCCEEDED statuses). None when no member has a number."""
+    if how == "count":
+        return sum(1 for v in values if v == SUCCEEDED)
+    numbers = [v for v in values if isinstance(v, int | float) and not isinstance(v, bool)]
+    if not numbers:
+        return None
+    if how == "sum":
+        total = sum(numbers)
+        return total if isinstance(total, int) else _rounded(float(total))
+    picked = {"mean": lambda: float(np.mean(numbers)), "max": lambda: max(numbers),
+              "min": lambda: min(numbers)}[how]()
+    return _rounded(float(picked)) if isinstance(picked, float) else picked
+
+
+def collapse_closest(metrics: Sequence[MetricDelta], set_of: Callable[[str], str | None]
+                     ) -> tuple[MetricDelta, ...]:
+    """`metrics` with the closest approach to each member of a crowd or flow (`set_of` says
+    which, None for a named human) as one row per crowd or flow, where its first member's row
+    was: the closest to any of them."""
+    rows: list[MetricDelta | str] = []
+    members: dict[str, list[MetricDelta]] = {}
+    for metric in metrics:
+        group, _, other = metric.name.partition(".")
+        crowd = set_of(other) if group == "min_distance" and other else None
+        if crowd is None:
+            rows.append(metric)
+            continue
+        if crowd not in members:
+            members[crowd] = []
+            rows.append(crowd)
+        members[crowd].append(metric)
+    return tuple(row if isinstance(row, MetricDelta) else _compared(
+        f"min_distance.{row}", aggregate([m.a for m in members[row]], "min"),
+        aggregate([m.b for m in members[row]], "min")) for row in rows)
 
 
 # ---- sweeps -------------------------------------------------------------------------------

@@ -8,7 +8,9 @@ compares every run of a sweep with the baseline variant's run of the same seed.
 
 Per human: every metric of both runs with B - A, the discrete Fréchet and Hausdorff distances
 between the two paths, the largest distance between the two at the same instant, the first
-instant they are more than --epsilon apart, and the parameters that differ. Exit 0 when the
+instant they are more than --epsilon apart, and the parameters that differ. A crowd or flow is
+one table of its members' metrics summed up (--members, or --human NAME, lists its members one
+by one), and a human's closest approach to its members is one row. Exit 0 when the
 comparison was made, 2 for unreadable logs, runs of different scenarios or a missing baseline.
 """
 
@@ -24,7 +26,7 @@ if TYPE_CHECKING:
 
     from rich.console import Console
 
-    from hubero_dsl.analysis.diff import HumanDiff, MetricDelta, RunDiff, SweepDiff
+    from hubero_dsl.analysis.diff import HumanDiff, MetricDelta, RunDiff, SetDiff, SweepDiff
 
 _UNITS = {"path_length": "m", "duration": "s", "mean_speed": "m/s", "max_speed": "m/s",
           "min_distance": "m", "personal_space_intrusion_time": "s", "collisions": "",
@@ -46,6 +48,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     parser.add_argument("--human", metavar="NAME", action="append",
                         help="show only this human, or the members of this crowd, flow or "
                         "group (repeat for more)")
+    parser.add_argument("--members", action="store_true",
+                        help="list every member of a crowd or flow, not one table per crowd "
+                        "or flow")
     parser.add_argument("--json", action="store_true", help="print JSON instead of tables")
     parser.add_argument("--plot", metavar="OUT.png", type=Path,
                         help="draw both runs on the map into a PNG")
@@ -77,7 +82,7 @@ def check_writable(path: Path, reads: tuple[Path, ...] = ()) -> None:
 
 
 def _pair(args: argparse.Namespace) -> int:
-    from hubero_dsl.analysis.diff import diff_runs
+    from hubero_dsl.analysis.diff import diff_runs, set_diffs
     from hubero_dsl.log.reader import load_run
 
     a, b = load_run(args.first), load_run(args.second)
@@ -87,12 +92,16 @@ def _pair(args: argparse.Namespace) -> int:
         from hubero_dsl.analysis.plot import plot_overlay
 
         plot_overlay(a, b, args.plot, epsilon=args.epsilon, humans=humans)
+    # with neither --human nor --members a crowd's or flow's members are its table
+    sets = {} if args.human or args.members else set_diffs(diff, a.metadata.sets)
+    listed = [h for h in humans if a.metadata.set_of(h) not in sets]
     if args.json:
         data = diff.to_dict()
         data["humans"] = {n: h for n, h in data["humans"].items() if n in humans}
+        data["sets"] = {n: s.to_dict() for n, s in sets.items()}
         print(json.dumps(data, indent=2))
     else:
-        _print_pair(diff, humans, _console())
+        _print_pair(diff, listed, list(sets.values()), a.metadata.set_of, _console())
     return 0
 
 
@@ -173,7 +182,8 @@ def _side(label: str, side: Any) -> str:
     return escape(f"{label}: {side.path}  {side.title}{variant}, seed {side.seed}")
 
 
-def _print_pair(diff: RunDiff, humans: list[str], console: Console) -> None:
+def _print_pair(diff: RunDiff, humans: list[str], sets: list[SetDiff],
+                set_of: Callable[[str], str | None], console: Console) -> None:
     from rich.markup import escape
 
     console.print(_side("A", diff.a))
@@ -181,22 +191,33 @@ def _print_pair(diff: RunDiff, humans: list[str], console: Console) -> None:
     for note in diff.notes:
         console.print(f"[yellow]note:[/] {escape(note)}")
     for name in humans:
-        console.print(_human_table(diff.humans[name], diff.epsilon))
+        console.print(_human_table(diff.humans[name], diff.epsilon, set_of))
+    for crowd in sets:
+        console.print(_set_table(crowd, diff.epsilon))
     for robot in diff.robots.values():
-        console.print(_human_table(robot, diff.epsilon, "robot "))
+        console.print(_human_table(robot, diff.epsilon, set_of, "robot "))
 
 
-def _human_table(human: HumanDiff, epsilon: float, kind: str = "") -> Any:
-    from rich.markup import escape
+def _metric_table(title: str) -> Any:
     from rich.table import Table
 
-    changed = "; ".join(f"{name} {a} → {b}" for name, (a, b) in human.parameters.items())
-    title = f"[bold]{kind}{escape(human.name)}[/]" + (f"  {escape(changed)}" if changed else "")
     table = Table(title=title, title_justify="left")
     table.add_column("metric", no_wrap=True)
     for column in ("A", "B", "Δ (B - A)"):
         table.add_column(column, justify="right", no_wrap=True)
-    for metric in human.metrics:
+    return table
+
+
+def _human_table(human: HumanDiff, epsilon: float, set_of: Callable[[str], str | None],
+                 kind: str = "") -> Any:
+    from rich.markup import escape
+
+    from hubero_dsl.analysis.diff import collapse_closest
+
+    changed = "; ".join(f"{name} {a} → {b}" for name, (a, b) in human.parameters.items())
+    title = f"[bold]{kind}{escape(human.name)}[/]" + (f"  {escape(changed)}" if changed else "")
+    table = _metric_table(title)
+    for metric in collapse_closest(human.metrics, set_of):
         table.add_row(*_metric_row(metric))
     table.add_section()
     table.add_row("path Fréchet distance", "", "", _value(human.frechet, "m"))
@@ -204,6 +225,34 @@ def _human_table(human: HumanDiff, epsilon: float, kind: str = "") -> Any:
     table.add_row("largest same-time gap", "", "", _value(human.max_separation, "m"))
     diverged = "never" if human.diverged_at is None else f"t = {human.diverged_at:.2f} s"
     table.add_row(f"first > {epsilon:g} m apart", "", "", diverged)
+    return table
+
+
+_SET_LABELS = {"members": "members in the scene", "path_length": "mean path length",
+               "duration": "mean duration",
+               "mean_speed": "mean speed (moving)", "max_speed": "max speed",
+               "min_distance": "closest to anyone",
+               "personal_space_intrusion_time": "personal space intruded (all)",
+               "collisions": "collisions (all)", "succeeded": "last task succeeded"}
+
+
+def _set_table(crowd: SetDiff, epsilon: float) -> Any:
+    """A crowd's or flow's members summed up (`hubero_dsl.analysis.diff.SetDiff`)."""
+    from rich.markup import escape
+
+    table = _metric_table(f"[bold]{crowd.kind} {escape(crowd.name)}[/]  {crowd.members} "
+                          "members")
+    for metric in crowd.metrics:
+        unit = _unit(metric.name)
+        table.add_row(_SET_LABELS[metric.name], _value(metric.a, unit), _value(metric.b, unit),
+                      _delta(metric.delta, unit))
+    table.add_section()
+    table.add_row("path Fréchet distance (median)", "", "", _value(crowd.frechet_median, "m"))
+    table.add_row("path Hausdorff distance (largest)", "", "", _value(crowd.hausdorff_max, "m"))
+    table.add_row(f"members ever > {epsilon:g} m apart", "", "", str(crowd.diverged))
+    first = ("never" if crowd.first_diverged_at is None
+             else f"t = {crowd.first_diverged_at:.2f} s")
+    table.add_row(f"first > {epsilon:g} m apart", "", "", first)
     return table
 
 

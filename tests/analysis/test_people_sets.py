@@ -4,6 +4,7 @@ gives each crowd or flow one colour and one legend entry, and `diff --human` tak
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 from typing import Any
 
@@ -118,3 +119,60 @@ def test_diff_compares_robots(lounge: Path, tmp_path: Path) -> None:
     assert all(m.delta in (0, 0.0, None) for m in same.metrics)
     assert same.max_separation == 0.0 and same.diverged_at is None
     assert "cart" in json.loads(json.dumps(diff.to_dict()))["robots"]
+
+
+@pytest.fixture(scope="module")
+def reseeded(lounge: Path) -> Path:
+    other = lounge.with_name("lounge-11.mcap")
+    simulate(compile_file(ROOT / "scenarios" / "lounge_crowd.hub"), log=other, seed=11,
+             writer_process=False)
+    return other
+
+
+def test_diff_shows_a_crowd_as_one_table(lounge: Path, reseeded: Path,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["diff", str(lounge), str(reseeded)]) == 0
+    out = capsys.readouterr().out
+    assert "crowd visitors  8 members" in out and "closest to anyone" in out
+    assert not re.search(r"^visitors_3\b", out, re.M)       # no table of its own
+    assert "closest to visitors " in out and "closest to visitors_" not in out
+    assert main(["diff", str(lounge), str(reseeded), "--members"]) == 0
+    listed = capsys.readouterr().out
+    assert re.search(r"^visitors_3\b", listed, re.M) and "crowd visitors" not in listed
+
+
+def test_a_crowds_table_sums_up_its_members(lounge: Path, reseeded: Path,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["diff", str(lounge), str(reseeded), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    visitors = data["sets"]["visitors"]
+    members = [data["humans"][f"visitors_{i}"]["metrics"] for i in range(1, 9)]
+    metrics = visitors["metrics"]
+    assert visitors["kind"] == "crowd" and metrics["members"]["a"] == 8
+    for side in ("a", "b"):
+        lengths = [m["path_length"][side] for m in members]
+        assert metrics["path_length"][side] == pytest.approx(sum(lengths) / 8, abs=1e-6)
+        closest = [v[side] for m in members for k, v in m.items()
+                   if k.startswith("min_distance.") and v[side] is not None]
+        assert metrics["min_distance"][side] == pytest.approx(min(closest))
+    assert "family" not in data["sets"]                    # a group's members are named
+
+
+def test_a_flows_table_counts_the_members_who_came() -> None:
+    from hubero_dsl.analysis.diff import HumanDiff, MetricDelta, RunDiff, RunSide, set_diffs
+
+    def member(name: str, status_a: str, status_b: str, length: float) -> HumanDiff:
+        metrics = (MetricDelta("path_length", length, length, 0.0),
+                   MetricDelta("final_status", status_a, status_b, None))
+        return HumanDiff(name, metrics, None, None, None, None, {})
+
+    side = RunSide("a.mcap", "t", None, 1)
+    humans = {"p_1": member("p_1", "SUCCEEDED", "SUCCEEDED", 10.0),
+              "p_2": member("p_2", "ACTIVE", "IDLE", 4.0),
+              "p_3": member("p_3", "IDLE", "IDLE", 0.0)}   # never came in either run
+    diff = RunDiff(side, side, 0.1, humans)
+    flow = set_diffs(diff, {"p": ("flow", ("p_1", "p_2", "p_3"))})["p"]
+    metrics = {m.name: m for m in flow.metrics}
+    assert (metrics["members"].a, metrics["members"].b) == (2, 1)
+    assert (metrics["path_length"].a, metrics["path_length"].b) == (7.0, 10.0)
+    assert (metrics["succeeded"].a, metrics["succeeded"].delta) == (1, 0)
