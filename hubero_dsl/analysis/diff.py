@@ -101,6 +101,8 @@ class RunDiff:
     humans: dict[str, HumanDiff]
     notes: tuple[str, ...] = ()  # what else differs (the scenario, the map), said in words
     robots: dict[str, HumanDiff] = field(default_factory=dict)  # social-navigation metrics
+    # A's crowds, flows and groups (name -> kind, members), as its log names them
+    sets: dict[str, tuple[str, tuple[str, ...]]] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         return {"a": vars(self.a), "b": vars(self.b), "epsilon": self.epsilon,
@@ -132,7 +134,8 @@ def diff_runs(a: LoggedRun, b: LoggedRun, *, epsilon: float = DEFAULT_EPSILON,
             diverged_at=diverged,
             parameters=parameter_changes(a.metadata.params.get(name, {}),
                                          b.metadata.params.get(name, {})))
-    return RunDiff(_side(a), _side(b), epsilon, humans, _notes(a, b), _robot_diffs(a, b, epsilon))
+    return RunDiff(_side(a), _side(b), epsilon, humans, _notes(a, b), _robot_diffs(a, b, epsilon),
+                   a.metadata.sets)
 
 
 def _robot_diffs(a: LoggedRun, b: LoggedRun, epsilon: float) -> dict[str, HumanDiff]:
@@ -315,13 +318,12 @@ class SetDiff:
                 "diverged": self.diverged, "first_diverged_at": self.first_diverged_at}
 
 
-def set_diffs(diff: RunDiff, sets: dict[str, tuple[str, tuple[str, ...]]]
-              ) -> dict[str, SetDiff]:
-    """Each crowd and flow of `sets` (name -> kind, members; a log's `metadata.sets`) as a
-    whole; groups are left out, their members being humans named one by one. A flow's
-    metrics on a side count the members who came in that run."""
+def set_diffs(diff: RunDiff) -> dict[str, SetDiff]:
+    """Each crowd and flow of the runs (`diff.sets`) as a whole; groups are left out, their
+    members being humans named one by one. A flow's metrics on a side count the members who
+    came in that run."""
     result = {}
-    for name, (kind, members) in sorted(sets.items()):
+    for name, (kind, members) in sorted(diff.sets.items()):
         humans = [diff.humans[m] for m in members if m in diff.humans]
         if kind == "group" or not humans:
             continue

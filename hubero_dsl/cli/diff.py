@@ -93,7 +93,7 @@ def _pair(args: argparse.Namespace) -> int:
 
         plot_overlay(a, b, args.plot, epsilon=args.epsilon, humans=humans)
     # with neither --human nor --members a crowd's or flow's members are its table
-    sets = {} if args.human or args.members else set_diffs(diff, a.metadata.sets)
+    sets = {} if args.human or args.members else set_diffs(diff)
     listed = [h for h in humans if a.metadata.set_of(h) not in sets]
     if args.json:
         data = diff.to_dict()
@@ -283,8 +283,9 @@ def _closest(human: HumanDiff) -> tuple[float | None, float | None]:
     return (min(left) if left else None), (min(right) if right else None)
 
 
-def _number(value: float | int | None, signed: bool = False) -> str:
-    if value is None:
+def _number(value: object, signed: bool = False) -> str:
+    """A number for the sweep's table ("-" for none, or for text)."""
+    if not isinstance(value, int | float):
         return "-"
     if value == 0:
         return "0"
@@ -323,9 +324,8 @@ def _print_sweep(sweep: SweepDiff, humans: set[str], console: Console) -> None:
             table.add_row(variant, str(comparison.seed),
                           f"[yellow]not compared:[/] {escape(comparison.note)}")
             continue
-        for name, human in sorted(comparison.diff.humans.items()):
-            if not humans or name in humans:
-                table.add_row(variant, str(comparison.seed), escape(name), *_sweep_cells(human))
+        for name, cells in _sweep_rows(comparison.diff, humans):
+            table.add_row(variant, str(comparison.seed), escape(name), *cells)
     console.print(table)
     console.print(f"apart at: the first instant a human is more than {sweep.epsilon:g} m from "
                   f"where it was at that time in the baseline run")
@@ -340,6 +340,32 @@ def _variant_changes(sweep: SweepDiff) -> dict[str, str]:
             for name, (left, right) in human.parameters.items():
                 listed.setdefault(name, f"{name} {left} → {right}")
     return {variant: "; ".join(texts.values()) for variant, texts in changes.items()}
+
+
+def _sweep_rows(diff: RunDiff, humans: set[str]) -> list[tuple[str, list[str]]]:
+    """A run's rows of the sweep's table: the humans asked for (`humans`; none: all of them),
+    else the named humans one by one and each crowd or flow in one row."""
+    from hubero_dsl.analysis.diff import set_diffs
+
+    if humans:
+        return [(n, _sweep_cells(h)) for n, h in sorted(diff.humans.items()) if n in humans]
+    sets = set_diffs(diff)
+    members = {m for name in sets for m in diff.sets[name][1]}
+    return [*((n, _sweep_cells(h)) for n, h in sorted(diff.humans.items()) if n not in members),
+            *((f"{crowd.kind} {name}", _sweep_set_cells(crowd)) for name, crowd in sets.items())]
+
+
+def _sweep_set_cells(crowd: SetDiff) -> list[str]:
+    """A crowd's or flow's cells: its mean changes, its closest, its totals' changes, its
+    median Fréchet and largest Hausdorff distance, the first of its members to part."""
+    metric = {m.name: m for m in crowd.metrics}
+    apart = "never" if crowd.first_diverged_at is None else f"{crowd.first_diverged_at:.2f}"
+    return [_number(metric["path_length"].delta, signed=True),
+            _number(metric["duration"].delta, signed=True),
+            _number(metric["min_distance"].a), _number(metric["min_distance"].b),
+            _number(metric["personal_space_intrusion_time"].delta, signed=True),
+            _number(metric["collisions"].delta, signed=True),
+            _number(crowd.frechet_median), _number(crowd.hausdorff_max), apart]
 
 
 def _sweep_cells(human: HumanDiff) -> list[str]:

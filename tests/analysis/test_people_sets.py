@@ -170,9 +170,30 @@ def test_a_flows_table_counts_the_members_who_came() -> None:
     humans = {"p_1": member("p_1", "SUCCEEDED", "SUCCEEDED", 10.0),
               "p_2": member("p_2", "ACTIVE", "IDLE", 4.0),
               "p_3": member("p_3", "IDLE", "IDLE", 0.0)}   # never came in either run
-    diff = RunDiff(side, side, 0.1, humans)
-    flow = set_diffs(diff, {"p": ("flow", ("p_1", "p_2", "p_3"))})["p"]
+    diff = RunDiff(side, side, 0.1, humans, sets={"p": ("flow", ("p_1", "p_2", "p_3"))})
+    flow = set_diffs(diff)["p"]
     metrics = {m.name: m for m in flow.metrics}
     assert (metrics["members"].a, metrics["members"].b) == (2, 1)
     assert (metrics["path_length"].a, metrics["path_length"].b) == (7.0, 10.0)
     assert (metrics["succeeded"].a, metrics["succeeded"].delta) == (1, 0)
+
+
+def test_a_sweeps_table_gives_a_crowd_one_row(lounge: Path, reseeded: Path, tmp_path: Path,
+                                              capsys: pytest.CaptureFixture[str]) -> None:
+    folder = tmp_path / "sweep"
+    (folder / "runs").mkdir(parents=True)
+    runs = []
+    for variant, log in (("base", lounge), ("other", reseeded)):
+        (folder / "runs" / log.name).symlink_to(log)
+        runs.append({"variant": variant, "seed": 1, "parameters": {}, "status": "completed",
+                     "reason": "", "duration": 1.0, "metrics": {}, "log": f"runs/{log.name}"})
+    (folder / "index.json").write_text(json.dumps(
+        {"version": 1, "scenario": "lounge_crowd.hub", "runs": runs}), encoding="utf-8")
+    assert main(["diff", str(folder), "--baseline", "base"]) == 0
+    rows = [row for row in (line.split() for line in capsys.readouterr().out.splitlines())
+            if row[:1] == ["other"]]
+    names = [" ".join(row[2:4]) if row[2] == "crowd" else row[2] for row in rows]
+    assert "crowd visitors" in names and "mum" in names
+    assert not any(name.startswith("visitors_") for name in names)
+    assert main(["diff", str(folder), "--baseline", "base", "--human", "visitors_2"]) == 0
+    assert "visitors_2" in capsys.readouterr().out
