@@ -175,6 +175,7 @@ def draw_human(axes: Axes, run: LoggedRun, name: str, colour: Any, *, spacing: f
 
 
 NO_GOAL_MARKER = "D"
+FEW_HUMANS = 10  # asked for by name, members are drawn in full like named humans
 MEMBER_PATH: dict[str, Any] = {"linewidth": 0.8, "alpha": 0.55}  # a crowd's member: thin, faint
 ROBOT_COLOURS = ("black", "saddlebrown", "navy", "darkgreen", "indigo", "darkred")
 
@@ -194,12 +195,13 @@ def draw_robots(axes: Axes, run: LoggedRun, dashed: bool = False) -> None:
                       zorder=5)
 
 
-def draw_member(axes: Axes, run: LoggedRun, name: str, colour: Any) -> None:
+def draw_member(axes: Axes, run: LoggedRun, name: str, colour: Any,
+                dashed: bool = False) -> None:
     """A crowd's or flow's member: a thin path and a small start, no personal spaces."""
     track = run.humans[name]
     if len(track.position):
         axes.plot(track.position[:, 0], track.position[:, 1], color=colour, zorder=3,
-                  **MEMBER_PATH)
+                  linestyle=(0, (5, 3)) if dashed else "-", **MEMBER_PATH)
         axes.plot(*track.position[0], marker="o", markersize=3, color=colour, zorder=4)
 
 
@@ -325,19 +327,31 @@ def plot_overlay(a: LoggedRun, b: LoggedRun, out: str | Path, *, epsilon: float 
                  view: View | None = None) -> Path:
     """Two runs on one map: A solid with filled personal spaces, B dashed with outlines. With
     `epsilon`, a cross marks where each human's two paths first part by more than it.
-    `humans` limits the picture to those humans (default: all)."""
+    `humans` limits the picture to those humans (default: all). A crowd's or flow's members
+    are thin paths in its colour, one legend entry for it, unless at most FEW_HUMANS humans
+    were asked for by name."""
     from hubero_dsl.analysis.diff import divergence
 
     _check_spacing(spacing)
     chosen = sorted(humans) if humans is not None else sorted(a.humans)
-    palette = colours(list(a.humans))
+    # a crowd's or flow's members are drawn as its own, unless a few humans were asked for
+    in_set = {} if humans is not None and len(chosen) <= FEW_HUMANS else {
+        name: crowd for name in chosen if (crowd := a.metadata.set_of(name)) is not None}
+    named = [name for name in chosen if name not in in_set]
+    palette = colours(named)
+    crowds = {n: c for n, c in set_colours(a).items() if n in in_set.values()}
     label_a, label_b = labels or (_side_label(a, "A"), _side_label(b, "B"))
-    handles = _overlay_handles(chosen, palette, (label_a, label_b), epsilon)
-    handles += _marker_handles([(run, name) for run in (a, b) for name in chosen
+    handles = [*_overlay_handles(named, palette, (label_a, label_b), epsilon),
+               *_set_handles(a, crowds)]
+    handles += _marker_handles([(run, name) for run in (a, b) for name in named
                                 if name in run.humans])
     figure, axes = (view or View.around([a, b], whole_map)).figure(_labels(handles))
     draw_map(axes, a.grid)
-    for name in chosen:
+    for name, crowd in in_set.items():
+        draw_member(axes, a, name, crowds[crowd])
+        if name in b.humans:
+            draw_member(axes, b, name, crowds[crowd], dashed=True)
+    for name in named:
         draw_human(axes, a, name, palette[name], spacing=spacing)
         if name in b.humans:
             draw_human(axes, b, name, palette[name], spacing=spacing, dashed=True)

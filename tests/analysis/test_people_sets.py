@@ -197,3 +197,16 @@ def test_a_sweeps_table_gives_a_crowd_one_row(lounge: Path, reseeded: Path, tmp_
     assert not any(name.startswith("visitors_") for name in names)
     assert main(["diff", str(folder), "--baseline", "base", "--human", "visitors_2"]) == 0
     assert "visitors_2" in capsys.readouterr().out
+
+
+def test_the_overlay_of_two_runs_draws_a_crowd_as_the_picture_does(
+        lounge: Path, reseeded: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    legends = _legends(plot_module, monkeypatch)
+    a, b = load_run(lounge), load_run(reseeded)
+    plot_module.plot_overlay(a, b, tmp_path / "both.png", epsilon=0.1)
+    labels = legends[-1]
+    assert "crowd visitors (8 people)" in labels and "mum" in labels
+    assert not any(label.startswith("visitors_") for label in labels)
+    # a member asked for by name is drawn in full, as a named human is
+    plot_module.plot_overlay(a, b, tmp_path / "one.png", humans=["visitors_2"])
+    assert "visitors_2" in legends[-1] and not any("crowd" in x for x in legends[-1])
