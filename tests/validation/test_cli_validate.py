@@ -150,3 +150,17 @@ def test_the_docs_quote_the_held_out_run_as_it_runs_now(cli: Cli) -> None:
     start = page.index(rows[0])
     assert page[start:start + len(rows)] == rows
     assert entry["worst_relative_error"] <= 0.15
+
+
+def test_the_lane_fit_holds_the_held_out_uo_100_as_the_docs_say(cli: Cli) -> None:
+    """docs/validation.md: fitted with every exit among the training runs, the held-out
+    uo-100-180-180 is within 5 % with the two seeds' frames pooled (its table's last column)."""
+    root = Path(__file__).resolve().parents[2]
+    outcome = cli("validate", str(shipped_path("uo-100-180-180")), "--json", "--seeds", "2",
+                  "--defaults", str(root / "docs" / "fitted_juelich_exits.hub"))
+    assert outcome.status == 0, outcome.err
+    (entry,) = json.loads(outcome.out)["files"]
+    worst = round(entry["worst_relative_error"] * 100)
+    page = (root / "docs" / "validation.md").read_text(encoding="utf-8")
+    assert f"| uo-100-180-180 | held out | 0.1132 (36 %) | **0.0014 (6 %)** | **{worst} %**" in page
+    assert worst <= 15
