@@ -108,6 +108,7 @@ class RunDiff:
         return {"a": vars(self.a), "b": vars(self.b), "epsilon": self.epsilon,
                 "humans": {n: h.to_dict() for n, h in sorted(self.humans.items())},
                 "robots": {n: r.to_dict() for n, r in sorted(self.robots.items())},
+                "sets": {n: c.to_dict() for n, c in set_diffs(self).items()},
                 "notes": list(self.notes)}
 
 

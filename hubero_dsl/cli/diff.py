@@ -98,7 +98,6 @@ def _pair(args: argparse.Namespace) -> int:
     if args.json:
         data = diff.to_dict()
         data["humans"] = {n: h for n, h in data["humans"].items() if n in humans}
-        data["sets"] = {n: s.to_dict() for n, s in sets.items()}
         print(json.dumps(data, indent=2))
     else:
         _print_pair(diff, listed, list(sets.values()), a.metadata.set_of, _console())

@@ -197,6 +197,9 @@ def test_a_sweeps_table_gives_a_crowd_one_row(lounge: Path, reseeded: Path, tmp_
     assert not any(name.startswith("visitors_") for name in names)
     assert main(["diff", str(folder), "--baseline", "base", "--human", "visitors_2"]) == 0
     assert "visitors_2" in capsys.readouterr().out
+    assert main(["diff", str(folder), "--baseline", "base", "--json"]) == 0
+    (comparison,) = json.loads(capsys.readouterr().out)["comparisons"]
+    assert comparison["diff"]["sets"]["visitors"]["members"] == 8
 
 
 def test_the_overlay_of_two_runs_draws_a_crowd_as_the_picture_does(
