@@ -285,11 +285,13 @@ def parameter_changes(a: dict[str, Any], b: dict[str, Any]) -> dict[str, tuple[s
 
 # ---- crowds and flows, each as a whole ------------------------------------------------------
 
-# How a crowd's members' metric becomes the crowd's: over the members with a value on a side.
-_SET_METRICS = (("path_length", "mean"), ("duration", "mean"), ("mean_speed", "mean"),
-                ("max_speed", "max"), ("min_distance", "min"),
-                ("personal_space_intrusion_time", "sum"), ("collisions", "sum"),
-                ("succeeded", "count"))
+# A crowd's metric, the members' metric it sums up (with its keys: `min_distance.NAME`), and
+# how: over the members with a value on a side.
+_SET_METRICS = (("path_length", "path_length", "mean"), ("duration", "duration", "mean"),
+                ("mean_speed", "mean_speed", "mean"), ("max_speed", "max_speed", "max"),
+                ("min_distance", "min_distance", "min"),
+                ("personal_space_intrusion_time", "personal_space_intrusion_time", "sum"),
+                ("collisions", "collisions", "sum"), ("succeeded", "final_status", "count"))
 SUCCEEDED = "SUCCEEDED"
 
 
@@ -331,7 +333,7 @@ def set_diffs(diff: RunDiff) -> dict[str, SetDiff]:
         came = {side: [h for h in humans if kind != "flow" or _came(h, side)]
                 for side in ("a", "b")}
         metrics = (_compared("members", len(came["a"]), len(came["b"])),
-                   *(_set_metric(came, metric, how) for metric, how in _SET_METRICS))
+                   *(_set_metric(came, name, source, how) for name, source, how in _SET_METRICS))
         frechet = [h.frechet for h in humans if h.frechet is not None]
         hausdorff = [h.hausdorff for h in humans if h.hausdorff is not None]
         apart = [h.diverged_at for h in humans if h.diverged_at is not None]
@@ -349,12 +351,14 @@ def _came(human: HumanDiff, side: str) -> bool:
     return status is not None and getattr(status, side) not in (None, NO_STATUS)
 
 
-def _set_metric(came: dict[str, list[HumanDiff]], metric: str, how: str) -> MetricDelta:
+def _set_metric(came: dict[str, list[HumanDiff]], name: str, source: str, how: str
+                ) -> MetricDelta:
+    """Crowd metric `name`: the members' `source` (and its keys) summed up `how` on each side,
+    over the members who `came` in that side's run."""
     def side(which: str) -> float | int | None:
         return aggregate([getattr(m, which) for h in came[which] for m in h.metrics
-                          if m.name == metric or m.name.startswith(f"{metric}.")
-                          or (metric == "succeeded" and m.name == "final_status")], how)
-    return _compared(metric, side("a"), side("b"))
+                          if m.name == source or m.name.startswith(f"{source}.")], how)
+    return _compared(name, side("a"), side("b"))
 
 
 def _compared(name: str, left: Scalar | None, right: Scalar | None) -> MetricDelta:
@@ -375,11 +379,11 @@ def aggregate(values: Sequence[Scalar | None], how: str) -> float | int | None:
     numbers = [v for v in values if isinstance(v, int | float) and not isinstance(v, bool)]
     if not numbers:
         return None
-    if how == "sum":
-        total = sum(numbers)
-        return total if isinstance(total, int) else _rounded(float(total))
-    picked = {"mean": lambda: float(np.mean(numbers)), "max": lambda: max(numbers),
-              "min": lambda: min(numbers)}[how]()
+    picked: float | int
+    if how == "mean":
+        picked = float(np.mean(numbers))
+    else:
+        picked = sum(numbers) if how == "sum" else max(numbers) if how == "max" else min(numbers)
     return _rounded(float(picked)) if isinstance(picked, float) else picked
 
 

@@ -92,15 +92,15 @@ def _pair(args: argparse.Namespace) -> int:
         from hubero_dsl.analysis.plot import plot_overlay
 
         plot_overlay(a, b, args.plot, epsilon=args.epsilon, humans=humans)
-    # with neither --human nor --members a crowd's or flow's members are its table
-    sets = {} if args.human or args.members else set_diffs(diff)
-    listed = [h for h in humans if a.metadata.set_of(h) not in sets]
     if args.json:
         data = diff.to_dict()
         data["humans"] = {n: h for n, h in data["humans"].items() if n in humans}
         print(json.dumps(data, indent=2))
-    else:
-        _print_pair(diff, listed, list(sets.values()), a.metadata.set_of, _console())
+        return 0
+    # with neither --human nor --members a crowd's or flow's members are its table
+    sets = {} if args.human or args.members else set_diffs(diff)
+    listed = [h for h in humans if a.metadata.set_of(h) not in sets]
+    _print_pair(diff, listed, list(sets.values()), a.metadata.set_of, _console())
     return 0
 
 
@@ -274,12 +274,12 @@ def _metric_row(metric: MetricDelta) -> tuple[str, str, str, str]:
             escape(_value(metric.b, unit)), _delta(metric.delta, unit))
 
 
-def _closest(human: HumanDiff) -> tuple[float | None, float | None]:
+def _closest(human: HumanDiff) -> tuple[float | int | None, float | int | None]:
     """The closest approach to anyone, in A and in B."""
+    from hubero_dsl.analysis.diff import aggregate
+
     rows = [m for m in human.metrics if m.name.startswith("min_distance.")]
-    left = [float(m.a) for m in rows if isinstance(m.a, int | float)]
-    right = [float(m.b) for m in rows if isinstance(m.b, int | float)]
-    return (min(left) if left else None), (min(right) if right else None)
+    return aggregate([m.a for m in rows], "min"), aggregate([m.b for m in rows], "min")
 
 
 def _number(value: object, signed: bool = False) -> str:
