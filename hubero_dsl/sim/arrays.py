@@ -7,6 +7,7 @@ arrays on events (a task starts, a goal is reached); every tick the engine reads
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,6 +21,8 @@ IntArray = npt.NDArray[np.intp]
 BoolArray = npt.NDArray[np.bool_]
 
 NO_GOAL = np.nan
+
+Sight = Callable[[FloatArray, FloatArray], BoolArray]  # where a wall hides `there` from `here`
 
 
 @dataclass(eq=False)
@@ -66,26 +69,31 @@ class HumanArrays:
 class PathPool:
     """Every human's global path in one array, followed waypoint by waypoint without loops.
 
-    A human's path occupies rows [cursor, end) of `points`; each tick the cursor moves past the
-    waypoints already within `lookahead`. New paths are appended; the pool is compacted when it
-    grows large, so re-planning (follow re-plans every second) does not leak memory.
+    A human's path occupies rows [start, end) of `points`, the cursor at the waypoint walked
+    to; each tick the cursor moves past the waypoints already within `lookahead` (and back
+    when one passed is needed again, `retreat`). New paths are appended; the pool is compacted
+    when it grows large, so re-planning (follow re-plans every second) does not leak memory.
     """
 
     def __init__(self, count: int) -> None:
         self.points: FloatArray = np.zeros((0, 2))
+        self.start: IntArray = np.zeros(count, dtype=np.intp)
         self.cursor: IntArray = np.zeros(count, dtype=np.intp)
         self.end: IntArray = np.zeros(count, dtype=np.intp)
+        self.careful: BoolArray = np.zeros(count, dtype=bool)  # sent back to a corner
 
     def set_path(self, human: int, waypoints: FloatArray) -> None:
         if len(self.points) > 4096 and len(self.points) > 8 * max(1, int(self.live_rows())):
             self._compact()
         start = len(self.points)
         self.points = np.concatenate([self.points, np.asarray(waypoints, dtype=np.float64)])
-        self.cursor[human] = start
+        self.start[human] = self.cursor[human] = start
+        self.careful[human] = False
         self.end[human] = start + len(waypoints)
 
     def clear(self, human: int) -> None:
-        self.cursor[human] = self.end[human] = 0
+        self.start[human] = self.cursor[human] = self.end[human] = 0
+        self.careful[human] = False
 
     def has_path(self) -> BoolArray:
         return self.end > self.cursor
@@ -93,20 +101,49 @@ class PathPool:
     def live_rows(self) -> int:
         return int(np.sum(self.end - self.cursor))
 
-    def advance(self, position: FloatArray, lookahead: float, visible: BoolArray | None = None
+    def advance(self, position: FloatArray, lookahead: float, hidden: Sight | None = None
                 ) -> None:
-        """Move each cursor past waypoints within `lookahead` (never past the last one)."""
+        """Move each cursor past waypoints within `lookahead` (never past the last one).
+
+        `hidden(here, there)` says where a wall stands on the straight line between: someone
+        sent back to a corner (`retreat`) passes it only once the waypoint after it is no
+        longer hidden from where they stand, or they would be steered into the wall again.
+        """
         for _ in range(4):  # a few passes skip several short segments in one tick
             rows = np.flatnonzero(self.end - self.cursor > 1)
             if not rows.size:
                 return
-            passed = lengths(self.points[self.cursor[rows]] - position[rows]) < lookahead
-            if visible is not None:
-                passed &= visible[rows]
-            passing = rows[passed]
+            passing = rows[lengths(self.points[self.cursor[rows]] - position[rows]) < lookahead]
+            careful = passing[self.careful[passing]]
+            if careful.size and hidden is not None:
+                blind = hidden(position[careful], self.points[self.cursor[careful] + 1])
+                passing = np.setdiff1d(passing, careful[blind], assume_unique=True)
             if not passing.size:
                 return
             self.cursor[passing] += 1
+            self.careful[passing] = False
+
+    def retreat(self, rows: IntArray, position: FloatArray, hidden: Sight, reach: float
+                ) -> None:
+        """Send humans `rows` whose target is `hidden` from `position` (their rows of it) back
+        to the last waypoint they passed that is not, and is within `reach`: pushed back round
+        a corner just after passing it, they walk to the corner again (and pass it only once
+        they see past it) rather than press into the wall. A path's first point, where the
+        human stood when it was planned, is no corner: nobody is sent back there; nor is
+        anyone who sees none of their last few waypoints nearby."""
+        rows = rows[self.cursor[rows] > self.start[rows] + 1]
+        if rows.size:
+            rows = rows[hidden(position[rows], self.points[self.cursor[rows]])]
+        for back in range(1, 5):  # the few corners of a bend, as `advance` passes them
+            rows = rows[self.cursor[rows] - back > self.start[rows]]
+            if not rows.size:
+                return
+            corner = self.points[self.cursor[rows] - back]
+            here = position[rows]
+            found = (lengths(corner - here) < reach) & ~hidden(here, corner)
+            self.cursor[rows[found]] -= back
+            self.careful[rows[found]] = True
+            rows = rows[~found]
 
     def current_targets(self, rows: IntArray) -> FloatArray:
         return self.points[self.cursor[rows]]
@@ -126,5 +163,5 @@ class PathPool:
         pieces = [self.points[c:e] for c, e in zip(self.cursor, self.end, strict=True)]
         self.points = np.concatenate(pieces) if pieces else np.zeros((0, 2))
         starts = np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(np.intp)
-        self.cursor = starts
+        self.start, self.cursor = starts, starts.copy()  # the waypoints passed are gone
         self.end = starts + lengths

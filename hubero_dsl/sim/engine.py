@@ -38,6 +38,15 @@ if TYPE_CHECKING:
 
 NEVER = np.iinfo(np.int64).max
 LOOKAHEAD = 0.6         # m: a waypoint this close counts as passed
+# A walker pushed back round a wall's end after passing the corner, who has made no progress
+# for STALLED s near a wall and is not in a crowd (at most CROWDED others within ALONE m: in a
+# crowd, the crowd carries people through an opening), looks every LOOK_AGAIN s whether it
+# still sees its target, and if not walks back to the corner, when that is within REACH m.
+STALLED = 3.0
+CROWDED = 2
+ALONE = 1.0
+LOOK_AGAIN = 0.25
+REACH = 1.5
 GROUP_SPACING = 0.7     # m between neighbours of a walking group
 GROUP_PULL = 1.0        # 1/s: m/s towards the group's centre per metre too far from it
 
@@ -376,7 +385,10 @@ class Engine:
         rows = humans.moving.nonzero()[0]
         if not len(rows):
             return None
-        self.paths.advance(humans.position, LOOKAHEAD)
+        self.paths.advance(humans.position, LOOKAHEAD, self.grid.crosses_obstacle)
+        if self.tick % max(1, self.ticks(LOOK_AGAIN)) == 0:
+            self.paths.retreat(self._stalled_alone_by_walls(rows), humans.position,
+                               self.grid.crosses_obstacle, REACH)
         if self._only_local is not None:
             parts = [(self._only_local, rows)]
         else:
@@ -384,6 +396,19 @@ class Engine:
                      for name, mask in self._local_mask.items()]
         return Steering(self.crowd() if crowd else None, [Part(name, steer, self._drive(steer))
                                        for name, steer in parts if len(steer)])
+
+    def _stalled_alone_by_walls(self, rows: IntArray) -> IntArray:
+        """The walkers among `rows` who have made no progress for `STALLED` s within
+        `LOOKAHEAD` of a wall (more, to within a cell), not in a crowd."""
+        humans = self.humans
+        stalled = rows[self.tick - self.anchor_tick[rows] >= self.ticks(STALLED)]
+        stalled = stalled[~self.grid.surely_clear(humans.position[stalled],
+                                                  humans.radius[stalled] + LOOKAHEAD)]
+        if not stalled.size:
+            return stalled
+        offset = humans.position[None, :, :] - humans.position[stalled][:, None, :]
+        near = (np.hypot(offset[..., 0], offset[..., 1]) < ALONE).sum(axis=1) - 1  # not self
+        return stalled[near <= CROWDED]
 
     def steer(self, steering: Steering | None) -> list[FloatArray]:
         """The local planners' velocities for each part of `steering`."""
