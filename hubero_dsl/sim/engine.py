@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from hubero_dsl.errors import SimulationError
 from hubero_dsl.planners.base import Crowd, Drive, NoPath
@@ -406,9 +407,9 @@ class Engine:
                                                   humans.radius[stalled] + LOOKAHEAD)]
         if not stalled.size:
             return stalled
-        offset = humans.position[None, :, :] - humans.position[stalled][:, None, :]
-        near = (np.hypot(offset[..., 0], offset[..., 1]) < ALONE).sum(axis=1) - 1  # not self
-        return stalled[near <= CROWDED]
+        near = cKDTree(humans.position).query_ball_point(humans.position[stalled], ALONE,
+                                                          return_length=True)
+        return stalled[near - 1 <= CROWDED]  # less themselves
 
     def steer(self, steering: Steering | None) -> list[FloatArray]:
         """The local planners' velocities for each part of `steering`."""
