@@ -63,13 +63,11 @@ def test_a_corner_is_passed_within_the_look_ahead_by_whoever_was_not_sent_back()
     assert pool.cursor[0] == 2  # the crowds' way through doors, which the fitted values match
 
 
-def test_someone_pushed_behind_the_jamb_walks_round_it() -> None:
-    # the car park's dividing wall, whose door (x 1.0 .. 3.2) a flow walks through to the north
-    # row of cars: pushed behind the west jamb, the goal's pull (north-west, into the wall)
-    # slid people west along the wall, and 29 of the 604 people of a 10-minute flow of 1/s
-    # were aborted there
+def behind_the_jamb(others: str = "") -> Simulation:
+    """Someone walking north through the car park's dividing wall's door (x 1.0 .. 3.2),
+    pushed behind its west jamb just after passing the door's corner, with `others`."""
     text = (f'scenario "jamb"\nmap "{REPO_ROOT / "maps" / "parking.yaml"}"\n'
-            "human h at (0, 2)\nactivity { h move_to (0.3, 18.8) }\n")
+            f"human h at (0, 2)\n{others}activity {{ h move_to (0.3, 18.8) }}\n")
     sim = Simulation(compile_source(text, "jamb.hub"))
     paths, humans = sim.engine.paths, sim.engine.humans
     sim.step()
@@ -78,8 +76,25 @@ def test_someone_pushed_behind_the_jamb_walks_round_it() -> None:
     assert humans.position[0, 1] < 3.9
     humans.position[0] = (0.73, 3.42)  # as if pushed there by people coming through
     humans.velocity[0] = (0.0, 0.0)
+    return sim
+
+
+def test_someone_pushed_behind_the_jamb_walks_round_it() -> None:
+    # the goal's pull (north-west, into the wall) slid them west along it: 29 of the 604
+    # people of a 10-minute flow of 1/s through the door were aborted there
+    sim = behind_the_jamb()
     ended = (TaskStatus.SUCCEEDED, TaskStatus.ABORTED)
     while sim.time < 40.0 and not any(e.status in ended for e in sim.events):
         sim.step()
     assert [e.status for e in sim.events if e.status in ended] == [TaskStatus.SUCCEEDED]
     assert sim.time < 25.0   # aborted as stuck at t = 22.2 s before
+
+
+def test_in_a_crowd_nobody_is_sent_back() -> None:
+    sim = behind_the_jamb("human a at (0.1, 3.2)\nhuman b at (0.7, 2.7)\n"
+                          "human c at (1.3, 3.0)\n")
+    start, engine = sim.time, sim.engine
+    while sim.time < start + 8.0:
+        sim.step()
+        assert not engine.paths.careful[0]
+    assert (engine.tick - engine.anchor_tick[0]) * engine.dt > 5.0  # stalled all along
