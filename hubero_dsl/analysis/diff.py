@@ -34,6 +34,7 @@ from hubero_dsl.analysis.metrics import (
 )
 from hubero_dsl.analysis.socialnav_log import robot_social_metrics
 from hubero_dsl.errors import InputError
+from hubero_dsl.sim.status import TaskStatus
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, describe_shape
 
 if TYPE_CHECKING:
@@ -292,7 +293,6 @@ _SET_METRICS = (("path_length", "path_length", "mean"), ("duration", "duration",
                 ("min_distance", "min_distance", "min"),
                 ("personal_space_intrusion_time", "personal_space_intrusion_time", "sum"),
                 ("collisions", "collisions", "sum"), ("succeeded", "final_status", "count"))
-SUCCEEDED = "SUCCEEDED"
 
 
 @dataclass(frozen=True)
@@ -375,7 +375,7 @@ def aggregate(values: Sequence[Scalar | None], how: str) -> float | int | None:
     """`values` (one per member; None where it has none) summed up `how`: mean, max, min, sum,
     or count (of SUCCEEDED statuses). None when no member has a number."""
     if how == "count":
-        return sum(1 for v in values if v == SUCCEEDED)
+        return sum(1 for v in values if v == TaskStatus.SUCCEEDED)
     numbers = [v for v in values if isinstance(v, int | float) and not isinstance(v, bool)]
     if not numbers:
         return None
