@@ -54,7 +54,7 @@ import numpy as np
 import numpy.typing as npt
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
-from gymnasium.vector.utils import batch_space
+from gymnasium.vector.utils import batch_space, concatenate, create_empty_array
 
 from hubero_dsl.analysis.frame import FrameRenderer
 from hubero_dsl.errors import InputError
@@ -247,6 +247,11 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
     def _outcome(self, senses: Senses, index: int) -> Outcome:
         """What the tick just made gives: observation, reward, whether and how it ended
         (`senses`: what the robot sees now, row `index` of them)."""
+        return (self._observation(senses, index), *self._ending(senses, index))
+
+    def _ending(self, senses: Senses, index: int) -> tuple[float, bool, bool, dict[str, Any]]:
+        """The tick's reward, whether and how the episode ended (`_outcome` without the
+        observation, which a vector env takes from `senses` for all its copies at once)."""
         sim = self._simulation()
         if self._log is not None:
             self._log.observe(sim)
@@ -266,7 +271,7 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
             outcome = "reached" if reached else "collision" if collided else "time limit"
             info = self._episode_info(outcome)
             self._close_log(outcome)
-        return self._observation(senses, index), reward, terminated, truncated, info
+        return reward, terminated, truncated, info
 
     # ---- observations ------------------------------------------------------------------------
 
@@ -517,49 +522,76 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
         observations = [env.reset(seed=s, options=options)[0]
                         for env, s in zip(self.envs, seeds, strict=True)]
         self._done[:] = False
-        return self._batch(observations), {}
+        batch = self._empty_observations()
+        concatenate(self.single_observation_space, observations, batch)  # fills `batch`
+        return batch, {}
 
     def step(self, actions: npt.NDArray[np.float32]
              ) -> tuple[dict[str, npt.NDArray[Any]], npt.NDArray[np.float64],
                         npt.NDArray[np.bool_], npt.NDArray[np.bool_], dict[str, Any]]:
-        observations = []
+        going = np.flatnonzero(~self._done).tolist()
+        senses = self._tick(actions, going)
+        observations = self._observations(senses, going)
         rewards = np.zeros(self.num_envs)
         terminated = np.zeros(self.num_envs, dtype=bool)
         truncated = np.zeros(self.num_envs, dtype=bool)
         infos: dict[str, Any] = {}
-        outcomes = self._tick(actions)
-        for i, env in enumerate(self.envs):
-            if self._done[i]:  # next-step autoreset: this step only resets the episode
-                observation, _ = env.reset()
-            else:
-                observation, rewards[i], terminated[i], truncated[i], info = outcomes[i]
+        if senses is not None:
+            for row, i in enumerate(going):
+                rewards[i], terminated[i], truncated[i], info = self.envs[i]._ending(senses,
+                                                                                     row)
                 if info:
                     infos = self._add_info(infos, info, i)
-            observations.append(observation)
+        for i in np.flatnonzero(self._done).tolist():
+            # next-step autoreset: this step only resets the episode
+            for key, value in self.envs[i].reset()[0].items():
+                observations[key][i] = value
         self._done = terminated | truncated
-        return self._batch(observations), rewards, terminated, truncated, infos
+        return observations, rewards, terminated, truncated, infos
 
-    def _tick(self, actions: npt.NDArray[np.float32]) -> dict[int, Outcome]:
-        """One tick of every copy whose episode goes on, its array work done for all of them
-        at once (`Lockstep`, `JointSteering`, `sense`)."""
+    def _tick(self, actions: npt.NDArray[np.float32], going: list[int]) -> Senses | None:
+        """One tick of the copies whose episodes go on (`going`), their array work done for
+        all of them at once (`Lockstep`, `JointSteering`, `sense`): what their robots see
+        (None: no episode goes on)."""
         given = np.asarray(actions, dtype=np.float64)
         if given.size != 2 * self.num_envs:
             raise ValueError(f"actions are one row of two numbers per copy, "
                              f"{self.num_envs} x 2, not an array of shape {given.shape}")
         rows = given.reshape(self.num_envs, 2).tolist()
-        going = [i for i in range(self.num_envs) if not self._done[i]]
-        if not going:
-            return {}
         envs = [self.envs[i] for i in going]
         for i, env in zip(going, envs, strict=True):
             env._act_floats(rows[i], actions[i])
         sims = [env._simulation() for env in envs]
+        if not sims:
+            return None
         steerings = Simulation.begin_steps(sims, self._lockstep)
         steered = self._steering.steer([sim.engine for sim in sims], steerings)
         Simulation.end_steps(sims, steerings, steered, self._lockstep)
-        senses = sense(sims, envs[0].robot_spec, envs[0].max_people)
-        return {i: env._outcome(senses, row) for row, (i, env) in enumerate(zip(going, envs,
-                                                                                strict=True))}
+        return sense(sims, self.envs[0].robot_spec, self.envs[0].max_people)
+
+    def _observations(self, senses: Senses | None, going: list[int]
+                      ) -> dict[str, npt.NDArray[Any]]:
+        """Every copy's observation, one array per key: the going copies' rows from `senses`,
+        the others' zero until their resets fill them."""
+        seen: dict[str, npt.NDArray[Any]] = {}
+        if senses is not None:
+            seen = {"robot": senses.robot, "people": senses.people, "mask": senses.mask}
+            size = self.envs[0].map_patch
+            if size is not None:
+                seen["map"] = np.stack([_patch(self.envs[i]._simulation(), (x, y), size)
+                                        for i, (x, y) in zip(going, senses.places,
+                                                             strict=True)])
+            if len(going) == self.num_envs:
+                return seen
+        observations = self._empty_observations()
+        for key, array in seen.items():
+            observations[key][going] = array
+        return observations
+
+    def _empty_observations(self) -> dict[str, npt.NDArray[Any]]:
+        empty = create_empty_array(self.single_observation_space, self.num_envs, fn=np.zeros)
+        assert isinstance(empty, dict)
+        return empty
 
     def render(self) -> tuple[npt.NDArray[np.uint8], ...] | None:
         """Each copy's scene now (`render_mode="rgb_array"`), else None."""
@@ -571,10 +603,6 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
     def close_extras(self, **kwargs: Any) -> None:
         for env in self.envs:
             env.close()
-
-    def _batch(self, observations: list[dict[str, npt.NDArray[Any]]]
-               ) -> dict[str, npt.NDArray[Any]]:
-        return {key: np.stack([o[key] for o in observations]) for key in observations[0]}
 
 
 gymnasium.register(id=ENV_ID, entry_point="hubero_dsl.gym:ScenarioEnv",
