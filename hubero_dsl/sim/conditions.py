@@ -35,9 +35,13 @@ class LabelBook:
     failed: set[str] = field(default_factory=set)
 
     def holds(self, label: str, event: c.LabelEvent) -> bool:
-        book = {c.LabelEvent.STARTED: self.started, c.LabelEvent.DONE: self.done,
-                c.LabelEvent.FAILED: self.failed}[event]
-        return label in book
+        return label in self.book(event)
+
+    def book(self, event: c.LabelEvent) -> set[str]:
+        """The labels of which `event` has happened (the set itself, which grows)."""
+        if event is c.LabelEvent.STARTED:
+            return self.started
+        return self.done if event is c.LabelEvent.DONE else self.failed
 
 
 class Conditions:
@@ -55,16 +59,22 @@ class Conditions:
         self._tests: dict[int, tuple[c.Condition, Callable[[], bool]]] = {}
 
     def holds(self, condition: c.Condition) -> bool:
+        return self.test(condition)()
+
+    def test(self, condition: c.Condition) -> Callable[[], bool]:
+        """A function telling whether `condition` holds at the time it is called (made once
+        per condition)."""
         kept = self._tests.get(id(condition))
         if kept is None:
             kept = self._tests[id(condition)] = (condition, self._test(condition))
-        return kept[1]()
+        return kept[1]
 
     def _test(self, condition: c.Condition) -> Callable[[], bool]:
         """A function telling whether `condition` holds now."""
         match condition:
             case c.LabelCondition(label=label, event=event):
-                return lambda: self.labels.holds(label.name, event)
+                name, book = label.name, self.labels.book(event)
+                return lambda: name in book
             case c.Reaches(subject=subject, target=target):
                 return self._within(subject, target, operator.le,
                                     self.engine.goal_tolerance_of(subject))

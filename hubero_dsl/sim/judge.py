@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from hubero_dsl.model.activities import Expectation, ExpectMode
-from hubero_dsl.model.conditions import MetricCompare
+from hubero_dsl.model.conditions import Condition, MetricCompare
 from hubero_dsl.planners.navfn import reference_plan_length
 from hubero_dsl.socialnav import Track, member_indices, social_metrics
 
@@ -145,10 +145,12 @@ class Judge:
         Gymnasium env's episodes share theirs), filled in as this run finds more."""
         self.sim = sim
         self.verdicts = [Verdict(e) for e in sim.program.expectations]
-        # the verdicts judged tick by tick (metrics wait for the end), while undecided
-        self._watched = [(v, condition) for v in self.verdicts
+        # the verdicts judged tick by tick (metrics wait for the end), and, from the first
+        # tick on, the undecided ones with their conditions' tests (`Conditions.test`)
+        self._ticking = [(v, condition) for v in self.verdicts
                          if not isinstance(condition := v.expectation.condition, MetricCompare)]
-        wants = record_tracks or len(self._watched) < len(self.verdicts)  # a metric's expect
+        self._watched: list[tuple[Verdict, Callable[[], bool]]] | None = None
+        wants = record_tracks or len(self._ticking) < len(self.verdicts)  # a metric's expect
         self.tracks: Tracks | None = (Tracks(plan_lengths={} if plan_lengths is None
                                              else plan_lengths) if wants else None)
         if self.tracks is not None:
@@ -157,15 +159,21 @@ class Judge:
     def observe(self) -> None:
         """After a tick: the undecided expectations' conditions as they hold now (`record`
         keeps the positions the metrics need)."""
+        sim = self.sim
+        if self._watched is None:
+            self._watched = [(verdict, self._test(condition))
+                             for verdict, condition in self._ticking]
         if not self._watched:
             return
-        sim = self.sim
-        assert sim.scheduler is not None
-        holds, time = sim.scheduler.conditions.holds, sim.time
-        for verdict, condition in self._watched:
-            verdict.observe(holds(condition), time)
+        time = sim.time
+        for verdict, holds in self._watched:
+            verdict.observe(holds(), time)
         if any(verdict.held is not None for verdict, _ in self._watched):
             self._watched = [watched for watched in self._watched if watched[0].held is None]
+
+    def _test(self, condition: Condition) -> Callable[[], bool]:
+        assert self.sim.scheduler is not None  # a run with conditions to watch has activities
+        return self.sim.scheduler.conditions.test(condition)
 
     def record(self) -> None:
         if self.tracks is not None and (not self.tracks.time
