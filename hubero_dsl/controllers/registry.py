@@ -39,7 +39,7 @@ def controller_class(name: str) -> type:
                          f"{', '.join(controller_names()) or 'none'})")
     try:
         loaded = entry.load()
-    except Exception as exc:  # a broken third-party plugin must not take hubero down
+    except (Exception, SystemExit) as exc:  # a broken plugin must not take hubero down
         raise InputError(f"robot controller plugin '{name}' cannot be loaded: {exc}") from None
     return _checked(loaded, f"robot controller plugin '{name}'")
 
@@ -60,7 +60,7 @@ def import_controller(target: str) -> type:
         raise InputError(f"'{target}' is not of the form MODULE:CLASS")
     try:
         loaded = getattr(importlib.import_module(module_name), class_name)
-    except Exception as exc:  # user code: any failure is a bad-input error, not a crash
+    except (Exception, SystemExit) as exc:  # user code: a bad-input error, not a crash
         raise InputError(f"controller '{target}' cannot be imported: "
                          f"{type(exc).__name__}: {exc}") from None
     return _checked(loaded, f"controller '{target}'")

@@ -12,8 +12,9 @@ import re
 from dataclasses import dataclass, field, replace
 from typing import Literal
 
-from hubero_dsl.controllers.registry import controller_names
+from hubero_dsl.controllers.registry import controller_class, controller_names
 from hubero_dsl.diagnostics import Diagnostic, Related, Span, error, warning
+from hubero_dsl.errors import InputError
 from hubero_dsl.lang import ast
 from hubero_dsl.lang.lower import area_polygon, coordinate
 from hubero_dsl.lang.symbols import NameKind, SymbolTable, alias_depths
@@ -460,6 +461,11 @@ class Checker:
                         did_you_mean(name, self.controllers)
                         or "controllers: " + ", ".join(self.controllers))
             return ""
+        try:  # an installed plugin that cannot be loaded fails here, not only in a run
+            controller_class(name)
+        except InputError as exc:
+            self.report("E110", exc.message, written.target.span)
+            return ""
         return name
 
     def _kinematics(self, param: ast.Param) -> Literal["holonomic", "unicycle"]:
@@ -555,7 +561,6 @@ class Checker:
         return None
 
     def _planner_param(self, param: ast.Param, planner: str, name: str) -> ParamValue | None:
-        from hubero_dsl.errors import InputError
         from hubero_dsl.planners.registry import planner_params
 
         try:

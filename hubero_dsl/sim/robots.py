@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import numbers
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -212,7 +213,7 @@ class Robots:
         controller = self.controllers[i]
         try:
             command = controller.command(observation)
-        except Exception as exc:  # user code: its failure is the user's error, not hubero's
+        except (Exception, SystemExit) as exc:  # user code: its failure is the user's error
             raise ControllerError(
                 f"robot '{self.names[i]}' at t = {time:g} s: its controller "
                 f"{type(controller).__name__} raised {type(exc).__name__}: {exc}") from None
@@ -229,9 +230,17 @@ class Robots:
         forward, turn = command
         limit = spec.max_angular_speed
         turn = max(-limit, min(limit, turn))
-        heading = physics.wrap_angle(float(self.heading[i]) + turn * dt)
+        old_heading = float(self.heading[i])
+        heading = physics.wrap_angle(old_heading + turn * dt)
         self.heading[i] = heading
-        return self._limited(i, math.cos(heading) * forward, math.sin(heading) * forward, dt)
+        # a unicycle's speed is along its heading: its limits bound the forward speed, which
+        # then turns with the heading (no velocity lagging sideways behind it)
+        now = (float(self.velocity[i, 0]) * math.cos(old_heading)
+               + float(self.velocity[i, 1]) * math.sin(old_heading))
+        forward = max(-spec.max_speed, min(spec.max_speed, forward))
+        most = spec.max_acceleration * dt
+        forward = max(now - most, min(now + most, forward))
+        return (math.cos(heading) * forward, math.sin(heading) * forward)
 
     def _limited(self, i: int, vx: float, vy: float, dt: float) -> tuple[float, float]:
         """(vx, vy) within the robot's speed limit, reached from its current velocity within
@@ -326,9 +335,10 @@ class Robots:
 def in_view(spec: RobotSpec, offset: FloatArray, surface: FloatArray,
             heading: float | FloatArray) -> BoolArray:
     """Which bodies a robot of `spec` facing `heading` (per body, or one for all) sees: those
-    within its sensor range (`surface`: each body's surface distance from the robot's centre)
-    and its field of view (`offset`: each body's centre from the robot's)."""
-    visible = surface <= spec.sensor_range
+    within its sensor range, surface to surface (`surface`: each body's surface distance from
+    the robot's centre), and its field of view (`offset`: each body's centre from the
+    robot's)."""
+    visible = surface - spec.radius <= spec.sensor_range
     if spec.field_of_view < 2 * math.pi:
         bearing = np.arctan2(offset[:, 1], offset[:, 0]) - heading
         visible &= np.abs(physics.wrap_angle(bearing)) <= spec.field_of_view / 2
@@ -381,15 +391,25 @@ def _override(table: dict[int, tuple[float, float]], index: int,
 
 def _velocity_command(command: Any, robot: str, controller: str,
                       time: float) -> tuple[float, float]:
-    """Two finite numbers, or the controller's error."""
+    """Two finite real numbers (a pair, a list, an array of two), or the controller's error."""
     try:
-        vx, vy = (float(v) for v in command)
-        if math.isfinite(vx) and math.isfinite(vy):
-            return (vx, vy)
-    except (TypeError, ValueError):
+        first, second = command
+        if isinstance(first, numbers.Real) and isinstance(second, numbers.Real):
+            vx, vy = float(first), float(second)
+            if math.isfinite(vx) and math.isfinite(vy):
+                return (vx, vy)
+    except Exception:  # whatever reading the answer raises, the answer is not a velocity
         pass
     raise ControllerError(f"robot '{robot}' at t = {time:g} s: its controller {controller} "
-                          f"returned {command!r:.80}, not a velocity (two finite numbers)")
+                          f"returned {_shown(command)}, not a velocity (two finite numbers)")
+
+
+def _shown(value: Any) -> str:
+    """`value`'s repr, cut short; a placeholder when even that fails (user code)."""
+    try:
+        return f"{value!r:.80}"
+    except Exception:  # user code again
+        return f"a {type(value).__name__}"
 
 
 def robot_body(spec: RobotSpec, grid: OccupancyGrid, dt: float) -> RobotBody:

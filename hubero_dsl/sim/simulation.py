@@ -341,10 +341,13 @@ def build_controllers(program: Program, given: Mapping[str, type | RobotControll
             continue
         cls = chosen or controller_class(spec.controller)
         params_model = getattr(cls, "Params", ControllerParams)
-        values = spec.controller_params if chosen is None else {}
+        # a class handed over takes the scenario's parameters when it declares its own
+        # (validated by them); one that declares none is built with none
+        values = (spec.controller_params
+                  if chosen is None or params_model is not ControllerParams else {})
         try:
             built[spec.name] = cls(body, params_model.model_validate(dict(values)))
-        except Exception as exc:  # user code: its failure is the user's error
+        except (Exception, SystemExit) as exc:  # user code: its failure is the user's error
             raise SimulationError(f"robot '{spec.name}': controller {cls.__name__} cannot be "
                                   f"built: {type(exc).__name__}: {exc}") from None
     return built
