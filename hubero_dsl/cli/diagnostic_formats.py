@@ -12,14 +12,18 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
 from rich.cells import cell_len
 
 from hubero_dsl.diagnostics import Diagnostic, Related, Severity, Span
+
+if TYPE_CHECKING:
+    from hubero_dsl.errors import HuberoError
 
 JSON_FORMAT_VERSION = 1
 TAB_WIDTH = 4
@@ -398,3 +402,23 @@ class Printer:
             self._console = Console(file=self.stream, force_terminal=True, highlight=False,
                                     markup=False, emoji=False, soft_wrap=True)
         return self._console
+
+
+def report_error(exc: HuberoError) -> None:
+    """An error as the command line reports it on stderr: a scenario's diagnostics (at most
+    MAX_SHOWN_DIAGNOSTICS), or the one message, with its place when it has one."""
+    from hubero_dsl.diagnostics import error
+    from hubero_dsl.errors import CompileError
+
+    printer = Printer.to(sys.stderr)
+    sources = SourceLines()
+    if isinstance(exc, CompileError):
+        for diagnostic in exc.diagnostics[:MAX_SHOWN_DIAGNOSTICS]:
+            printer.lines([*diagnostic_lines(diagnostic, sources), ()])
+        if len(exc.diagnostics) > MAX_SHOWN_DIAGNOSTICS:
+            print(f"hubero: ... and {len(exc.diagnostics) - MAX_SHOWN_DIAGNOSTICS} more "
+                  "(hubero check --format json lists them all)", file=sys.stderr)
+    elif exc.span is None and exc.hint is None:
+        printer.lines(input_error_lines(exc.message))
+    else:
+        printer.lines(diagnostic_lines(error("", exc.message, exc.span, exc.hint), sources))

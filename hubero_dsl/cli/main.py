@@ -29,7 +29,7 @@ from collections.abc import Sequence
 from typing import TextIO
 
 from hubero_dsl import __version__
-from hubero_dsl.errors import CompileError, HuberoError
+from hubero_dsl.errors import HuberoError
 
 # Command modules in the order `hubero --help` lists them.
 COMMANDS: tuple[str, ...] = ("check", "run", "test", "graph", "sweep", "plot", "diff",
@@ -91,11 +91,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         _say("interrupted")
         return EXIT_INTERRUPTED
-    except CompileError as exc:
-        _report_compile_error(exc)
-        return exc.exit_status
     except HuberoError as exc:
-        _report_error(exc)
+        from hubero_dsl.cli.diagnostic_formats import report_error
+
+        report_error(exc)
         return exc.exit_status
     except Exception as exc:
         _say(f"internal error: {type(exc).__name__}: {exc} (please report)")
@@ -114,39 +113,6 @@ def _dispatch(argv: Sequence[str] | None) -> int:
         return exc.code if isinstance(exc.code, int) else EXIT_USAGE if exc.code else EXIT_OK
     status: int = args.run(args)
     return status
-
-
-def _report_error(exc: HuberoError) -> None:
-    from hubero_dsl.cli.diagnostic_formats import (
-        Printer,
-        SourceLines,
-        diagnostic_lines,
-        input_error_lines,
-    )
-    from hubero_dsl.diagnostics import error
-
-    printer = Printer.to(sys.stderr)
-    if exc.span is None and exc.hint is None:
-        printer.lines(input_error_lines(exc.message))
-    else:
-        printer.lines(diagnostic_lines(error("", exc.message, exc.span, exc.hint), SourceLines()))
-
-
-def _report_compile_error(exc: CompileError) -> None:
-    from hubero_dsl.cli.diagnostic_formats import (
-        MAX_SHOWN_DIAGNOSTICS,
-        Printer,
-        SourceLines,
-        diagnostic_lines,
-    )
-
-    printer = Printer.to(sys.stderr)
-    sources = SourceLines()
-    for diagnostic in exc.diagnostics[:MAX_SHOWN_DIAGNOSTICS]:
-        printer.lines([*diagnostic_lines(diagnostic, sources), ()])
-    if len(exc.diagnostics) > MAX_SHOWN_DIAGNOSTICS:
-        _say(f"... and {len(exc.diagnostics) - MAX_SHOWN_DIAGNOSTICS} more (hubero check "
-             "--format json lists them all)")
 
 
 class Terminated(KeyboardInterrupt):

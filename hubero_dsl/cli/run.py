@@ -116,7 +116,7 @@ def variants_to_run(program: Program, args: argparse.Namespace) -> list[str | No
 
 
 def run(args: argparse.Namespace) -> int:
-    from hubero_dsl.errors import InputError
+    from hubero_dsl.errors import InputError, SimulationError
     from hubero_dsl.pipeline import compile_file
 
     if args.log_rate <= 0:
@@ -138,11 +138,22 @@ def run(args: argparse.Namespace) -> int:
     failed = False
     for variant in variants:
         output = _log_path(args, variant)
-        if args.live:
-            result = _run_live(program, variant, output, args, controllers)
-        else:
-            result = run_one(program, variant, args.seed, output, args.log_rate,
-                             quiet=args.quiet, controllers=controllers)
+        try:
+            if args.live:
+                result = _run_live(program, variant, output, args, controllers)
+            else:
+                result = run_one(program, variant, args.seed, output, args.log_rate,
+                                 quiet=args.quiet, controllers=controllers)
+        except SimulationError as exc:
+            if len(variants) == 1:
+                raise
+            # one variant's error (a robot's controller raised): said, and the others run
+            from hubero_dsl.cli.diagnostic_formats import Printer, input_error_lines
+
+            Printer.to(sys.stderr).lines(input_error_lines(
+                f"variant {variant or '(as written)'}: {exc.message}"))
+            failed = True
+            continue
         if not args.quiet:
             from hubero_dsl.cli.summary import print_summary
 
@@ -165,22 +176,28 @@ def _log_path(args: argparse.Namespace, variant: str | None) -> Path | None:
     if args.no_log:
         return None
     if args.output is not None:
-        return Path(args.output)
+        return writable_log_path(Path(args.output))
     if args.out_dir is not None:
-        return Path(args.out_dir) / f"{safe_name(variant)}.mcap"
+        return writable_log_path(Path(args.out_dir) / f"{safe_name(variant)}.mcap")
     stem = Path(args.file).stem + (f"-{safe_name(variant)}" if variant is not None else "")
     return default_log_path(stem)
 
 
 def default_log_path(stem: str) -> Path:
     """`runs/STEM.mcap` in the folder hubero runs in; never over a file that is not a log."""
-    from hubero_dsl.errors import InputError
     from hubero_dsl.log.writer import ensure_directory
 
-    path = ensure_directory(DEFAULT_LOG_FOLDER) / f"{stem}.mcap"
-    if path.exists() and not _is_log(path):
+    return writable_log_path(ensure_directory(DEFAULT_LOG_FOLDER) / f"{stem}.mcap")
+
+
+def writable_log_path(path: Path) -> Path:
+    """`path`, unless something that is not an MCAP log is there (InputError): a log is
+    written over, anything else (a user's file, a device, a FIFO) never."""
+    from hubero_dsl.errors import InputError
+
+    if (path.exists() or path.is_symlink()) and not _is_log(path):
         raise InputError(f"{path} exists and is not an MCAP log: not writing over it (give "
-                         "-o OUT.mcap, or --no-log)")
+                         "another -o OUT.mcap, or --no-log)")
     return path
 
 
@@ -206,6 +223,8 @@ def handed_controllers(args: argparse.Namespace) -> dict[str, type]:
         robot, equals, target = option.partition("=")
         if not equals or not robot:
             raise InputError(f"--controller takes ROBOT=MODULE:CLASS, not '{option}'")
+        if robot in handed:
+            raise InputError(f"--controller: robot '{robot}' is given a class twice")
         handed[robot] = import_controller(target)
     return handed
 

@@ -1,7 +1,10 @@
 """`hubero test FILE...`: run scenarios and judge every `expect`, for CI.
 
 Every variant of every file runs (or the one named with --variant); the exit status is 0 when
-every run completed and every expectation held, 1 otherwise, 2 for bad input.
+every run completed and every expectation held, 1 otherwise, 2 for bad input. A file that does
+not compile, or a run that ends in an error (a robot's controller that raised), is an ERROR line
+counted as failed, and the other files and runs go on. `--controller ROBOT=...` hands the class
+to that robot in every file that has one.
 """
 
 from __future__ import annotations
@@ -34,21 +37,39 @@ def run(args: argparse.Namespace) -> int:
     from rich.markup import escape
 
     from hubero_dsl.cli.console import make_console
+    from hubero_dsl.cli.diagnostic_formats import report_error
+    from hubero_dsl.errors import HuberoError, InputError, SimulationError
     from hubero_dsl.pipeline import compile_file
 
     console = make_console()
-    failures = 0
-    runs = 0
+    failures = runs = 0
+    bad_input = False
     controllers = handed_controllers(args)
+    handed_to: set[str] = set()
+    if args.variant is not None:
+        args.all_variants = False
     for file in args.files:
-        program = compile_file(file)
-        if args.variant is not None:
-            args.all_variants = False
+        try:
+            program = compile_file(file)
+        except HuberoError as exc:  # this file's mistakes are said; the other files still run
+            report_error(exc)
+            console.print(f"[red]ERROR[/] {escape(file)}: does not compile")
+            runs, failures = runs + 1, failures + 1
+            bad_input = bad_input or isinstance(exc, InputError)
+            continue
+        robots = {robot.name for robot in program.robots}
+        mine = {name: cls for name, cls in controllers.items() if name in robots}
+        handed_to |= set(mine)
         for variant in variants_to_run(program, args):
-            result = run_one(program, variant, args.seed, None, 10.0, quiet=True,
-                             controllers=controllers)
             runs += 1
             name = escape(file + (f" [{variant}]" if variant else ""))
+            try:
+                result = run_one(program, variant, args.seed, None, 10.0, quiet=True,
+                                 controllers=mine)
+            except SimulationError as exc:  # a controller raised: this run's error
+                failures += 1
+                console.print(f"[red]ERROR[/] {name}: {escape(exc.message)}")
+                continue
             ok = result.succeeded
             failures += not ok
             if not ok or not args.quiet:
@@ -60,4 +81,7 @@ def run(args: argparse.Namespace) -> int:
                 if not expectation.held:
                     console.print(f"    expectation fails: {escape(expectation.text)}")
     console.print(f"{runs - failures} passed, {failures} failed")
-    return 1 if failures else 0
+    unused = sorted(set(controllers) - handed_to)
+    if unused:
+        raise InputError(f"--controller: no robot named '{unused[0]}' in any of the files")
+    return 2 if bad_input else 1 if failures else 0

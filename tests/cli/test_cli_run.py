@@ -84,6 +84,38 @@ def test_run_writes_its_log_to_runs_by_default(cli: Callable[..., Outcome],
     assert Path("runs/living_room.mcap").read_text() == "my notes"
 
 
+def test_o_and_out_dir_never_write_over_a_file_that_is_not_a_log(
+        cli: Callable[..., Outcome], tmp_path: Path) -> None:
+    notes = tmp_path / "data.csv"
+    notes.write_text("precious data")
+    refused = cli("run", LIVING_ROOM, "--variant", "circle", "-o", str(notes), "-q")
+    assert refused.status == 2 and f"{notes} exists and is not an MCAP log" in refused.err
+    assert notes.read_text() == "precious data"
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "circle.mcap").write_text("junk")
+    refused = cli("run", LIVING_ROOM, "--all-variants", "--out-dir", str(out), "-q")
+    assert refused.status == 2 and "is not an MCAP log" in refused.err
+    assert (out / "circle.mcap").read_text() == "junk"
+    log = tmp_path / "run.mcap"  # a log is written over: a run again
+    assert cli("run", LIVING_ROOM, "--variant", "circle", "-o", str(log), "-q").status == 0
+    assert cli("run", LIVING_ROOM, "--variant", "circle", "-o", str(log), "-q").status == 0
+
+
+def test_hubero_test_reports_a_file_that_does_not_compile_and_runs_the_others(
+        cli: Callable[..., Outcome], tmp_path: Path) -> None:
+    broken = tmp_path / "broken.hub"
+    broken.write_text(f'scenario "t"\nmap "{MAP}"\nhuman a at (1, 1)\n'
+                      "activity { a move_to nowhere }\n", encoding="utf-8")
+    outcome = cli("test", str(broken), LIVING_ROOM)
+    assert outcome.status == 1
+    assert "broken.hub:4:" in outcome.err and "unknown" in outcome.err
+    assert f"ERROR {broken}: does not compile" in outcome.out
+    assert outcome.out.rstrip().endswith("2 passed, 1 failed")
+    missing = cli("test", str(tmp_path / "missing.hub"), LIVING_ROOM)
+    assert missing.status == 2 and "2 passed, 1 failed" in missing.out
+
+
 def test_hubero_test_judges_every_variant(cli: Callable[..., Outcome], tmp_path: Path) -> None:
     outcome = cli("test", LIVING_ROOM)
     assert outcome.status == 0
