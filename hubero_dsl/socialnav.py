@@ -58,7 +58,7 @@ METRICS: dict[str, MetricSpec] = {spec.name: spec for spec in (
     MetricSpec("collisions", "count", "", "contact episodes with people"),
     MetricSpec("time_not_moving", "time", "s", "time spent standing still"),
     MetricSpec("jerk", "number", "m/s^3", "mean magnitude of the jerk"),
-    MetricSpec("social_work", "number", "m/s", "social force exerted on people, over time"),
+    MetricSpec("social_work", "speed", "m/s", "social force exerted on people, over time"),
     MetricSpec("max_distance", "length", "m", "largest surface gap to the nearest person"),
     MetricSpec("avg_centre_distance", "length", "m", "mean centre distance to the nearest person"),
     MetricSpec("max_centre_distance", "length", "m",

@@ -118,7 +118,7 @@ class ValueReader:
             if dimension is Dimension.NUMBER:
                 return value.value
             self.report("E204", f"{what} needs a unit: {describe(dimension)}", value.span,
-                        f"write `{value.text} {EXAMPLE_UNIT[dimension]}`")
+                        _unit_hint(value, dimension))
             return None
         self.report("E201", f"{what} takes {describe(dimension)}", value.span)
         return None
@@ -257,3 +257,12 @@ class ValueReader:
                         f"write {value.kind}({example})")
             ok = False
         return found if ok else None
+
+
+def _unit_hint(value: ast.Number, dimension: Dimension) -> str:
+    """How to write `value` with a unit; a share written as a fraction (0.9) is shown in
+    percent (90 %), not as 0.9 %."""
+    if dimension is Dimension.RATIO and 0.0 < value.value <= 1.0:
+        return (f"write `{value.value * 100:g} %` (a share is written in percent; "
+                f"`{value.text} %` would be {value.text} in a hundred)")
+    return f"write `{value.text} {EXAMPLE_UNIT[dimension]}`"

@@ -479,3 +479,18 @@ def test_places_and_areas_defined_through_themselves(check: Check) -> None:
 def test_follow_needs_a_body_not_a_point(check: Check) -> None:
     result = check("activity { actor1 follow (5.5, 1.0) for 5 s }")
     assert spans(result) == [("E201", 5, 26, 36)]
+
+
+def test_a_share_written_as_a_fraction_is_hinted_in_percent(check: Check) -> None:
+    result = check("activity { actor1 stand for 1 s }\n"
+                   "expect path_efficiency(actor1) >= 0.9\n")
+    (diagnostic,) = result.diagnostics
+    assert diagnostic.code == "E204" and diagnostic.hint is not None
+    assert diagnostic.hint.startswith("write `90 %`")
+
+
+def test_social_work_is_compared_with_a_speed(check: Check) -> None:
+    assert codes(check("activity { actor1 stand for 1 s }\n"
+                       "expect social_work(actor1) <= 10 m/s\n")) == []
+    assert codes(check("activity { actor1 stand for 1 s }\n"
+                       "expect social_work(actor1) <= 10\n")) == ["E204"]
