@@ -399,6 +399,27 @@ class Checker:
                 count = MAX_HUMANS + 1
             self.facts.flows[index] = replace(
                 flow, members=tuple(f"{flow.name}_{i}" for i in range(1, count + 1)))
+            self._flow_member_clashes(flow, count)
+
+    def _flow_member_clashes(self, flow: FlowFacts, count: int) -> None:
+        """Names that a flow's members (NAME_1 ... NAME_count) would take too: an error at the
+        later of the two definitions."""
+        member = re.compile(re.escape(flow.name) + r"_([1-9][0-9]*)")
+        members = f"{flow.name}_1 ... {flow.name}_{count}"
+        for symbol in list(self.symbols.symbols.values()):
+            found = member.fullmatch(symbol.name)
+            if found is None or int(found.group(1)) > count:
+                continue
+            if (symbol.span.line, symbol.span.column) > (flow.span.line, flow.span.column):
+                self.report("E102", f"'{symbol.name}' is defined twice: it names a member of "
+                            f"flow '{flow.name}' ({members})", symbol.span,
+                            "every name is defined once; rename it",
+                            (Related(f"flow '{flow.name}' is defined here", flow.span),))
+            else:
+                self.report("E102", f"flow '{flow.name}' names its members {members}, but "
+                            f"'{symbol.name}' is defined already ({symbol.kind.value})", flow.span,
+                            "every name is defined once; rename the flow or the other",
+                            (Related(f"'{symbol.name}' is defined here", symbol.span),))
 
     def _robot(self, robot: ast.RobotDecl) -> None:
         name = robot.name.name

@@ -159,6 +159,29 @@ def test_flow_mistakes_are_reported(room_map: Path, body: str, code: str) -> Non
     assert code in codes, codes
 
 
+@pytest.mark.parametrize(("body", "line"), [
+    # a human, a place or a crowd after the flow takes a member's name: the later definition
+    ("flow f from rect((1, 1), (3, 3)) to (9, 4) rate 1 /s for 5 s\nhuman f_3 at (5, 5)", 5),
+    ("flow f from rect((1, 1), (3, 3)) to (9, 4) rate 1 /s for 5 s\nplace f_1 (5, 5)", 5),
+    ("crowd f_2 2 in rect((5, 5), (7, 7))\n"
+     "flow f from rect((1, 1), (3, 3)) to (9, 4) rate 1 /s for 5 s", 5),
+    ("flow f from rect((1, 1), (3, 3)) to (9, 4) rate 1 /s for 5 s\n"
+     "flow f_1 from rect((1, 1), (3, 3)) to (9, 4) rate 1 /s for 5 s", 5),
+])
+def test_a_name_a_flows_member_would_take_is_an_error_at_the_later_definition(
+        room_map: Path, body: str, line: int) -> None:
+    errors = check_source(_text(room_map, body), "t.hub").errors
+    assert [d.code for d in errors] == ["E102"]
+    assert errors[0].span is not None and errors[0].span.line == line
+    assert "f_1 ... f_" in errors[0].message
+
+
+def test_a_name_past_a_flows_last_possible_member_is_free(room_map: Path) -> None:
+    body = ("flow f from rect((1, 1), (3, 3)) to (9, 4) rate 1 /s for 5 s\n"
+            "human f_999 at (5, 5)\nhuman f_0 at (6, 6)\nhuman f_x at (7, 7)")
+    assert not check_source(_text(room_map, body), "t.hub").errors
+
+
 def test_a_flow_needs_a_way_from_its_area_to_its_target(walled_map: Path) -> None:
     body = "flow f from rect((1, 1), (3, 3)) to (8, 4) rate 1 /s for 5 s"
     errors = check_source(_text(walled_map, body), "t.hub").errors
