@@ -44,7 +44,8 @@ REACTIONS = ("regular", "impassive", "surprised", "curious", "scared", "threaten
 
 HUMAN_PARAMS: dict[str, ParamSpec] = {spec.name: spec for spec in (
     _q("speed", Dimension.SPEED, 1.29, "desired walking speed (Moussaid et al. 2009)"),
-    _q("max_speed", Dimension.SPEED, 1.8, "speed never exceeded while walking"),
+    _q("max_speed", Dimension.SPEED, 1.8, "the most others' push raises a walker's speed to "
+       "(never below the speed it is asked to walk at)"),
     _q("run_speed", Dimension.SPEED, 3.0, "desired speed of run_to"),
     _q("radius", Dimension.LENGTH, 0.2, "body radius: the part that collides", maximum=2.0),
     ParamSpec("personal_space", ParamKind.SHAPE, "personal-space shape, aligned with the heading",
