@@ -199,7 +199,11 @@ def _at(track: Track, times: FloatArray) -> FloatArray:
 def _efficiency(position: FloatArray, lengths: FloatArray, goal: tuple[float, float] | None,
                 arrived: float | None, time: FloatArray, shortest: float | None = None
                 ) -> float:
-    """The shortest way to the goal (`shortest`, or the straight line) over the path taken."""
+    """The shortest way to the goal (`shortest`, or the straight line) over the path taken;
+    not a number when the goal was never reached (a path that stops short is no measure of
+    the way to it, however straight: success-only, as SocNavBench reports it)."""
+    if goal is not None and arrived is None:
+        return math.nan
     if not len(position):
         return 1.0
     end = np.asarray(goal) if goal is not None else position[-1]

@@ -6,6 +6,7 @@ summary goes to stdout (plain text when stdout is not a terminal).
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -103,9 +104,13 @@ def _robot_metrics_table(metrics: dict[str, dict[str, float]]) -> Table:
                       f"{values['collisions']:.0f} / {values['obstacle_collisions']:.0f}",
                       _seconds(values["min_time_to_collision"]),
                       f"{values['path_length']:.2f} m",
-                      f"{100 * values['path_efficiency']:.0f} %",
+                      _percent(values["path_efficiency"]),
                       _seconds(values["time_to_goal"]))
     return table
+
+
+def _percent(value: float) -> str:
+    return f"{100 * value:.0f} %" if math.isfinite(value) else "-"  # nan: goal not reached
 
 
 def _seconds(value: float) -> str:

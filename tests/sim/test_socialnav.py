@@ -119,3 +119,13 @@ def test_metrics_in_expectations(room_map: Path) -> None:
 def test_metric_mistakes_are_reported(room_map: Path, expectation: str, code: str) -> None:
     result = check_source(_scenario(room_map, expectation + "\n"), "t.hub")
     assert code in {d.code for d in result.errors}
+
+
+def test_efficiency_is_not_a_number_when_the_goal_was_never_reached() -> None:
+    time = np.arange(0.0, 5.0, 0.1)
+    straight = Track(time, np.column_stack([time, np.zeros_like(time)]), 0.3)
+    short = social_metrics(straight, [], goal=(20.0, 0.0), plan_length=20.0)
+    assert math.isnan(short["path_efficiency"]) and math.isnan(short["plan_efficiency"])
+    assert short["time_to_goal"] == math.inf
+    reached = social_metrics(straight, [], goal=(4.5, 0.0))
+    assert reached["path_efficiency"] == pytest.approx(1.0)
