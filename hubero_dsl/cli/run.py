@@ -81,6 +81,14 @@ def _port(text: str) -> int:
     return int(text)
 
 
+def seed_number(text: str) -> int:
+    """A seed as the scenario language takes one: a whole number from 0 on."""
+    if not text.isdigit():
+        raise argparse.ArgumentTypeError(f"invalid seed '{text}': give a whole number from 0 "
+                                         "on")
+    return int(text)
+
+
 def _pace(text: str) -> str:
     from hubero_dsl.log.live import parse_pace
 
@@ -96,7 +104,8 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
     which = parser.add_mutually_exclusive_group()
     which.add_argument("--variant", metavar="NAME", help="run this variant")
     which.add_argument("--all-variants", action="store_true", help="run every variant")
-    parser.add_argument("--seed", type=int, metavar="N", help="override the scenario's seed")
+    parser.add_argument("--seed", type=seed_number, metavar="N",
+                        help="override the scenario's seed")
     parser.add_argument("--quiet", "-q", action="store_true",
                         help="no progress bar and no summary, only problems")
     parser.add_argument("--controller", metavar="ROBOT=MODULE:CLASS", action="append",

@@ -299,6 +299,11 @@ class Checker:
         for ref in (compare.subject, compare.other):
             if ref is not None:
                 self.symbols.resolve(ref, *BODIES, role=f"{compare.metric.name}(...)")
+        if compare.other is not None and compare.other.name == compare.subject.name:
+            self.report("E203", f"{compare.metric.name} measures {compare.subject.name} "
+                        "against someone else, not itself", compare.other.span,
+                        f"write `{compare.metric.name}({compare.subject.name})` to measure it "
+                        "against everyone")
         if spec is None:
             return
         dimension = {"length": Dimension.LENGTH, "time": Dimension.TIME, "speed": Dimension.SPEED,
@@ -829,9 +834,22 @@ class Checker:
                 self.goals.append((step.human.name, task.kind, task.target))
 
     def _not_self(self, step: ast.TaskStep, target: ast.Value, keyword: str = "") -> None:
-        if isinstance(target, ast.NameRef) and target.name == step.human.name:
-            words = " ".join(w for w in (step.task.kind, keyword, "itself") if w)
-            self.report("E203", f"{step.human.name} cannot {words}", target.span)
+        """A body is never its own target, nor is a member of the crowd or group told."""
+        if not isinstance(target, ast.NameRef):
+            return
+        subject = step.human.name
+        words = " ".join(w for w in (step.task.kind, keyword, "itself") if w)
+        if target.name == subject:
+            self.report("E203", f"{subject} cannot {words}", target.span)
+        elif target.name in self._members_of(subject):
+            self.report("E203", f"{target.name} is one of {subject}: it cannot {words}",
+                        target.span, f"give the task to the others of {subject} one by one")
+
+    def _members_of(self, name: str) -> tuple[str, ...]:
+        """The members of crowd or group `name` (none for anyone else)."""
+        if name in self.facts.groups:
+            return self.facts.groups[name]
+        return next((crowd.members for crowd in self.facts.crowds if crowd.name == name), ())
 
     def _task_options(self, step: ast.TaskStep, kind: TaskKind) -> None:
         task = step.task

@@ -60,6 +60,8 @@ def test_bad_input_exits_2_or_1(cli: Callable[..., Outcome], tmp_path: Path) -> 
     assert cli("run", LIVING_ROOM, "--variant", "nope").status == 2
     assert "unknown variant 'nope'" in cli("run", LIVING_ROOM, "--variant", "nope").err
     assert cli("run", LIVING_ROOM, "--log-rate", "0").status == 2
+    negative = cli("run", LIVING_ROOM, "--seed", "-3")
+    assert negative.status == 2 and "invalid seed '-3'" in negative.err
     broken = cli("run", scenario(tmp_path, "activity { a move_to nowhere }\n"))
     assert broken.status == 1 and "unknown" in broken.err
 

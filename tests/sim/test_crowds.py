@@ -109,6 +109,12 @@ def test_a_task_given_to_a_crowd_is_given_to_every_member(room_map: Path) -> Non
     ("crowd c 3 in rect((1, 1), (3, 3))\nhuman c_2 at (5, 5)", "E102"),
     ("crowd c 3 in rect((1, 1), (3, 3))\nactivity { wait until all c reach nowhere }", "E101"),
     ("human h at (5, 5)\nactivity { wait until count(h in rect((1, 1), (3, 3))) > 1 }", "E103"),
+    # a member of the crowd or group told is not its own target
+    ("crowd c 3 in rect((1, 1), (3, 3))\nactivity { c follow c_1 for 3 s }", "E203"),
+    ("human a at (5, 5)\nhuman b at (6, 5)\ngroup g of (a, b)\n"
+     "activity { g talk to a for 3 s }", "E203"),
+    ("human a at (5, 5)\nactivity { a stand for 1 s }\nexpect min_distance(a, a) >= 0.1 m",
+     "E203"),
 ])
 def test_crowd_mistakes_are_reported(room_map: Path, body: str, code: str) -> None:
     assert code in {d.code for d in check_source(_text(room_map, body), "t.hub").errors}
