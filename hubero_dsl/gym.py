@@ -519,12 +519,16 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
                              f"seed, not a list of {len(seed)}")
         seeds = seed if isinstance(seed, list) else [
             None if seed is None else seed + i for i in range(self.num_envs)]
-        observations = [env.reset(seed=s, options=options)[0]
-                        for env, s in zip(self.envs, seeds, strict=True)]
+        observations: list[dict[str, npt.NDArray[Any]]] = []
+        infos: dict[str, Any] = {}
+        for i, (env, s) in enumerate(zip(self.envs, seeds, strict=True)):
+            observation, info = env.reset(seed=s, options=options)
+            observations.append(observation)
+            infos = self._add_info(infos, info, i)  # each copy's seed and variant
         self._done[:] = False
         batch = self._empty_observations()
         concatenate(self.single_observation_space, observations, batch)  # fills `batch`
-        return batch, {}
+        return batch, infos
 
     def step(self, actions: npt.NDArray[np.float32]
              ) -> tuple[dict[str, npt.NDArray[Any]], npt.NDArray[np.float64],

@@ -191,7 +191,8 @@ def test_the_vector_env_batches_and_resets_by_itself(tmp_path: Path) -> None:
     envs = gymnasium.make_vec(hubero_dsl.gym.ENV_ID, num_envs=3,
                               vectorization_mode="vector_entry_point",
                               scenario=str(_scenario(tmp_path)), robot="cart")
-    observations, _ = envs.reset(seed=7)
+    observations, info = envs.reset(seed=7)
+    assert list(info["seed"]) == [7, 8, 9] and info["_seed"].all()  # each copy's, batched
     assert observations["robot"].shape == (3, 7) and observations["people"].shape == (3, 8, 5)
     assert envs.observation_space.contains(observations)
     ended = False
