@@ -11,7 +11,8 @@ between the two paths, the largest distance between the two at the same instant,
 instant they are more than --epsilon apart, and the parameters that differ. A crowd or flow is
 one table of its members' metrics summed up (--members, or --human NAME, lists its members one
 by one), and a human's closest approach to its members is one row. Exit 0 when the
-comparison was made, 2 for unreadable logs, runs of different scenarios or a missing baseline.
+comparison was made (runs of different scenario texts or maps with the same humans are
+compared, with a note), 2 for unreadable logs, runs whose humans differ or a missing baseline.
 """
 
 from __future__ import annotations
@@ -154,14 +155,20 @@ def _console() -> Console:
 
 
 def _unit(metric: str) -> str:
-    return _UNITS.get(metric.split(".", 1)[0], "")
+    """A metric's unit: the diff's own, or the social-navigation metric's (docs/analysis.md)."""
+    from hubero_dsl.socialnav import METRICS
+
+    name = metric.split(".", 1)[0]
+    spec = METRICS.get(name)
+    return _UNITS.get(name, spec.unit if spec is not None else "")
 
 
 def _value(value: object, unit: str) -> str:
     if value is None:
         return "-"
     if isinstance(value, float):
-        return f"{value:.3f} {unit}".rstrip()
+        return (f"{100 * value:.1f} %" if unit == "%"  # a share, as the summary shows it
+                else f"{value:.3f} {unit}".rstrip())
     return f"{value} {unit}".rstrip()
 
 
@@ -170,6 +177,8 @@ def _delta(value: float | int | None, unit: str) -> str:
         return ""
     if value == 0:
         return "[dim]0[/]"
+    if unit == "%":
+        return f"{100 * value:+.1f} %"
     text = f"{value:+.3f}" if isinstance(value, float) else f"{value:+d}"
     return f"{text} {unit}".rstrip()
 
