@@ -1,5 +1,6 @@
-"""`hubero plot RUN.mcap -o OUT.png`: a run drawn on its map; `--animate OUT.gif` replays it.
+"""`hubero plot RUN.mcap [-o OUT.png]`: a run drawn on its map; `--animate OUT.gif` replays it.
 
+    hubero plot run.mcap                  # writes run.png beside the log
     hubero plot run.mcap -o run.png
     hubero plot run.mcap -o run.png --spacing 1 --whole-map
     hubero plot run.mcap --animate run.gif --frames 100 --fps 10
@@ -21,7 +22,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "plot", help="draw a run's paths and personal spaces on its map", description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("log", metavar="RUN.mcap", help="a run log written by hubero run")
-    parser.add_argument("-o", "--output", metavar="OUT.png", type=Path, help="write a PNG")
+    parser.add_argument("-o", "--output", metavar="OUT.png", type=Path,
+                        help="write the PNG here (default: RUN.png beside the log, unless "
+                             "--animate alone is asked)")
     parser.add_argument("--animate", metavar="OUT.gif", type=Path,
                         help="write an animated GIF replay")
     parser.add_argument("--spacing", metavar="M", type=float, default=1.5,
@@ -39,8 +42,9 @@ def run(args: argparse.Namespace) -> int:
     from hubero_dsl.cli.diff import check_writable
     from hubero_dsl.errors import InputError
 
-    if args.output is None and args.animate is None:
-        raise InputError("say where to draw: -o OUT.png, --animate OUT.gif, or both")
+    defaulted = args.output is None and args.animate is None
+    if defaulted:
+        args.output = _beside_the_log(Path(args.log))
     if not args.spacing > 0:
         raise InputError(f"--spacing must be a positive distance in metres, got {args.spacing}")
     if args.frames < 1 or args.fps < 1:
@@ -56,9 +60,27 @@ def run(args: argparse.Namespace) -> int:
         from hubero_dsl.analysis.plot import plot_run
 
         plot_run(logged, args.output, spacing=args.spacing, whole_map=args.whole_map)
+        if defaulted:  # say where it went, since nobody said where it should
+            print(f"picture written to {args.output}")
     if args.animate is not None:
         from hubero_dsl.analysis.animate import animate_run
 
         animate_run(logged, args.animate, max_frames=args.frames, fps=args.fps,
                     whole_map=args.whole_map)
     return 0
+
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def _beside_the_log(log: Path) -> Path:
+    """RUN.png beside RUN.mcap; never over a file there that is not a PNG."""
+    from hubero_dsl.errors import InputError
+
+    picture = log.with_suffix(".png")
+    if picture.is_file():
+        with picture.open("rb") as stream:
+            if stream.read(len(PNG_MAGIC)) != PNG_MAGIC:
+                raise InputError(f"{picture} exists and is not a PNG: not writing over it "
+                                 "(give -o OUT.png)")
+    return picture

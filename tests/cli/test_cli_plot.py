@@ -64,8 +64,24 @@ def test_gif_and_png_together(cli: Cli, log: Path, tmp_path: Path) -> None:
         assert sum(1 for _ in ImageSequence.Iterator(image)) == 4
 
 
+def test_without_an_output_the_picture_goes_beside_the_log(cli: Cli, log: Path,
+                                                           tmp_path: Path) -> None:
+    copy = tmp_path / "copy.mcap"
+    copy.write_bytes(log.read_bytes())
+    outcome = cli("plot", str(copy))
+    assert outcome.status == 0, outcome.err
+    picture = tmp_path / "copy.png"
+    assert f"picture written to {picture}" in outcome.out
+    with Image.open(picture) as image:
+        assert image.format == "PNG"
+    assert cli("plot", str(copy)).status == 0  # its own picture is drawn again
+    picture.write_text("my notes")  # a file that is not a picture is never written over
+    refused = cli("plot", str(copy))
+    assert refused.status == 2 and "is not a PNG" in refused.err
+    assert picture.read_text() == "my notes"
+
+
 @pytest.mark.parametrize(("argv", "message"), [
-    ((), "say where to draw"),
     (("-o", "{tmp}/missing/x.png"), "cannot be written"),
     (("-o", "{tmp}"), "cannot be written (it is a directory)"),
     (("--animate", "{tmp}/missing/x.gif"), "cannot be written"),
