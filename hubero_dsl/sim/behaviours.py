@@ -26,7 +26,7 @@ from hubero_dsl.sim.status import Posture, TaskStatus
 if TYPE_CHECKING:
     from shapely.geometry import Polygon
 
-    from hubero_dsl.sim.arrays import FloatArray, HumanArrays
+    from hubero_dsl.sim.arrays import FloatArray, HumanArrays, IntArray
 
 
 class World(Protocol):
@@ -36,6 +36,7 @@ class World(Protocol):
     tick: int
     stuck_time: float
     follow_replan: FloatArray
+    groups: dict[str, IntArray]
 
     def ticks(self, seconds: float) -> int: ...
     def position_of(self, target: Target) -> tuple[float, float] | None: ...
@@ -51,6 +52,7 @@ class World(Protocol):
     def set_timer(self, index: int, seconds: float) -> None: ...
     def set_timer_tick(self, index: int, tick: int) -> None: ...
     def random_goal(self, index: int, area: Polygon | None) -> tuple[float, float] | None: ...
+    def fits(self, index: int, point: tuple[float, float]) -> bool: ...
     def finish(self, index: int, status: TaskStatus, reason: str = "") -> None: ...
 
 FACE_REFRESH = 0.2  # s between re-aims at a moving target
@@ -137,13 +139,86 @@ class Stand(Behaviour):
 
 
 class Talk(Stand):
-    """Stand and face the person spoken to."""
+    """Stand and face the person spoken to. Told to talk in its own group (the group's name as
+    the one spoken to), a member first steps to its place on a circle round the group's
+    centre, then faces the centre: an F-formation (Kendon 1990), its o-space the circle's
+    inside."""
 
     kind = "talk"
 
     def start(self, engine: World) -> None:
+        circle = self._circle(engine)
+        if circle is not None:
+            place, self.facing = circle  # the centre as the circle was drawn: it stays put
+            way = math.dist(place, engine.humans.position[self.index].tolist())
+            speed = engine.walking_speed(self.index)
+            if way > IN_PLACE and engine.walk_to(self.index, place, speed, IN_PLACE,
+                                                 abort=False) is None:
+                self.state = "joining"
+                # the others' bodies may keep it short of its place: it talks from where it
+                # got to once the way there should have been walked
+                self.joined_by = engine.tick + engine.ticks(way / speed + JOIN_SLACK)
+                if self.timing.duration is not None:  # the talk's time runs from its start
+                    self.deadline = engine.tick + engine.ticks(self.timing.duration)
+                engine.set_timer_tick(self.index, min(self.joined_by, self.deadline
+                                                      or self.joined_by))
+                return
         super().start(engine)
         self.state = "talking"
+
+    def _circle(self, engine: World) -> tuple[tuple[float, float], tuple[float, float]] | None:
+        """This member's place on its group's talking circle and the circle's centre; None
+        when it is not told to talk in a group of its own, or its place is in a wall."""
+        rows = engine.groups.get(self.facing) if isinstance(self.facing, str) else None
+        if rows is None or self.index not in rows:
+            return None
+        h = engine.humans
+        places, centre = talking_circle(h.position[rows], h.radius[rows])
+        place = places[int(np.flatnonzero(rows == self.index)[0])]
+        return (place, centre) if engine.fits(self.index, place) else None
+
+    def on_arrived(self, engine: World) -> None:
+        self._in_place(engine)
+
+    def on_stuck(self, engine: World) -> None:
+        self._in_place(engine)  # as near its place as the others let it: it talks from there
+
+    def on_timer(self, engine: World) -> None:
+        if self.state == "joining" and (self.deadline is None or engine.tick < self.deadline):
+            self._in_place(engine)
+            return
+        super().on_timer(engine)
+
+    def _in_place(self, engine: World) -> None:
+        engine.halt(self.index)
+        self.state = "talking"
+        self._aim(engine)
+
+
+IN_PLACE = 0.1         # m: a member this near its place on a talking circle is in it
+JOIN_SLACK = 1.0       # s beyond the walk to its place a member takes to reach it
+CIRCLE_GAP = 0.4       # m between neighbours' bodies on a talking circle
+CIRCLE_RADIUS = 0.6    # m: the smallest circle, two people about 1.2 m apart (personal distance)
+
+
+def talking_circle(position: FloatArray, radius: FloatArray
+                   ) -> tuple[list[tuple[float, float]], tuple[float, float]]:
+    """Places on a circle round the members' centre, evenly spread, each member's in the order
+    of their bearings from the centre and turned to be nearest where they stand; and the
+    centre."""
+    count = len(position)
+    centre = position.mean(axis=0)
+    bearing = np.arctan2(position[:, 1] - centre[1], position[:, 0] - centre[0])
+    order = np.argsort(bearing, kind="stable")
+    spread = 2.0 * math.pi * np.arange(count) / count
+    turn = bearing[order] - spread  # the circle's turn that puts each exactly where it is
+    start = math.atan2(float(np.sin(turn).mean()), float(np.cos(turn).mean()))
+    size = max(CIRCLE_RADIUS, (2.0 * float(radius.max()) + CIRCLE_GAP)
+               / (2.0 * math.sin(math.pi / count)))
+    angle = np.empty(count)
+    angle[order] = start + spread
+    places = centre + size * np.column_stack([np.cos(angle), np.sin(angle)])
+    return [(float(x), float(y)) for x, y in places], (float(centre[0]), float(centre[1]))
 
 
 class MoveTo(Behaviour):

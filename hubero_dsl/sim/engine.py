@@ -229,6 +229,10 @@ class Engine:
             return None
         return names[int(ahead[np.argmin(distance[ahead])])]
 
+    def fits(self, index: int, point: tuple[float, float]) -> bool:
+        """Whether human `index`'s body fits at `point`, clear of walls."""
+        return self.grid.clearance_at_point(*point) > float(self.humans.radius[index])
+
     def halt(self, index: int) -> None:
         humans = self.humans
         humans.moving[index] = False

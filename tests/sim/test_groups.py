@@ -1,4 +1,5 @@
-"""Groups: people who walk together, arrive side by side, and talk facing their centre."""
+"""Groups: people who walk together, arrive side by side, and talk in a circle facing its
+centre."""
 
 from __future__ import annotations
 
@@ -64,6 +65,41 @@ def test_a_group_talks_facing_its_centre(room_map: Path) -> None:
         x, y = sim.human(name).position
         bearing = math.atan2(centre[1] - y, centre[0] - x)
         assert abs(math.remainder(bearing - sim.human(name).heading, math.tau)) < 0.1
+
+
+def test_a_group_in_a_line_steps_into_a_circle_to_talk(room_map: Path) -> None:
+    """An F-formation: standing in a line, the four step to places evenly round their centre
+    (neighbours as far apart as across the circle allows), face it, and talk the time asked."""
+    line = ("human a at (3, 4)\nhuman b at (3.8, 4)\nhuman c at (4.6, 4)\n"
+            "human d at (5.4, 4)\ngroup four of (a, b, c, d)\n"
+            "activity { four talk for 6 s }\n")
+    sim = Simulation(compile_source(_text(room_map, line), "t.hub"))
+    result = run_program(sim)
+    names = ("a", "b", "c", "d")
+    assert {e.status for e in result.events if e.human in names} >= {TaskStatus.SUCCEEDED}
+    assert result.time == pytest.approx(6.0, abs=0.1)  # the talk's time runs from its start
+    places = np.array([sim.human(n).position for n in names])
+    centre = places.mean(axis=0)
+    radii = np.hypot(*(places - centre).T)
+    assert radii.min() > 0.5 and radii.max() - radii.min() < 0.15  # on one circle
+    bearings = np.sort(np.arctan2(*(places - centre).T[::-1]))
+    gaps = np.diff(np.append(bearings, bearings[0] + math.tau))
+    assert np.allclose(gaps, math.tau / 4, atol=0.35)  # round it (a line: 0 and pi)
+    for name, (x, y) in zip(names, places, strict=True):
+        bearing = math.atan2(centre[1] - y, centre[0] - x)
+        assert abs(math.remainder(bearing - sim.human(name).heading, math.tau)) < 0.1
+
+
+def test_a_member_whose_place_is_in_a_wall_talks_from_where_it_stands(
+        room_map: Path) -> None:
+    # two against the room's south wall (y = 0): the circle's places would be 0.6 m from
+    # their centre, across the wall for one of them
+    pair = ("human a at (3, 0.4)\nhuman b at (3, 1.2)\ngroup two of (a, b)\n"
+            "activity { two talk for 2 s }\n")
+    sim = Simulation(compile_source(_text(room_map, pair), "t.hub"))
+    result = run_program(sim)
+    assert all(e.status is not TaskStatus.ABORTED for e in result.events)
+    assert sim.human("a").position[1] > 0.2  # never pushed into the wall
 
 
 @pytest.mark.parametrize(("body", "code"), [
