@@ -173,6 +173,8 @@ class Talk(Stand):
         if rows is None or self.index not in rows:
             return None
         h = engine.humans
+        if in_formation(h.position[rows]):
+            return None  # already round their centre (as a scenario placed them): they face it
         places, centre = talking_circle(h.position[rows], h.radius[rows])
         place = places[int(np.flatnonzero(rows == self.index)[0])]
         return (place, centre) if engine.fits(self.index, place) else None
@@ -199,6 +201,23 @@ IN_PLACE = 0.1         # m: a member this near its place on a talking circle is 
 JOIN_SLACK = 1.0       # s beyond the walk to its place a member takes to reach it
 CIRCLE_GAP = 0.4       # m between neighbours' bodies on a talking circle
 CIRCLE_RADIUS = 0.6    # m: the smallest circle, two people about 1.2 m apart (personal distance)
+
+
+FORMED_DISTANCE = 0.4            # m from the centre at least, for a group already formed
+FORMED_GAP = math.radians(45.0)  # between neighbours' bearings from the centre, at least
+
+
+def in_formation(position: FloatArray) -> bool:
+    """Whether people already stand round their centre, as in an F-formation, open or closed:
+    each some way from it, no one behind another (a line, or a group arrived abreast, is not:
+    its middle stands on the centre, its ends in line)."""
+    centre = position.mean(axis=0)
+    offset = position - centre
+    if (np.hypot(offset[:, 0], offset[:, 1]) < FORMED_DISTANCE).any():
+        return False
+    bearing = np.sort(np.arctan2(offset[:, 1], offset[:, 0]))
+    gaps = np.diff(np.append(bearing, bearing[0] + 2.0 * math.pi))
+    return bool(gaps.min() >= FORMED_GAP)
 
 
 def talking_circle(position: FloatArray, radius: FloatArray

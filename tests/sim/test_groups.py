@@ -90,6 +90,17 @@ def test_a_group_in_a_line_steps_into_a_circle_to_talk(room_map: Path) -> None:
         assert abs(math.remainder(bearing - sim.human(name).heading, math.tau)) < 0.1
 
 
+def test_a_group_already_round_its_centre_keeps_its_places(room_map: Path) -> None:
+    # three on a circle with one place left free (an open F-formation, as a scenario may
+    # place them for a robot to join): they turn to the centre where they stand
+    three = ("human a at (4.43, 4.57)\nhuman b at (5.57, 4.57)\nhuman c at (5.57, 3.43)\n"
+             "group g of (a, b, c)\nactivity { g talk for 2 s }\n")
+    sim = Simulation(compile_source(_text(room_map, three), "t.hub"))
+    run_program(sim)
+    assert sim.human("a").position == pytest.approx((4.43, 4.57), abs=1e-9)
+    assert sim.human("c").position == pytest.approx((5.57, 3.43), abs=1e-9)
+
+
 def test_a_member_whose_place_is_in_a_wall_talks_from_where_it_stands(
         room_map: Path) -> None:
     # two against the room's south wall (y = 0): the circle's places would be 0.6 m from
