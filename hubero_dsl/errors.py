@@ -18,6 +18,7 @@ class HuberoError(Exception):
     exit_status = 2
 
     def __init__(self, message: str, span: Span | None = None, hint: str | None = None) -> None:
+        message = shortened(message)
         super().__init__(message)
         self.message = message
         self.span = span
@@ -26,6 +27,18 @@ class HuberoError(Exception):
     def __str__(self) -> str:
         where = f"{self.span}: " if self.span else ""
         return f"{where}{self.message}"
+
+
+MAX_MESSAGE = 2_000  # characters: a message quotes names from a file, which may be any length
+
+
+def shortened(text: str, limit: int = MAX_MESSAGE) -> str:
+    """`text`, its middle left out when it is longer than `limit` (a file name of a megabyte
+    in a message must not flood the terminal)."""
+    if len(text) <= limit:
+        return text
+    keep = (limit - 5) // 2
+    return f"{text[:keep]} ... {text[-keep:]}"
 
 
 class InputError(HuberoError):

@@ -61,6 +61,7 @@ def run(args: argparse.Namespace) -> int:
     if unknown:
         raise InputError(f"--controller: no robot named '{unknown[0]}' in every scenario of "
                          f"{args.folder}")
+    _refuse_writing_over_inputs(scenarios, args.out_dir)
     args.out_dir.mkdir(parents=True, exist_ok=True)
     with open_executor("process", jobs=args.jobs or available_cores()) as executor:
         rows = run_bench(scenarios, args.out_dir, executor, controllers=controllers,
@@ -76,3 +77,19 @@ def run(args: argparse.Namespace) -> int:
     console.print(f"{len(rows)} runs; {sum(r.succeeded for r in rows)} ok; wrote "
                   f"{len(written)} files to {args.out_dir}", highlight=False, soft_wrap=True)
     return 0 if all(r.succeeded for r in rows) else 1
+
+
+def _refuse_writing_over_inputs(scenarios: list[Path], out_dir: Path) -> None:
+    """The tables and pictures the bench writes (OUT/NAME.csv, .md, .png and the summary's)
+    must not land on a scenario, its map or its map's image (a suite's folder as OUT)."""
+    from hubero_dsl.files import check_output
+    from hubero_dsl.pipeline import compile_file
+    from hubero_dsl.world.mapfile import map_files
+
+    if not out_dir.is_dir():
+        return  # a new folder holds no input
+    reads = [file for scenario in scenarios
+             for file in (scenario, *map_files(compile_file(scenario).map_path))]
+    for name in [*(scenario.stem for scenario in scenarios), "summary"]:
+        for suffix in (".csv", ".md", ".png"):
+            check_output(out_dir / f"{name}{suffix}", reads)

@@ -64,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.epsilon > 0:
         raise InputError(f"--epsilon must be a positive distance in metres, got {args.epsilon}")
     if args.plot is not None:
-        check_writable(args.plot)
+        check_writable(args.plot, tuple(Path(p) for p in (args.first, args.second) if p))
     if Path(args.first).is_dir():
         return _sweep(args)
     if args.second is None:

@@ -51,15 +51,17 @@ def run(args: argparse.Namespace) -> int:
     output_format = args.format or _format_from_suffix(args.output)
     if output_format == "png" and args.output is None:
         raise InputError("--format png needs an output file: add -o OUT.png")
-    graph = _checked_graph(args.file)
-    if graph is None:
+    program = _checked_program(args.file)
+    if program is None:
         return 1
+    graph = program.graph
     from hubero_dsl.graph import render
 
     if args.output is not None:
         from hubero_dsl.files import check_output
+        from hubero_dsl.world.mapfile import map_files
 
-        check_output(Path(args.output), (Path(args.file),))
+        check_output(Path(args.output), (Path(args.file), *map_files(program.map_path)))
     if output_format == "png":
         try:
             from hubero_dsl.graph import picture
@@ -76,8 +78,9 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _checked_graph(path: str) -> Any:
-    """The program's activity graph, or None after printing the errors that prevent one."""
+def _checked_program(path: str) -> Any:
+    """The program (its activity graph, its map), or None after printing the errors that
+    prevent one."""
     from hubero_dsl.pipeline import check_file
 
     result = check_file(path)
@@ -89,7 +92,7 @@ def _checked_graph(path: str) -> Any:
         return None
     if result.program is None:  # a checker bug, reported by main as an internal error
         raise RuntimeError(f"{path}: the checker found no errors but built no program")
-    return result.program.graph
+    return result.program
 
 
 def _format_from_suffix(output: str | None) -> str:

@@ -29,7 +29,7 @@ from collections.abc import Sequence
 from typing import TextIO
 
 from hubero_dsl import __version__
-from hubero_dsl.errors import HuberoError
+from hubero_dsl.errors import HuberoError, InputError
 
 # Command modules in the order `hubero --help` lists them.
 COMMANDS: tuple[str, ...] = ("check", "run", "test", "graph", "sweep", "plot", "diff",
@@ -96,6 +96,11 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         report_error(exc)
         return exc.exit_status
+    except OSError as exc:  # a file the command was given could not be read or written
+        from hubero_dsl.cli.diagnostic_formats import report_error
+
+        report_error(InputError(_os_error_message(exc)))
+        return EXIT_USAGE
     except Exception as exc:
         _say(f"internal error: {type(exc).__name__}: {exc} (please report)")
         if os.environ.get("HUBERO_DEBUG") == "1":
@@ -127,6 +132,13 @@ def _on_sigterm(signum: int, frame: object) -> None:
 def _stop_cleanly_on_sigterm() -> None:
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGTERM, _on_sigterm)
+
+
+def _os_error_message(exc: OSError) -> str:
+    """An operating system's refusal (no space left, a read-only folder, a name too long) in
+    the words hubero uses for a file it cannot read or write."""
+    where = f"{exc.filename}: " if exc.filename else ""
+    return f"{where}{exc.strerror or exc}"
 
 
 def _say(message: str, stream: TextIO | None = None) -> None:

@@ -10,6 +10,7 @@ in passes over the AST. Syntax errors become `Diagnostic`s with the span of the 
 from __future__ import annotations
 
 import re
+import stat
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from functools import cache
@@ -89,9 +90,15 @@ def parse_source(text: str, path: str = "<string>") -> ast.Module:
 def read_source(path: str | Path) -> str:
     """Read a scenario file as UTF-8 text, turning every way that can fail into an InputError."""
     file = Path(path)
-    if file.is_dir():
+    try:
+        mode = file.stat().st_mode
+    except FileNotFoundError:
+        raise InputError(f"{file}: no such file") from None
+    except OSError as exc:  # a name too long, a loop of links, no permission
+        raise InputError(f"{file}: cannot be read ({exc.strerror or exc})") from None
+    if stat.S_ISDIR(mode):
         raise InputError(f"{file}: is a directory, not a scenario file")
-    if file.exists() and not file.is_file():  # a device reads for ever, a FIFO blocks
+    if not stat.S_ISREG(mode):  # a device reads for ever, a FIFO blocks
         raise InputError(f"{file}: is not a regular file (a device, a FIFO or a socket)")
     try:
         with file.open("rb") as stream:

@@ -50,6 +50,7 @@ from hubero_dsl.log.encoder import LogEncoder, LogSetup, Update, discard_file
 from hubero_dsl.log.frames import Capturer
 from hubero_dsl.log.provenance import provenance
 from hubero_dsl.log.sinks import MessageSink
+from hubero_dsl.world.mapfile import map_files
 
 if TYPE_CHECKING:
     from multiprocessing.connection import Connection
@@ -111,7 +112,7 @@ class RunLog:
         program = self._sim.program
         fd, temp = None, None
         if self.path is not None:
-            check_output(self.path, (Path(program.source.path), program.map_path),
+            check_output(self.path, (Path(program.source.path), *map_files(program.map_path)),
                          lambda where, reason: f"cannot write log {where}: {reason}")
             fd, temp = _create_temp(self.path)
         try:

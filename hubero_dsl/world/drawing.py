@@ -38,7 +38,7 @@ from hubero_dsl.diagnostics import Span
 from hubero_dsl.errors import MapError
 from hubero_dsl.files import read_bounded
 from hubero_dsl.world.grid import OccupancyGrid
-from hubero_dsl.world.mapfile import MAX_MAP_CELLS, save_map
+from hubero_dsl.world.mapfile import MAX_MAP_CELLS, save_map, unsafe_yaml
 
 SHAPES_SUFFIX = ".shapes.yaml"
 MAX_SHAPES_BYTES = 4 << 20  # a description is a page or two of YAML
@@ -77,10 +77,11 @@ class _Reader:
             raise MapError(f"shape description {path} is not UTF-8 text (byte {exc.start})"
                            ) from None
         try:
-            for token in yaml.scan(text, Loader=yaml.SafeLoader):
-                if isinstance(token, yaml.AliasToken | yaml.AnchorToken):
-                    raise MapError("YAML anchors and aliases are not allowed in a shape "
-                                   "description", self._span(token.start_mark, token.end_mark))
+            unsafe = unsafe_yaml(text)
+            if unsafe is not None:
+                token, why = unsafe
+                raise MapError(f"a shape description {why}: it may not",
+                               self._span(token.start_mark, token.end_mark))
             self.root = yaml.compose(text, Loader=yaml.SafeLoader)
             self.values = yaml.safe_load(text)
         except yaml.MarkedYAMLError as exc:

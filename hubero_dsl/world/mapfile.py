@@ -100,6 +100,16 @@ def load_map(path: str | Path) -> OccupancyGrid:
                          source=str(document.path), unknown=np.flipud(unknown))
 
 
+def map_files(path: str | Path) -> tuple[Path, ...]:
+    """The files a map is read from: its YAML and the image it names (the YAML alone when it
+    is no map file). No output may be written over them."""
+    yaml_path = Path(path)
+    try:
+        return (yaml_path, _check_fields(_read_document(yaml_path)).image)
+    except MapError:
+        return (yaml_path,)
+
+
 # --- the YAML file ------------------------------------------------------------------------
 
 
@@ -107,8 +117,9 @@ def _read_document(path: Path) -> _Document:
     """The map YAML as fields. Messages quote the file (a span) only once it has been read as
     a map file: a mapping with an `image` field. A map path can name any file, and an error
     must not show a line of /etc/passwd."""
-    if path.is_dir():
-        raise MapError(f"map path is a directory, not a YAML file: {path}")
+    with contextlib.suppress(OSError):  # a name too long, say: read_bounded words it
+        if path.is_dir():
+            raise MapError(f"map path is a directory, not a YAML file: {path}")
     data = read_bounded(path, MAX_YAML_BYTES, "map file", MapError)
     try:
         text = data.decode("utf-8")
@@ -145,13 +156,37 @@ def _looks_like_a_map(text: str) -> bool:
 
 
 def _refuse_aliases(path: Path, text: str) -> None:
-    """Anchors and aliases have no place in a map file, and nested ones expand exponentially
-    (the 'billion laughs'): refuse them before anything is built from the text."""
+    """A map file's YAML must be safe to build (`unsafe_yaml`): refuse it before anything is
+    built from the text."""
+    unsafe = unsafe_yaml(text)
+    if unsafe is not None:
+        token, why = unsafe
+        raise MapError(f"map file {path} {why} (line {token.start_mark.line + 1}); map files "
+                       "may not")
+
+
+MAX_YAML_DEPTH = 32   # levels of nesting: a map or shape file needs a handful
+_OPENS = (yaml.FlowSequenceStartToken, yaml.FlowMappingStartToken,
+          yaml.BlockSequenceStartToken, yaml.BlockMappingStartToken)
+_CLOSES = (yaml.FlowSequenceEndToken, yaml.FlowMappingEndToken, yaml.BlockEndToken)
+
+
+def unsafe_yaml(text: str) -> tuple[yaml.Token, str] | None:
+    """The first token that makes a YAML text unsafe to build, and why: anchors and aliases
+    (nested ones expand exponentially, the 'billion laughs') and nesting deeper than
+    MAX_YAML_DEPTH (PyYAML builds nodes recursively: a few kilobytes of brackets exhaust
+    Python's stack). The scanner that finds them is not recursive."""
+    depth = 0
     for token in yaml.scan(text, Loader=yaml.SafeLoader):
         if isinstance(token, yaml.AliasToken | yaml.AnchorToken):
-            line = token.start_mark.line + 1
-            raise MapError(f"map file {path} uses YAML anchors or aliases (line {line}); "
-                           "map files may not")
+            return token, "uses YAML anchors and aliases"
+        if isinstance(token, _OPENS):
+            depth += 1
+            if depth > MAX_YAML_DEPTH:
+                return token, f"nests deeper than {MAX_YAML_DEPTH} levels"
+        elif isinstance(token, _CLOSES):
+            depth -= 1
+    return None
 
 
 def _mark_span(path: Path, start: yaml.Mark, end: yaml.Mark) -> Span:

@@ -23,6 +23,7 @@ class FakeProgram:
     def __init__(self) -> None:
         self.graph = nx.DiGraph()
         self.graph.add_edge("start", "end")
+        self.map_path = Path("nowhere.yaml")  # no map: nothing beside it to keep
 
 
 @pytest.fixture
