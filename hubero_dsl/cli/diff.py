@@ -22,6 +22,8 @@ import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from hubero_dsl.cli.outputs import PNG
+
 if TYPE_CHECKING:
     from collections.abc import Callable
 
@@ -53,7 +55,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                         help="list every member of a crowd or flow, not one table per crowd "
                         "or flow")
     parser.add_argument("--json", action="store_true", help="print JSON instead of tables")
-    parser.add_argument("--plot", metavar="OUT.png", type=Path,
+    parser.add_argument("--plot", metavar="OUT.png", type=PNG,
                         help="draw both runs on the map into a PNG")
     return parser
 

@@ -16,6 +16,8 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from hubero_dsl.cli.outputs import PNG, YAML
+
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     parser: argparse.ArgumentParser = subparsers.add_parser(
@@ -24,11 +26,11 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
     draw = actions.add_parser("draw", help="draw a map from a shape description")
     draw.add_argument("shapes", metavar="SHAPES.yaml", type=Path, help="a shape description")
-    draw.add_argument("-o", "--output", metavar="NAME.yaml", type=Path, required=True,
+    draw.add_argument("-o", "--output", metavar="NAME.yaml", type=YAML, required=True,
                       help="the map to write (its image goes beside it as NAME.pgm)")
     show = actions.add_parser("show", help="draw a map as a PNG")
     show.add_argument("map", metavar="NAME.yaml", type=Path, help="a ROS map_server map")
-    show.add_argument("-o", "--output", metavar="OUT.png", type=Path,
+    show.add_argument("-o", "--output", metavar="OUT.png", type=PNG,
                       help="the picture to write (default: NAME.png beside the map)")
     show.add_argument("--scenario", metavar="FILE.hub", type=Path,
                       help="also draw this scenario's places, areas and starts")

@@ -16,16 +16,18 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from hubero_dsl.cli.outputs import GIF, PNG
+
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     parser: argparse.ArgumentParser = subparsers.add_parser(
         "plot", help="draw a run's paths and personal spaces on its map", description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("log", metavar="RUN.mcap", help="a run log written by hubero run")
-    parser.add_argument("-o", "--output", metavar="OUT.png", type=Path,
+    parser.add_argument("-o", "--output", metavar="OUT.png", type=PNG,
                         help="write the PNG here (default: RUN.png beside the log, unless "
                              "--animate alone is asked)")
-    parser.add_argument("--animate", metavar="OUT.gif", type=Path,
+    parser.add_argument("--animate", metavar="OUT.gif", type=GIF,
                         help="write an animated GIF replay")
     parser.add_argument("--spacing", metavar="M", type=float, default=1.5,
                         help="metres along a path between drawn personal spaces (default 1.5)")

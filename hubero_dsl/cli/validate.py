@@ -31,6 +31,7 @@ from hubero_dsl.cli.calibrate import MAX_SEEDS, check_seeds
 
 if TYPE_CHECKING:
     from hubero_dsl.validation.validate import Validation
+from hubero_dsl.cli.outputs import PNG
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -40,7 +41,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     parser.add_argument("files", metavar="FILE", nargs="*", type=Path,
                         help="trajectory files (default: the shipped recordings)")
     parser.add_argument("--json", action="store_true", help="print the comparison as JSON")
-    parser.add_argument("-o", "--output", metavar="PLOT.png", type=Path,
+    parser.add_argument("-o", "--output", metavar="PLOT.png", type=PNG,
                         help="draw the fundamental diagram of data and simulation")
     parser.add_argument("--seed", metavar="S", type=int, default=1,
                         help="seed of the rebuilds (default 1)")

@@ -102,11 +102,15 @@ def test_overlay_plot(cli: Cli, logs: dict[str, Path], tmp_path: Path) -> None:
         assert image.format == "PNG" and image.width > 500 and image.height > 300
 
 
-@pytest.mark.parametrize("name", ["missing/overlay.png", "."])
-def test_unwritable_plot(cli: Cli, logs: dict[str, Path], tmp_path: Path, name: str) -> None:
+@pytest.mark.parametrize(("name", "message"), [
+    ("missing/overlay.png", "cannot be written"), (".", "give a name ending in .png"),
+    ("folder.png", "cannot be written (it is a directory)")])
+def test_unwritable_plot(cli: Cli, logs: dict[str, Path], tmp_path: Path, name: str,
+                         message: str) -> None:
+    (tmp_path / "folder.png").mkdir(exist_ok=True)
     outcome = cli("diff", str(logs["near"]), str(logs["far"]), "--plot", str(tmp_path / name))
     assert outcome.status == 2
-    assert "cannot be written" in outcome.err
+    assert message in outcome.err
 
 
 def test_different_scenarios_name_the_humans(cli: Cli, logs: dict[str, Path]) -> None:

@@ -60,8 +60,10 @@ def test_diff_never_draws_over_a_log_it_compares(cli: Callable[..., Outcome],
     scenario = _png_map(tmp_path)
     log = tmp_path / "run.mcap"
     assert cli("run", str(scenario), "-o", str(log), "-q").status == 0
+    picture = tmp_path / "run.png"  # a log named like a picture: still an input
+    log.rename(picture)
     kept = _unchanged(tmp_path)
-    outcome = cli("diff", str(log), str(log), "--plot", str(log))
+    outcome = cli("diff", str(picture), str(picture), "--plot", str(picture))
     assert outcome.status == 2 and "it is an input of this command" in outcome.err
     assert kept()
 

@@ -83,13 +83,17 @@ def test_without_an_output_the_picture_goes_beside_the_log(cli: Cli, log: Path,
 
 @pytest.mark.parametrize(("argv", "message"), [
     (("-o", "{tmp}/missing/x.png"), "cannot be written"),
-    (("-o", "{tmp}"), "cannot be written (it is a directory)"),
+    (("-o", "{tmp}"), "give a name ending in .png"),
+    (("-o", "{tmp}/folder.png"), "cannot be written (it is a directory)"),
     (("--animate", "{tmp}/missing/x.gif"), "cannot be written"),
     (("-o", "{tmp}/x.png", "--spacing", "0"), "--spacing must be a positive"),
     (("--animate", "{tmp}/x.gif", "--frames", "0"), "--frames and --fps"),
+    (("-o", "{tmp}/x.txt"), "give a name ending in .png"),
+    (("--animate", "{tmp}/x.pgm"), "give a name ending in .gif"),
 ])
 def test_usage_errors(cli: Cli, log: Path, tmp_path: Path, argv: tuple[str, ...],
                       message: str) -> None:
+    (tmp_path / "folder.png").mkdir(exist_ok=True)
     outcome = cli("plot", str(log), *(a.format(tmp=tmp_path) for a in argv))
     assert outcome.status == 2
     assert message in outcome.err

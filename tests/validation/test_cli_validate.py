@@ -72,7 +72,7 @@ def test_the_table_names_each_bin_and_the_worst_error(cli: Cli) -> None:
     (("--seeds", "0"), "--seeds must be from 1 to 100, got 0"),
     (("--seeds", "101"), "--seeds must be from 1 to 100, got 101"),
     ((FREE_FLOW, "-o", "no/such/folder/fd.png"), "cannot be written"),
-    ((FREE_FLOW, "-o", FREE_FLOW), "it is an input of this command"),
+    ((FREE_FLOW, "-o", FREE_FLOW), "give a name ending in .png"),
 ])
 def test_bad_input_exits_2_with_a_message(cli: Cli, argv: tuple[str, ...],
                                           message: str) -> None:

@@ -1,0 +1,25 @@
+"""Command-line options that name an output file: checked for the kind of file written there
+before any work is done (a picture is a PNG, a replay a GIF, a map a YAML file)."""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable
+from pathlib import Path
+
+
+def output_file(*suffixes: str) -> Callable[[str], Path]:
+    """An argparse type: a path whose name ends in one of `suffixes` (any case)."""
+    def parse(text: str) -> Path:
+        path = Path(text)
+        if path.name in ("", ".", "..") or path.suffix.lower() not in suffixes:
+            raise argparse.ArgumentTypeError(
+                f"'{text}': hubero writes a {suffixes[0][1:].upper()} file here; give a name "
+                f"ending in {' or '.join(suffixes)}")
+        return path
+    return parse
+
+
+PNG = output_file(".png")
+GIF = output_file(".gif")
+YAML = output_file(".yaml", ".yml")
