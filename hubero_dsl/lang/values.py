@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import difflib
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 
 from hubero_dsl.diagnostics import Diagnostic, Span, error
 from hubero_dsl.lang import ast
@@ -53,11 +53,23 @@ def _range_problem(spec: ParamSpec, number: float) -> str | None:
     return None
 
 
+def _shown_as_written(value: object, dimension: Dimension) -> Callable[[float], str]:
+    """SI values shown in the unit `value` was written in (`1001 /s` stays per second), else
+    in the examples' unit."""
+    if isinstance(value, ast.Quantity) and value.known_unit and dimension is not Dimension.ANGLE:
+        unit, factor = value.unit, UNITS[value.unit][1]
+        return lambda number: f"{number / factor:g} {unit}"
+    return lambda number: format_si(number, dimension)
+
+
 def format_si(value: float, dimension: Dimension) -> str:
+    """An SI value in the unit the language's examples use (a rate per minute, an angle in
+    degrees)."""
     unit = EXAMPLE_UNIT[dimension]
     if dimension is Dimension.ANGLE:
         return f"{math.degrees(value):g} deg"
-    return f"{value:g} {unit}".strip()
+    factor = UNITS[unit][1] if unit in UNITS else 1.0
+    return f"{value / factor:g} {unit}".strip()
 
 
 class ValueReader:
@@ -82,20 +94,21 @@ class ValueReader:
             self.report("E203", f"{what} must be a finite number", value.span)
             return None
         maximum = min(maximum, LARGEST.get(dimension, math.inf))
+        shown = _shown_as_written(value, dimension)
         if number < -LARGEST.get(dimension, math.inf):
-            self.report("E203", f"{what} is {format_si(number, dimension)}; the least it may be "
-                        f"is {format_si(-LARGEST[dimension], dimension)}", value.span)
+            self.report("E203", f"{what} is {shown(number)}; the least it may be "
+                        f"is {shown(-LARGEST[dimension])}", value.span)
             return None
         if positive and number <= 0:
-            self.report("E203", f"{what} must be greater than zero, not "
-                        f"{format_si(number, dimension)}", value.span)
+            self.report("E203", f"{what} must be greater than zero, not {shown(number)}",
+                        value.span)
             return None
         if non_negative and number < 0:
             self.report("E203", f"{what} must not be negative", value.span)
             return None
         if number > maximum:
-            self.report("E203", f"{what} is {format_si(number, dimension)}; the most it may be is "
-                        f"{format_si(maximum, dimension)}", value.span)
+            self.report("E203", f"{what} is {shown(number)}; the most it may be is "
+                        f"{shown(maximum)}", value.span)
             return None
         return number
 
@@ -130,7 +143,8 @@ class ValueReader:
         if value.value < minimum:
             self.report("E203", f"{what} must be at least {minimum}", value.span)
             return None
-        return int(value.value)
+        # the literal itself: a seed above 2**53 would round through a float
+        return int(value.text) if value.text.isdigit() else int(value.value)
 
     # ---- parameters ------------------------------------------------------------------------
 

@@ -494,3 +494,14 @@ def test_social_work_is_compared_with_a_speed(check: Check) -> None:
                        "expect social_work(actor1) <= 10 m/s\n")) == []
     assert codes(check("activity { actor1 stand for 1 s }\n"
                        "expect social_work(actor1) <= 10\n")) == ["E204"]
+
+
+def test_a_seed_is_the_whole_number_written_however_large(check: Check) -> None:
+    result = check("seed 9007199254740993\nactivity { actor1 stand for 1 s }\n")
+    assert result.program is not None and result.program.seed == 9007199254740993
+
+
+def test_a_value_out_of_range_is_shown_in_the_unit_it_was_written_in(check: Check) -> None:
+    (diagnostic,) = check("flow f from rect((1, 1), (3, 3)) to (5, 5) rate 1001 /s "
+                          "for 2 s\n").diagnostics
+    assert diagnostic.message == "a flow's rate is 1001 /s; the most it may be is 1000 /s"
