@@ -143,6 +143,12 @@ def _shown(text: str) -> str:
     return "".join(_visible(c) for c in text)
 
 
+def printable(text: str) -> str:
+    """`text` with its control characters (but line breaks) shown as symbols: a message that
+    quotes a file name or a log's title must not move the cursor or retitle the terminal."""
+    return "\n".join(_shown(line) for line in text.split("\n"))
+
+
 def _underline(line: str, span: Span) -> tuple[str, int, int]:
     """The line as shown, and the cell offset and cell width of the span's underline on it."""
     start = max(0, span.column - 1)
@@ -185,7 +191,7 @@ def _snippet(span: Span, sources: SourceLines, width: int, style: str) -> list[L
 
 def _labelled(label: str, style: str, text: str, indent: str) -> list[Line]:
     """`= help: text` with continuation lines aligned under the text."""
-    first, *rest = text.split("\n")
+    first, *rest = printable(text).split("\n")
     lines: list[Line] = [((f"{indent}= ", "gutter"), (f"{label}:", style), (f" {first}", ""))]
     align = " " * (len(indent) + len(label) + 4)
     lines.extend(((f"{align}{more}", ""),) for more in rest)
@@ -194,7 +200,7 @@ def _labelled(label: str, style: str, text: str, indent: str) -> list[Line]:
 
 def _header(severity: str, code: str, message: str) -> Line:
     tag = f"{severity}[{code}]" if code else severity
-    return ((tag, severity), (f": {message}", "title"))
+    return ((tag, severity), (f": {printable(message)}", "title"))
 
 
 def diagnostic_lines(diagnostic: Diagnostic, sources: SourceLines) -> list[Line]:

@@ -188,18 +188,22 @@ def _delta(value: float | int | None, unit: str) -> str:
 def _side(label: str, side: Any) -> str:
     from rich.markup import escape
 
+    from hubero_dsl.cli.diagnostic_formats import printable
+
     variant = f" [{side.variant}]" if side.variant else ""
-    return escape(f"{label}: {side.path}  {side.title}{variant}, seed {side.seed}")
+    return escape(printable(f"{label}: {side.path}  {side.title}{variant}, seed {side.seed}"))
 
 
 def _print_pair(diff: RunDiff, humans: list[str], sets: list[SetDiff],
                 set_of: Callable[[str], str | None], console: Console) -> None:
     from rich.markup import escape
 
+    from hubero_dsl.cli.diagnostic_formats import printable
+
     console.print(_side("A", diff.a))
     console.print(_side("B", diff.b))
     for note in diff.notes:
-        console.print(f"[yellow]note:[/] {escape(note)}")
+        console.print(f"[yellow]note:[/] {escape(printable(note))}")
     for name in humans:
         console.print(_human_table(diff.humans[name], diff.epsilon, set_of))
     for crowd in sets:

@@ -61,6 +61,11 @@ class _DropSeparatorsInBrackets:
             yield token
 
 
+# every control character but the white space ones (tab, line feed, vertical tab, form feed,
+# carriage return): C0, DEL and C1
+_CONTROL = re.compile("[\x00-\x08\x0e-\x1f\x7f-\x9f]")
+
+
 @cache
 def _parser() -> Lark:
     # `cache=True` keeps the analysed grammar in the temp directory, keyed by a hash of the
@@ -73,6 +78,14 @@ def _parser() -> Lark:
 def parse_source(text: str, path: str = "<string>") -> ast.Module:
     """Parse scenario text. Raises CompileError with a diagnostic on a syntax error."""
     source = ast.SourceFile(path, text)
+    control = _CONTROL.search(text)
+    if control is not None:  # a string that reaches a terminal could clear it or retitle it
+        line = text.count("\n", 0, control.start()) + 1
+        column = control.start() - (text.rfind("\n", 0, control.start()) + 1) + 1
+        raise CompileError([error(
+            "E002", f"control character U+{ord(control.group()):04X} in the file",
+            Span(path, line, column, line, column + 1),
+            "a scenario file is text: write names and strings without control characters")])
     depth_problem = _nesting_problem(text, path)
     if depth_problem is not None:
         raise CompileError([depth_problem])

@@ -62,3 +62,17 @@ def test_hundreds_of_errors_are_cut_to_the_first_fifty(cli: Callable[..., Outcom
     assert "... and " in outcome.out and "more in" in outcome.out
     listed = cli("check", "--format", "json", _scenario(tmp_path, body, "j.hub"))
     assert listed.out.count('"unknown parameter \'sped\'"') == 456
+
+
+def test_control_characters_never_reach_the_terminal(cli: Callable[..., Outcome],
+                                                     tmp_path: Path) -> None:
+    evil = tmp_path / "evil.hub"
+    evil.write_text('scenario "evil \x1b[2J\x1b]0;pwned\x07 title"\nmap "x.yaml"\n',
+                    encoding="utf-8")
+    outcome = cli("check", str(evil))
+    assert outcome.status == 1
+    assert "E002" in outcome.out and "control character U+001B" in outcome.out
+    assert "evil.hub:1:16" in outcome.out
+    assert "\x1b" not in outcome.out + outcome.err and "\x07" not in outcome.out + outcome.err
+    missing = cli("check", str(tmp_path / "no\x1b[31mred.hub"))
+    assert missing.status == 2 and "\x1b" not in missing.out + missing.err

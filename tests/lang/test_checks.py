@@ -200,7 +200,8 @@ def test_bad_map_field_points_into_the_yaml_file(tmp_path: Path) -> None:
 
 def test_nul_in_the_map_path_is_a_diagnostic_not_an_exception() -> None:
     (diagnostic,) = check_source('scenario "x"\nmap "a\0b.yaml"\n', "case.hub").diagnostics
-    assert diagnostic.code == "E401"
+    assert diagnostic.code == "E002"  # a control character, found before any file is opened
+    assert diagnostic.span is not None and (diagnostic.span.line, diagnostic.span.column) == (2, 7)
 
 
 # ---- values ---------------------------------------------------------------------------------
