@@ -40,6 +40,8 @@ EXAMPLE = ("image: map.pgm\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\nnegate: 0
            "occupied_thresh: 0.65\nfree_thresh: 0.196")
 
 MAX_YAML_BYTES = 1 << 20          # a map YAML file is a few lines
+MAX_RESOLUTION = 100.0            # m a cell: coarser is no floor plan a person walks on
+MAX_YAML_DEPTH = 32               # levels of nesting: a map or shape file needs a handful
 MAX_IMAGE_BYTES = 512 << 20       # bytes of a map image file
 MAX_MAP_CELLS = 16_000_000        # cells of a map: 4000 x 4000, 200 m x 200 m at 5 cm
 SHOWN_VALUE = 60                  # characters of a field's value a message quotes
@@ -165,7 +167,6 @@ def _refuse_aliases(path: Path, text: str) -> None:
                        "may not")
 
 
-MAX_YAML_DEPTH = 32   # levels of nesting: a map or shape file needs a handful
 _OPENS = (yaml.FlowSequenceStartToken, yaml.FlowMappingStartToken,
           yaml.BlockSequenceStartToken, yaml.BlockMappingStartToken)
 _CLOSES = (yaml.FlowSequenceEndToken, yaml.FlowMappingEndToken, yaml.BlockEndToken)
@@ -201,8 +202,9 @@ def _check_fields(document: _Document) -> MapMetadata:
                        Span.whole_file(str(document.path)),
                        hint=f"a map file looks like:\n{EXAMPLE}")
     resolution = _number(document, "resolution")
-    if resolution <= 0.0:
-        raise document.error("resolution", f"must be > 0 metres per cell, got {resolution:g}")
+    if not 0.0 < resolution <= MAX_RESOLUTION:
+        raise document.error("resolution", f"must be > 0 and at most {MAX_RESOLUTION:g} metres "
+                             f"per cell, got {resolution:g}")
     occupied_thresh = _threshold(document, "occupied_thresh")
     free_thresh = _threshold(document, "free_thresh")
     if free_thresh > occupied_thresh:
@@ -221,14 +223,19 @@ def _is_finite_number(value: object) -> bool:
         return False
 
 
-def _number(document: _Document, name: str) -> float:
-    value = document.values[name]
-    if isinstance(value, str):  # YAML 1.1 reads 5e-2 (no dot) as text; ROS reads a number
+def _as_number(value: object) -> object:
+    """YAML 1.1 reads 5e-2 (no dot) as text; ROS reads a number."""
+    if isinstance(value, str):
         with contextlib.suppress(ValueError):
-            value = float(value)
+            return float(value)
+    return value
+
+
+def _number(document: _Document, name: str) -> float:
+    value = _as_number(document.values[name])
     if not _is_finite_number(value):
         raise document.error(name, f"must be a number, got {shown(value)}")
-    return float(value)
+    return float(value)  # type: ignore[arg-type]
 
 
 def _threshold(document: _Document, name: str) -> float:
@@ -240,6 +247,8 @@ def _threshold(document: _Document, name: str) -> float:
 
 def _origin(document: _Document) -> tuple[float, float, float]:
     value = document.values["origin"]
+    if isinstance(value, list):
+        value = [_as_number(v) for v in value]
     if (not isinstance(value, list) or len(value) != 3
             or not all(_is_finite_number(v) for v in value)):
         raise document.error("origin", f"must be [x, y, yaw] in metres and radians, "

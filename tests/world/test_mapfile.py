@@ -298,3 +298,16 @@ def test_save_into_a_missing_directory_is_a_map_error(tmp_path: Path) -> None:
     grid = OccupancyGrid(np.zeros((2, 2), dtype=bool), 0.1, (0, 0))
     with pytest.raises(MapError, match="cannot write"):
         save_map(grid, tmp_path / "missing" / "m.yaml")
+
+
+def test_numbers_written_as_ros_reads_them(tmp_path: Path) -> None:
+    """YAML 1.1 reads `2e-2` and `-65e-1` (no dot) as text; ROS's map_server reads numbers."""
+    save_map(OccupancyGrid(np.zeros((20, 20), dtype=bool), 0.05, (0.0, 0.0), "m"),
+             tmp_path / "m.yaml")
+    text = (tmp_path / "m.yaml").read_text(encoding="utf-8")
+    text = "\n".join(line for line in text.splitlines()
+                     if not line.startswith(("resolution:", "origin:")))
+    (tmp_path / "m.yaml").write_text(text + "\nresolution: 5e-2\norigin: [-65e-1, 1e0, 0]\n",
+                                     encoding="utf-8")
+    grid = load_map(tmp_path / "m.yaml")
+    assert grid.resolution == 0.05 and grid.origin == (-6.5, 1.0)
