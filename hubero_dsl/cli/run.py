@@ -200,11 +200,11 @@ def default_log_path(stem: str) -> Path:
 
 
 def writable_log_path(path: Path) -> Path:
-    """`path`, unless something that is not an MCAP log is there (InputError): a log is
-    written over, anything else (a user's file, a device, a FIFO) never."""
+    """`path`, unless a file that is not an MCAP log is there (InputError): a log is written
+    over, a user's file never (nor a folder, a device or a FIFO: `RunLog` refuses those)."""
     from hubero_dsl.errors import InputError
 
-    if (path.exists() or path.is_symlink()) and not _is_log(path):
+    if path.is_file() and not _is_log(path):  # a folder or a device: RunLog says so
         raise InputError(f"{path} exists and is not an MCAP log: not writing over it (give "
                          "another -o OUT.mcap, or --no-log)")
     return path

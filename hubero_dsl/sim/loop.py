@@ -86,21 +86,23 @@ MAX_RECORDED_HUMANS = 2000  # beyond, robots' metrics come from the log (hubero_
 
 
 def summarise(sim: Simulation) -> list[HumanSummary]:
-    """Per human: tasks finished, the last status, metres walked, time spent on tasks."""
+    """Per human: tasks finished, the last status, metres walked, time spent on tasks (a task
+    still on when the run ended up to its end)."""
     engine = sim.engine
     currents = [h.status.value if h is not None else None for h in engine.handle]
-    return _summaries(sim.events, engine.humans.names, currents, engine.humans.path_length)
+    return _summaries(sim.events, engine.humans.names, currents, engine.humans.path_length,
+                      sim.time)
 
 
 def summarise_robots(sim: Simulation) -> list[HumanSummary]:
     """Per robot, the same as for humans."""
     robots = sim.engine.robots
     currents = [t.handle.status.value if t is not None else None for t in robots.tasks]
-    return _summaries(sim.events, robots.names, currents, robots.path_length)
+    return _summaries(sim.events, robots.names, currents, robots.path_length, sim.time)
 
 
 def _summaries(events: list[TaskEvent], names: list[str], currents: list[str | None],
-               path_length: npt.NDArray[np.float64]) -> list[HumanSummary]:
+               path_length: npt.NDArray[np.float64], now: float) -> list[HumanSummary]:
     summaries = []
     events_of: dict[str, list[TaskEvent]] = {}  # one pass over the events, not one per actor
     for event in events:
@@ -110,6 +112,8 @@ def _summaries(events: list[TaskEvent], names: list[str], currents: list[str | N
         finals = [e for e in own if e.status.is_final]
         starts = {e.task_id: e.time for e in own if e.status is TaskStatus.ACTIVE}
         busy = sum(e.time - starts.get(e.task_id, e.time) for e in finals)
+        ended = {e.task_id for e in finals}  # a task still on at the end counts up to it
+        busy += sum(now - start for task, start in starts.items() if task not in ended)
         total = len(starts)
         done = sum(1 for e in finals if e.status is not TaskStatus.ABORTED)
         last = currents[index] or (finals[-1].status.value if finals else "-")

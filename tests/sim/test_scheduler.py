@@ -176,3 +176,13 @@ def test_the_same_seed_gives_the_same_run(scenario: ScenarioFactory) -> None:
     assert [(e.tick, e.human, e.status) for e in first.events] == \
         [(e.tick, e.human, e.status) for e in second.events]
     assert [h.path_length for h in first.humans] == [h.path_length for h in second.humans]
+
+
+def test_a_task_still_on_when_the_run_ends_counts_its_time(scenario: ScenarioFactory) -> None:
+    program = scenario("time_limit 4 s\nhuman a at (2, 2)\nhuman b at (3, 3)\n"
+                       "activity { a stand for 1 s }\nactivity { b move_around forever }\n")
+    result = run_program(Simulation(program))
+    busy = {summary.name: summary.busy_time for summary in result.humans}
+    assert result.time == pytest.approx(1.0)  # the run ends with a's activity
+    assert busy["a"] == pytest.approx(1.0)
+    assert busy["b"] == pytest.approx(1.0)  # wandering until the run ended, not 0
