@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import base64
+import json
 import re
 from collections.abc import Callable
 from pathlib import Path
@@ -177,3 +179,28 @@ def test_commands_refuse_a_forged_log_with_exit_2(meeting: LoggedMeeting, tmp_pa
     assert outcome.returncode == 2, outcome.stderr
     assert "not a readable hubero run log" in outcome.stderr
     assert "internal error" not in outcome.stderr
+
+
+def _map_of(columns: int, rows: int) -> Rewrite:
+    """A message rewrite giving the log's /map `columns` x `rows` free cells."""
+    def rewrite(topic: str, data: bytes) -> bytes:
+        if topic != "/map":
+            return data
+        grid = json.loads(data)
+        grid["column_count"] = grid["row_stride"] = columns
+        grid["data"] = base64.b64encode(bytes(columns * rows)).decode("ascii")
+        return json.dumps(grid).encode()
+    return rewrite
+
+
+def test_a_logged_map_larger_than_a_map_may_be_is_refused(meeting: LoggedMeeting,
+                                                          tmp_path: Path) -> None:
+    forged = _rewritten(meeting.log, tmp_path / "huge_map.mcap", {}, _map_of(4001, 4000))
+    with pytest.raises(LogError, match=r"/map: a grid of 16,004,000 cells \(4,001 a row\), "
+                                       r"more than the 16,000,000 a map may have"):
+        load_run(forged)
+
+
+def test_a_logged_map_of_other_cells_reads_back(meeting: LoggedMeeting, tmp_path: Path) -> None:
+    forged = _rewritten(meeting.log, tmp_path / "other_map.mcap", {}, _map_of(30, 20))
+    assert load_run(forged).grid.shape == (20, 30)
