@@ -68,8 +68,9 @@ def measure(experiments: Sequence[Experiment]) -> list[Measured]:
         trajectory = load_trajectory(experiment)
         if experiment.free_flow not in free:
             reference = experiment_for(shipped_path(experiment.free_flow))
-            source = trajectory if reference.name == experiment.name else load_trajectory(
-                reference)
+            if reference.name == experiment.name:  # this file is itself the free flow
+                reference = experiment
+            source = trajectory if reference is experiment else load_trajectory(reference)
             free[experiment.free_flow] = desired_speeds(source, reference)
         measured.append(Measured(experiment, trajectory,
                                  fundamental_diagram(trajectory, experiment),

@@ -164,3 +164,15 @@ def test_the_lane_fit_holds_the_held_out_uo_100_as_the_docs_say(cli: Cli) -> Non
     page = (root / "docs" / "validation.md").read_text(encoding="utf-8")
     assert f"| uo-100-180-180 | held out | 0.1132 (36 %) | **0.0014 (6 %)** | **{worst} %**" in page
     assert worst <= 15
+
+
+@pytest.mark.parametrize("text", ["# comment\n1 2 3 4 5\n", "1 1 nan inf 0\n1 2 1e308 -1e308 0\n"])
+@pytest.mark.parametrize("command", [("validate",), ("calibrate", "--executor", "serial",
+                                                      "--evaluations", "1", "--train")])
+def test_a_malformed_recording_exits_2(cli: Cli, tmp_path: Path, command: tuple[str, ...],
+                                       text: str) -> None:
+    recording = tmp_path / "uo-100-180-180.txt"
+    recording.write_text(text, encoding="utf-8")
+    outcome = cli(*command, str(recording))
+    assert outcome.status == 2
+    assert f"{recording}: not a trajectory file hubero can read" in outcome.err
