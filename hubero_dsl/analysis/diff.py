@@ -34,6 +34,7 @@ from hubero_dsl.analysis.metrics import (
 )
 from hubero_dsl.analysis.socialnav_log import robot_social_metrics
 from hubero_dsl.errors import InputError
+from hubero_dsl.files import read_bounded
 from hubero_dsl.sim.status import TaskStatus
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, describe_shape
 
@@ -46,6 +47,7 @@ if TYPE_CHECKING:
 DEFAULT_EPSILON = 0.1  # m
 INDEX_NAME = "index.json"
 INDEX_VERSION = 1
+MAX_INDEX_BYTES = 512 << 20  # the index of the largest sweep (100,000 runs) with its metrics
 
 # Metrics in the order tables show them; keys of dict metrics follow their group.
 _ORDER = ("path_length", "duration", "mean_speed", "max_speed", "min_distance",
@@ -467,22 +469,35 @@ def load_index(directory: str | Path) -> SweepIndex:
     path = directory / INDEX_NAME
     if not directory.is_dir():
         raise InputError(f"{directory} is not a directory of sweep results")
-    try:
-        index = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
+    if not path.exists():
         raise InputError(f"{directory} has no {INDEX_NAME}: is it the output folder of "
-                         f"`hubero sweep`?") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"{path} cannot be read as a sweep index: {exc}") from None
+                         f"`hubero sweep`?")
+    index = _index_json(path)
     if not isinstance(index, dict) or not isinstance(index.get("runs"), list):
         raise InputError(f"{path} is not a sweep index (no list of runs)")
-    if index.get("version", INDEX_VERSION) > INDEX_VERSION:
-        raise InputError(f"{path} has index version {index['version']}; this hubero reads "
+    version = index.get("version", INDEX_VERSION)
+    if not isinstance(version, int):
+        raise InputError(f"{path} is not a sweep index (its version is not a number)")
+    if version > INDEX_VERSION:
+        raise InputError(f"{path} has index version {version}; this hubero reads "
                          f"version {INDEX_VERSION}")
     if not index["runs"]:
         raise InputError(f"{path} lists no runs: the sweep is empty")
     runs = tuple(_indexed_run(entry, directory, path) for entry in index["runs"])
     return SweepIndex(directory, str(index.get("scenario", "")), runs)
+
+
+def _index_json(path: Path) -> Any:
+    """The index's JSON value; InputError for a file that is not a regular file of at most
+    `MAX_INDEX_BYTES`, not UTF-8 JSON, or nested too deeply for the decoder."""
+    data = read_bounded(path, MAX_INDEX_BYTES, "sweep index")
+    try:
+        return json.loads(data.decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InputError(f"{path} cannot be read as a sweep index: {exc}") from None
+    except RecursionError:  # the decoder recurses once per level
+        raise InputError(f"{path} cannot be read as a sweep index: its JSON is nested too "
+                         f"deeply") from None
 
 
 def _indexed_run(entry: Any, directory: Path, path: Path) -> IndexedRun:
@@ -513,7 +528,7 @@ def diff_sweep(directory: str | Path, baseline: str, *,
 
     def read(path: Path) -> tuple[LoggedRun, RunMetrics]:
         if path not in loaded:
-            run = load_run(path)
+            run = load_run(_inside(path, index.directory))
             loaded[path] = (run, compute_metrics(run))
         return loaded[path]
 
@@ -537,6 +552,21 @@ def diff_sweep(directory: str | Path, baseline: str, *,
             continue
         comparisons.append(SweepComparison(run.variant, run.seed, run.status, diff))
     return SweepDiff(str(index.directory), index.scenario, baseline, epsilon, tuple(comparisons))
+
+
+def _inside(path: Path, directory: Path) -> Path:
+    """`path`, symbolic links and '..' resolved, when it lies inside the sweep folder; an
+    InputError otherwise. A sweep writes its logs there, so an index naming any other file
+    (/etc/passwd, ../x, a link out of the folder) is damaged or forged, and it is not opened."""
+    try:
+        resolved = path.resolve()
+        inside = resolved.is_relative_to(directory.resolve())
+    except (OSError, RuntimeError):  # RuntimeError: a loop of symbolic links
+        inside = False
+    if not inside:
+        raise InputError(f"the index names a log outside the sweep folder {directory}: "
+                         f"{path} (not read)")
+    return resolved
 
 
 def _why_not_comparable(run: IndexedRun, base: IndexedRun | None) -> str:

@@ -163,8 +163,9 @@ def load_run(path: str | Path) -> LoggedRun:
         raise LogError(f"{path} is not a readable hubero run log: it is not an MCAP file"
                        ) from None
     except (McapError, zstandard.ZstdError, struct.error, ValueError, KeyError, TypeError,
-            IndexError, AttributeError) as exc:
-        # Whatever a damaged file makes the MCAP library or the JSON decoder trip on.
+            IndexError, AttributeError, OverflowError) as exc:
+        # Whatever a damaged file makes the MCAP library or the JSON decoder trip on; an
+        # OverflowError is a number too large for a float or an integer (a forged timestamp).
         raise LogError(f"{path} is not a readable hubero run log (truncated or corrupt?): "
                        f"{exc}") from None
 
@@ -182,9 +183,9 @@ def _read(path: Path, stream: Any) -> LoggedRun:
                        f"{provenance.get('hubero_version')}; this hubero reads format "
                        f"{s.FORMAT_VERSION} and older")
     attachments = {a.name: a.data for a in reader.iter_attachments()}
-    crowds = [name for name, entry in json.loads(provenance.get("sets", "{}")).items()
+    crowds = [name for name, entry in _json(provenance.get("sets", "{}")).items()
               if entry["kind"] != "group"]
-    collector = _Collector(json.loads(provenance["humans"]), json.loads(provenance["robots"]),
+    collector = _Collector(_json(provenance["humans"]), _json(provenance["robots"]),
                            crowds)
     for _, channel, message in reader.iter_messages(log_time_order=False):
         collector.add(channel.topic, message.data)
@@ -201,30 +202,30 @@ def _read(path: Path, stream: Any) -> LoggedRun:
 
 
 def _metadata(values: dict[str, str], attachments: dict[str, bytes]) -> RunMetadata:
-    names = json.loads(values["attachments"])
+    names = _json(values["attachments"])
     source = attachments.get(names["source"], b"").decode("utf-8")
     params: dict[str, dict[str, ParamValue]] = {
         human: {key: s.shape_from_json(v) if isinstance(v, dict) else v
                 for key, v in entries.items()}
-        for human, entries in json.loads(values["params"]).items()}
+        for human, entries in _json(values["params"]).items()}
     return RunMetadata(
         format_version=int(values["format_version"]), hubero_version=values["hubero_version"],
         title=values["title"], source_path=values["source_path"],
         source_sha256=values["source_sha256"], source=source, map_path=values["map_path"],
         seed=int(values["seed"]), variant=values["variant"] or None,
-        variants=tuple(json.loads(values["variants"])), params=params,
+        variants=tuple(_json(values["variants"])), params=params,
         step=float(values["step"]), time_limit=float(values["time_limit"]),
-        log_rate_hz=float(values["log_rate_hz"]), humans=tuple(json.loads(values["humans"])),
-        robots=tuple(json.loads(values["robots"])),
+        log_rate_hz=float(values["log_rate_hz"]), humans=tuple(_json(values["humans"])),
+        robots=tuple(_json(values["robots"])),
         sets={name: (entry["kind"], tuple(entry["members"]))
-              for name, entry in json.loads(values.get("sets", "{}")).items()},
+              for name, entry in _json(values.get("sets", "{}")).items()},
         robot_params=_robot_params(values.get("robot_params", "{}")))
 
 
 def _robot_params(text: str) -> dict[str, dict[str, Any]]:
     """Each robot's logged parameters, its goal as a point and its tolerance as a number
     (ValueError, TypeError or AttributeError for a log that says otherwise)."""
-    params: dict[str, dict[str, Any]] = json.loads(text)
+    params: dict[str, dict[str, Any]] = _json(text)
     for entry in params.values():
         goal = entry.get("goal")
         if goal is not None:
@@ -238,8 +239,17 @@ def _outcome(values: dict[str, str]) -> RunOutcome:
     return RunOutcome(state=values["state"], reason=values["reason"],
                       time=float(values["time"]), ticks=int(values["ticks"]),
                       succeeded=values["succeeded"] == "true",
-                      expectations=json.loads(values["expectations"]),
-                      humans=json.loads(values["humans"]))
+                      expectations=_json(values["expectations"]),
+                      humans=_json(values["humans"]))
+
+
+def _json(text: str | bytes) -> Any:
+    """A JSON value of the log; ValueError for one nested too deeply to decode, which only a
+    forged or damaged log holds (the decoder recurses once per level)."""
+    try:
+        return json.loads(text)
+    except RecursionError:
+        raise ValueError("its JSON is nested too deeply") from None
 
 
 def _seconds(stamp: dict[str, int]) -> float:
@@ -266,22 +276,22 @@ class _Collector:
     def add(self, topic: str, data: bytes) -> None:
         human = self._state_topics.get(topic)
         if human is not None:
-            self._states[human].append(json.loads(data))
+            self._states[human].append(_json(data))
         elif topic in self._crowd_topics:
-            self._crowd_states.append(json.loads(data))
+            self._crowd_states.append(_json(data))
         elif topic == s.TF_TOPIC:
             if self._robot_frames:
-                self._add_transforms(json.loads(data))
+                self._add_transforms(_json(data))
         elif topic == s.TASKS_TOPIC:
-            self.events.append(_task_event(json.loads(data)))
+            self.events.append(_task_event(_json(data)))
         elif topic == s.LOG_TOPIC:
-            value = json.loads(data)
+            value = _json(data)
             self.log.append(LogLine(_seconds(value["timestamp"]), int(value["level"]),
                                     value["message"], value["file"], int(value["line"])))
         elif topic == s.MAP_TOPIC and self.grid_message is None:
-            self.grid_message = json.loads(data)
+            self.grid_message = _json(data)
         elif topic == s.SCENE_TOPIC and self._robot_frames and not self._radius:
-            for entity in json.loads(data)["entities"]:
+            for entity in _json(data)["entities"]:
                 robot = self._robot_frames.get(entity["id"])
                 if robot is not None and entity["cylinders"]:
                     self._radius[robot] = float(entity["cylinders"][0]["size"]["x"]) / 2

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from hubero_dsl.errors import LogError
 from hubero_dsl.sim.status import Posture, TaskStatus
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle
 
@@ -331,10 +332,15 @@ def grid_message(grid: OccupancyGrid) -> dict[str, Any]:
 
 
 def grid_from_message(message: dict[str, Any], source: str) -> OccupancyGrid:
-    """The OccupancyGrid a /map message holds (the inverse of `grid_message`)."""
-    from hubero_dsl.world.grid import OccupancyGrid
+    """The OccupancyGrid a /map message holds (the inverse of `grid_message`); LogError for a
+    grid of more cells than a map may have, before its cells are decoded."""
+    from hubero_dsl.world.grid import MAX_MAP_CELLS, OccupancyGrid
 
     cols = int(message["column_count"])
+    count = _decoded_size(message["data"])
+    if count > MAX_MAP_CELLS:
+        raise LogError(f"{source}: a grid of {count:,} cells ({cols:,} a row), more than the "
+                       f"{MAX_MAP_CELLS:,} a map may have: hubero does not read it")
     cells = np.frombuffer(base64.b64decode(message["data"], validate=True), dtype=np.int8)
     if cols <= 0 or len(cells) % cols or int(message["cell_stride"]) != 1:
         raise ValueError("map cells do not fill whole rows")
@@ -344,3 +350,9 @@ def grid_from_message(message: dict[str, Any], source: str) -> OccupancyGrid:
     return OccupancyGrid(cells != FREE, float(message["cell_size"]["x"]),
                          (float(position["x"]), float(position["y"])), source=source,
                          unknown=unknown if unknown.any() else None)
+
+
+def _decoded_size(text: str) -> int:
+    """How many bytes base64 `text` decodes to, without decoding it (a forged log may hold a
+    few kilobytes that compress gigabytes of cells)."""
+    return len(text) // 4 * 3 - text[-2:].count("=")

@@ -33,6 +33,9 @@ if TYPE_CHECKING:
     from shapely.geometry.base import BaseGeometry
 
 MAX_TRAJECTORY_BYTES = 64 * 2**20  # a recording larger than this is refused, not read
+# Frames a recording may span: over an hour at 25 frames/s, where experiments last minutes.
+# PedPy's analyses build a row per frame of the span, so a forged frame number costs memory.
+MAX_FRAMES = 100_000
 SHIPPED = ("uo-050-180-180", "uo-100-180-180", "uo-145-180-180", "uo-180-180-070",
            "uo-180-180-120", "traj_UNI_CORR_500_01")
 # Frames in steady state, from the data's documentation; other files use every frame.
@@ -175,7 +178,39 @@ def load_trajectory(experiment: Experiment) -> Any:
                              f"{_first_line(exc)}") from None
     if len(trajectory.data) == 0:
         raise InputError(f"{path}: the trajectory file holds no positions")
+    _check_positions(trajectory, experiment)
     return trajectory
+
+
+def _check_positions(trajectory: Any, experiment: Experiment) -> None:
+    """InputError for a recording PedPy's analyses cannot take: a span of more than
+    `MAX_FRAMES` frames, a person at two places in one frame, a position outside the
+    experiment's walkable area (PedPy's Voronoi cells need every point inside it, which also
+    rules out positions that are not finite or absurdly far), or nobody in its steady frames."""
+    unreadable = f"{experiment.path}: not a trajectory file hubero can read"
+    data = trajectory.data
+    frames = data["frame"]
+    if frames.max() - frames.min() >= MAX_FRAMES:
+        raise InputError(f"{unreadable}: its frames span {frames.min()} to {frames.max()}, "
+                         f"more than {MAX_FRAMES:,} frames")
+    twice = data[data.duplicated(["id", "frame"])]
+    if len(twice):
+        raise InputError(f"{unreadable}: person {twice['id'].iloc[0]} has two positions in "
+                         f"frame {twice['frame'].iloc[0]}")
+    p = pedpy()
+    walkable = p.WalkableArea(list(experiment.walkable.exterior.coords)[:-1])
+    outside = p.get_invalid_trajectory(traj_data=trajectory, walkable_area=walkable)
+    if len(outside):
+        first = outside.iloc[0]
+        raise InputError(f"{unreadable}: {len(outside)} of its positions lie outside the "
+                         f"{experiment.name} experiment's walkable area (the first: person "
+                         f"{first['id']}, frame {first['frame']}, at ({first['x']:g}, "
+                         f"{first['y']:g}) m)")
+    if experiment.steady is not None:
+        first_frame, last_frame = experiment.steady
+        if not ((frames >= first_frame) & (frames <= last_frame)).any():
+            raise InputError(f"{unreadable}: nobody is measured in the steady frames "
+                             f"{first_frame}-{last_frame} of {experiment.name}")
 
 
 def _first_line(exc: BaseException) -> str:

@@ -28,6 +28,7 @@ from shapely.geometry import Polygon, box
 from shapely.geometry.base import BaseGeometry
 
 from hubero_dsl.diagnostics import SourceFile, Span
+from hubero_dsl.errors import InputError
 from hubero_dsl.graph.build import build_activity_graph
 from hubero_dsl.model.program import (
     FlowSpec,
@@ -50,13 +51,20 @@ BODY_RADIUS = 0.2       # m, hubero's default body
 def desired_speeds(trajectory: Any, experiment: Experiment) -> FloatArray:
     """Each measured person's desired speed: their mean speed along the walking direction
     over their whole track (PedPy's individual speed), sorted. Taken from a free-flow recording
-    it is the speed people choose when nobody is in their way."""
+    it is the speed people choose when nobody is in their way. InputError for a recording
+    with nobody measured long enough to have a speed."""
     p = pedpy()
     speed = p.compute_individual_speed(
         traj_data=trajectory, frame_step=max(1, round(trajectory.frame_rate / 2)),
         movement_direction=np.array(experiment.direction),
         speed_calculation=p.SpeedCalculation.BORDER_SINGLE_SIDED)
-    return np.sort(speed.groupby("id")["speed"].mean().to_numpy(dtype=np.float64))
+    speeds = speed.groupby("id")["speed"].mean().to_numpy(dtype=np.float64)
+    speeds = speeds[np.isfinite(speeds)]  # someone measured in a single frame has no speed
+    if not len(speeds):
+        raise InputError(f"{experiment.path}: not a trajectory file hubero can read: nobody in "
+                         f"it is measured long enough for a speed, from which the rebuilds' "
+                         f"desired speeds are drawn")
+    return np.sort(speeds)
 
 
 def arrivals_program(experiment: Experiment, measured: Any, speeds: FloatArray, *,

@@ -15,12 +15,13 @@ same results.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy.typing as npt
 
+from hubero_dsl.diagnostics import Diagnostic, Span
 from hubero_dsl.errors import InputError
 from hubero_dsl.model.program import ParamValue
 from hubero_dsl.validation.compare import Comparison, compare
@@ -68,8 +69,9 @@ def measure(experiments: Sequence[Experiment]) -> list[Measured]:
         trajectory = load_trajectory(experiment)
         if experiment.free_flow not in free:
             reference = experiment_for(shipped_path(experiment.free_flow))
-            source = trajectory if reference.name == experiment.name else load_trajectory(
-                reference)
+            if reference.name == experiment.name:  # this file is itself the free flow
+                reference = experiment
+            source = trajectory if reference is experiment else load_trajectory(reference)
             free[experiment.free_flow] = desired_speeds(source, reference)
         measured.append(Measured(experiment, trajectory,
                                  fundamental_diagram(trajectory, experiment),
@@ -105,12 +107,14 @@ MAX_DEFAULTS_BYTES = 2**20
 
 def load_defaults(path: Path) -> dict[str, ParamValue]:
     """The parameters of a file holding a `defaults { }` block (as `hubero calibrate -o`
-    writes), checked by the language: the block is compiled behind a scenario header on its
-    first line, so that messages keep the file's own lines. CompileError for errors in it."""
+    writes), checked by the language: the block is compiled under a scenario header of its
+    own line, and messages are moved up that line, to the file's own lines and columns.
+    CompileError for errors in it."""
     import tempfile
 
     import numpy as np
 
+    from hubero_dsl.errors import CompileError
     from hubero_dsl.files import read_bounded
     from hubero_dsl.pipeline import compile_source
     from hubero_dsl.world.grid import OccupancyGrid
@@ -123,8 +127,25 @@ def load_defaults(path: Path) -> dict[str, ParamValue]:
     with tempfile.TemporaryDirectory(prefix="hubero-defaults-") as folder:
         map_yaml = Path(folder) / "room.yaml"
         save_map(OccupancyGrid(np.zeros((20, 20), dtype=bool), 0.1, (0.0, 0.0)), map_yaml)
-        header = f'scenario "defaults"; map "{map_yaml}"; '
-        program = compile_source(header + text, str(path))
+        header = f'scenario "defaults"; map "{map_yaml}"\n'
+        try:
+            program = compile_source(header + text, str(path))
+        except CompileError as exc:
+            raise CompileError([_line_up(d) for d in exc.diagnostics]) from None
     if program.humans or program.robots or program.activities or program.flows:
         raise InputError(f"{path}: a defaults file holds a `defaults {{ }}` block only")
     return dict(program.defaults.values)
+
+
+def _line_up(diagnostic: Diagnostic) -> Diagnostic:
+    """A diagnostic of a defaults file compiled under a one-line header, at the file's own
+    lines (one up); notes pointing into the header ("first given here") are dropped, as the
+    file has no such line."""
+    related = tuple(replace(r, span=_span_up(r.span)) for r in diagnostic.related
+                    if r.span.line > 1)
+    span = None if diagnostic.span is None else _span_up(diagnostic.span)
+    return replace(diagnostic, span=span, related=related)
+
+
+def _span_up(span: Span) -> Span:
+    return replace(span, line=max(1, span.line - 1), end_line=max(1, span.end_line - 1))

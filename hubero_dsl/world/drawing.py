@@ -37,8 +37,8 @@ from shapely.geometry.base import BaseGeometry
 from hubero_dsl.diagnostics import Span
 from hubero_dsl.errors import MapError
 from hubero_dsl.files import read_bounded
-from hubero_dsl.world.grid import OccupancyGrid
-from hubero_dsl.world.mapfile import MAX_MAP_CELLS, save_map, unsafe_yaml
+from hubero_dsl.world.grid import MAX_MAP_CELLS, OccupancyGrid
+from hubero_dsl.world.mapfile import save_map, unsafe_yaml
 
 SHAPES_SUFFIX = ".shapes.yaml"
 MAX_SHAPES_BYTES = 4 << 20  # a description is a page or two of YAML

@@ -40,6 +40,10 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
 BoolArray = npt.NDArray[np.bool_]
 
+# The most cells a map may have, whether read from a map file, drawn or read back from a log:
+# 4000 x 4000, 200 m x 200 m at 5 cm. Its fields cost tens of bytes a cell.
+MAX_MAP_CELLS = 16_000_000
+
 # A body moves continuously, so diagonal neighbours are connected too.
 _EIGHT_CONNECTED = np.ones((3, 3), dtype=bool)
 # Cell index given to non-finite coordinates: far outside any grid, still a valid integer.

@@ -31,7 +31,7 @@ from PIL import Image
 from hubero_dsl.diagnostics import Span
 from hubero_dsl.errors import MapError
 from hubero_dsl.files import read_bounded, regular_file
-from hubero_dsl.world.grid import BoolArray, OccupancyGrid
+from hubero_dsl.world.grid import MAX_MAP_CELLS, BoolArray, OccupancyGrid
 
 UInt8Array = npt.NDArray[np.uint8]
 
@@ -43,7 +43,6 @@ MAX_YAML_BYTES = 1 << 20          # a map YAML file is a few lines
 MAX_RESOLUTION = 100.0            # m a cell: coarser is no floor plan a person walks on
 MAX_YAML_DEPTH = 32               # levels of nesting: a map or shape file needs a handful
 MAX_IMAGE_BYTES = 512 << 20       # bytes of a map image file
-MAX_MAP_CELLS = 16_000_000        # cells of a map: 4000 x 4000, 200 m x 200 m at 5 cm
 SHOWN_VALUE = 60                  # characters of a field's value a message quotes
 
 # What map_saver writes, so saved maps read back identically in ROS and here.

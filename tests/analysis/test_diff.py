@@ -4,6 +4,7 @@ paths; parameters; tasks matched across runs; sweep folders and their bad forms.
 from __future__ import annotations
 
 import json
+import shutil
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -150,7 +151,7 @@ def sweep_dir(tmp_path: Path, living_room_logs: dict[str, Path]) -> Path:
     runs = tmp_path / "sweep" / "runs"
     runs.mkdir(parents=True)
     for variant, log in living_room_logs.items():
-        (runs / f"{variant}.mcap").symlink_to(log)
+        shutil.copyfile(log, runs / f"{variant}.mcap")  # a sweep's logs lie inside it
     return write_index(tmp_path / "sweep", [
         entry("circle", 7, "runs/circle.mcap"), entry("ellipse", 7, "runs/ellipse.mcap"),
         entry("ellipse", 8, "runs/ellipse.mcap"), entry("square", 7, None, "error")])
@@ -200,6 +201,8 @@ def test_missing_baseline_variant(sweep_dir: Path) -> None:
     ('{"version": 1}', "no list of runs"),
     ('{"version": 9, "runs": [1]}', "index version 9"),
     ('{"version": 1, "runs": [{"variant": "a"}]}', "a run entry is malformed"),
+    ('{"version": "1", "runs": [1]}', "its version is not a number"),
+    ("[" * 200_000 + "]" * 200_000, "its JSON is nested too deeply"),
 ])
 def test_bad_indexes(tmp_path: Path, content: str | None, message: str) -> None:
     if content is not None:
@@ -212,3 +215,35 @@ def test_index_of_a_file(tmp_path: Path) -> None:
     (tmp_path / "x").write_text("")
     with pytest.raises(InputError, match="not a directory"):
         load_index(tmp_path / "x")
+
+
+def test_an_index_that_is_a_device_is_not_read(tmp_path: Path) -> None:
+    (tmp_path / "index.json").symlink_to("/dev/zero")
+    with pytest.raises(InputError, match="not a regular file"):
+        load_index(tmp_path)
+
+
+@pytest.mark.parametrize("log", ["/etc/passwd", "../../../../etc/shadow", "/dev/zero",
+                                 "runs/../../outside.mcap", "runs/link.mcap"])
+def test_a_log_outside_the_sweep_folder_is_never_opened(
+        sweep_dir: Path, living_room_logs: dict[str, Path], monkeypatch: pytest.MonkeyPatch,
+        log: str) -> None:
+    (sweep_dir / "runs" / "link.mcap").symlink_to(living_room_logs["ellipse"])
+    shutil.copyfile(living_room_logs["ellipse"], sweep_dir.parent / "outside.mcap")
+    index = json.loads((sweep_dir / "index.json").read_text())
+    index["runs"].append(entry("stranger", 7, log))
+    (sweep_dir / "index.json").write_text(json.dumps(index))
+    opened: list[Path] = []
+
+    def recorded_load_run(path: Path) -> Any:
+        opened.append(path)
+        return load_run(path)
+
+    monkeypatch.setattr("hubero_dsl.log.reader.load_run", recorded_load_run)
+    sweep = diff_sweep(sweep_dir, "circle")
+    stranger = next(c for c in sweep.comparisons if c.variant == "stranger")
+    assert stranger.diff is None
+    assert stranger.note.startswith("the index names a log outside the sweep folder")
+    assert opened and all(p.is_relative_to(sweep_dir.resolve()) for p in opened)
+    ellipse = next(c for c in sweep.comparisons if c.variant == "ellipse" and c.seed == 7)
+    assert ellipse.diff is not None  # the other runs are compared as before

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import base64
+import json
+import re
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -10,7 +14,7 @@ from mcap.writer import Writer
 
 from hubero_dsl.errors import LogError
 from hubero_dsl.log.reader import load_run
-from tests.log.conftest import LoggedMeeting
+from tests.log.conftest import LoggedMeeting, hubero
 
 
 def test_missing_file(tmp_path: Path) -> None:
@@ -83,23 +87,37 @@ def test_a_newer_format_is_refused(tmp_path: Path) -> None:
 
 def _with_metadata(log: Path, path: Path, **changes: str) -> Path:
     """A copy of `log` whose provenance metadata has `changes` applied."""
+    return _rewritten(log, path, changes)
+
+
+Rewrite = Callable[[str, bytes], bytes]  # (topic, data) -> data
+
+
+def _as_is(topic: str, data: bytes) -> bytes:
+    return data
+
+
+def _rewritten(log: Path, path: Path, changes: dict[str, str],
+               message: Rewrite = _as_is) -> Path:
+    """A copy of `log` whose provenance metadata has `changes` applied and whose messages'
+    data are `message(topic, data)`."""
     with log.open("rb") as source, path.open("wb") as stream:
         reader = make_reader(source)
         writer = Writer(stream)
         writer.start("", "copy")
         channels: dict[int, int] = {}
-        for schema, channel, message in reader.iter_messages(log_time_order=False):
+        for schema, channel, record in reader.iter_messages(log_time_order=False):
             if channel.id not in channels:
                 assert schema is not None
                 schema_id = writer.register_schema(schema.name, schema.encoding, schema.data)
                 channels[channel.id] = writer.register_channel(
                     channel.topic, channel.message_encoding, schema_id)
-            writer.add_message(channels[channel.id], message.log_time, message.data,
-                               message.publish_time)
-        for record in reader.iter_metadata():
-            values = dict(record.metadata)
-            writer.add_metadata(record.name, {**values, **changes}
-                                if record.name == "hubero" else values)
+            writer.add_message(channels[channel.id], record.log_time,
+                               message(channel.topic, record.data), record.publish_time)
+        for metadata in reader.iter_metadata():
+            values = dict(metadata.metadata)
+            writer.add_metadata(metadata.name, {**values, **changes}
+                                if metadata.name == "hubero" else values)
         for attachment in reader.iter_attachments():
             writer.add_attachment(attachment.create_time, attachment.log_time,
                                   attachment.name, attachment.media_type, attachment.data)
@@ -123,3 +141,66 @@ def test_a_copy_with_its_own_robot_parameters_reads_back(meeting: LoggedMeeting,
     copy = _with_metadata(meeting.log, tmp_path / "copy.mcap",
                           robot_params='{"r2": {"goal": [8, 2], "goal_tolerance": 0.3}}')
     assert load_run(copy).metadata.robot_goal("r2") == ((8.0, 2.0), 0.3)
+
+
+def _stamped(seconds: str, topics: tuple[str, ...] = ()) -> Rewrite:
+    """A message rewrite giving every timestamp (of `topics`, or of all) `seconds`."""
+    def rewrite(topic: str, data: bytes) -> bytes:
+        if topics and topic not in topics:
+            return data
+        return re.sub(rb'"sec":\d+', b'"sec":' + seconds.encode(), data)
+    return rewrite
+
+
+FORGED = {
+    "metadata nested 200 000 deep": ({"humans": "[" * 200_000 + "]" * 200_000}, _as_is),
+    "parameters nested 200 000 deep": ({"params": '{"a":' * 200_000 + "1" + "}" * 200_000},
+                                       _as_is),
+    "a /log time of 1e400 s": ({}, _stamped("1e400", ("/log",))),
+    "every time 10**400 s": ({}, _stamped("1" + "0" * 400)),
+}
+
+
+@pytest.mark.parametrize("forgery", FORGED.values(), ids=FORGED.keys())
+def test_a_forged_log_is_refused(meeting: LoggedMeeting, tmp_path: Path,
+                                 forgery: tuple[dict[str, str], Rewrite]) -> None:
+    forged = _rewritten(meeting.log, tmp_path / "forged.mcap", *forgery)
+    with pytest.raises(LogError, match="not a readable hubero run log"):
+        load_run(forged)
+
+
+@pytest.mark.parametrize("command", [("plot",), ("export", "--ros2", "{tmp}/bag"),
+                                     ("diff", "{log}")])
+def test_commands_refuse_a_forged_log_with_exit_2(meeting: LoggedMeeting, tmp_path: Path,
+                                                  command: tuple[str, ...]) -> None:
+    forged = _rewritten(meeting.log, tmp_path / "forged.mcap", {}, _stamped("1e400"))
+    argv = [a.format(tmp=tmp_path, log=meeting.log) for a in command]
+    outcome = hubero(argv[0], str(forged), *argv[1:])
+    assert outcome.returncode == 2, outcome.stderr
+    assert "not a readable hubero run log" in outcome.stderr
+    assert "internal error" not in outcome.stderr
+
+
+def _map_of(columns: int, rows: int) -> Rewrite:
+    """A message rewrite giving the log's /map `columns` x `rows` free cells."""
+    def rewrite(topic: str, data: bytes) -> bytes:
+        if topic != "/map":
+            return data
+        grid = json.loads(data)
+        grid["column_count"] = grid["row_stride"] = columns
+        grid["data"] = base64.b64encode(bytes(columns * rows)).decode("ascii")
+        return json.dumps(grid).encode()
+    return rewrite
+
+
+def test_a_logged_map_larger_than_a_map_may_be_is_refused(meeting: LoggedMeeting,
+                                                          tmp_path: Path) -> None:
+    forged = _rewritten(meeting.log, tmp_path / "huge_map.mcap", {}, _map_of(4001, 4000))
+    with pytest.raises(LogError, match=r"/map: a grid of 16,004,000 cells \(4,001 a row\), "
+                                       r"more than the 16,000,000 a map may have"):
+        load_run(forged)
+
+
+def test_a_logged_map_of_other_cells_reads_back(meeting: LoggedMeeting, tmp_path: Path) -> None:
+    forged = _rewritten(meeting.log, tmp_path / "other_map.mcap", {}, _map_of(30, 20))
+    assert load_run(forged).grid.shape == (20, 30)

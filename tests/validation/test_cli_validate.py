@@ -114,6 +114,21 @@ def test_a_defaults_file_with_errors_exits_1_at_its_own_line(cli: Cli, tmp_path:
     assert f"{fitted}:2:" in outcome.err
 
 
+@pytest.mark.parametrize(("text", "where"), [
+    ("defaults { speed 5 s }\n", "1:18"),             # the first line: no header before it
+    ("\ndefaults { speed 5 s }\n", "2:18"),
+    ('defaults { speed 1 m/s }\nscenario "x"\n', "2:1"),
+])
+def test_a_defaults_files_error_is_at_its_own_line_and_column(cli: Cli, tmp_path: Path,
+                                                              text: str, where: str) -> None:
+    fitted = tmp_path / "fitted.hub"
+    fitted.write_text(text, encoding="utf-8")
+    outcome = cli("validate", FREE_FLOW, "--defaults", str(fitted))
+    assert outcome.status == 1
+    assert f"{fitted}:{where}" in outcome.err
+    assert "first given here" not in outcome.err  # the header it is compiled under is no line
+
+
 def test_a_defaults_file_with_people_is_refused(cli: Cli, tmp_path: Path) -> None:
     fitted = tmp_path / "fitted.hub"
     fitted.write_text("defaults { speed 1 m/s }\nhuman a at (1.0, 1.0)\n", encoding="utf-8")
@@ -164,3 +179,15 @@ def test_the_lane_fit_holds_the_held_out_uo_100_as_the_docs_say(cli: Cli) -> Non
     page = (root / "docs" / "validation.md").read_text(encoding="utf-8")
     assert f"| uo-100-180-180 | held out | 0.1132 (36 %) | **0.0014 (6 %)** | **{worst} %**" in page
     assert worst <= 15
+
+
+@pytest.mark.parametrize("text", ["# comment\n1 2 3 4 5\n", "1 1 nan inf 0\n1 2 1e308 -1e308 0\n"])
+@pytest.mark.parametrize("command", [("validate",), ("calibrate", "--executor", "serial",
+                                                      "--evaluations", "1", "--train")])
+def test_a_malformed_recording_exits_2(cli: Cli, tmp_path: Path, command: tuple[str, ...],
+                                       text: str) -> None:
+    recording = tmp_path / "uo-100-180-180.txt"
+    recording.write_text(text, encoding="utf-8")
+    outcome = cli(*command, str(recording))
+    assert outcome.status == 2
+    assert f"{recording}: not a trajectory file hubero can read" in outcome.err

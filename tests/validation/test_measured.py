@@ -16,6 +16,7 @@ from hubero_dsl.validation.experiments import (  # noqa: E402
     shipped_path,
 )
 from hubero_dsl.validation.fundamental import fundamental_diagram  # noqa: E402
+from hubero_dsl.validation.validate import measure  # noqa: E402
 
 DATA = Path(__file__).resolve().parents[2] / "hubero_dsl" / "validation" / "data"
 
@@ -77,3 +78,39 @@ def test_a_file_pedpy_cannot_read_is_an_input_error(tmp_path: Path) -> None:
     empty.write_text("# nothing\n", encoding="utf-8")
     with pytest.raises(InputError, match=str(empty)):
         load_trajectory(experiment_for(empty))
+
+
+MALFORMED = {
+    "nobody in the steady frames": ("uo-100-180-180", "# comment\n1 2 3 4 5\n",
+                                    "nobody is measured in the steady frames 200-790"),
+    "positions not finite or absurd": ("uo-100-180-180", "1 1 nan inf 0\n1 2 1e308 -1e308 0\n",
+                                       "2 of its positions lie outside the uo-100-180-180 "
+                                       "experiment's walkable area"),
+    "a position beside the corridor": ("uo-100-180-180", "1 300 90 600 0\n1 301 900 590 0\n",
+                                       "1 of its positions lie outside"),
+    "a person twice in a frame": ("uo-100-180-180", "1 300 90 600 0\n1 300 90 590 0\n",
+                                  "person 1 has two positions in frame 300"),
+    "a frame a trillion on": ("uo-100-180-180", "1 300 90 600 0\n1 999999999999 90 590 0\n",
+                              "its frames span 300 to 999999999999, more than 100,000"),
+}
+
+
+@pytest.mark.parametrize("case", MALFORMED.values(), ids=MALFORMED.keys())
+def test_a_malformed_recording_is_an_input_error(tmp_path: Path,
+                                                 case: tuple[str, str, str]) -> None:
+    name, text, message = case
+    path = tmp_path / f"{name}.txt"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(InputError, match=f"not a trajectory file hubero can read: {message}"):
+        load_trajectory(experiment_for(path))
+
+
+@pytest.mark.parametrize("name", ["uo-050-180-180", "traj_UNI_CORR_500_01"])
+def test_a_free_flow_recording_without_a_speed_is_an_input_error(tmp_path: Path,
+                                                                 name: str) -> None:
+    path = tmp_path / f"{name}.txt"
+    path.write_text("1 300 90 -100 0\n" if name.startswith("uo") else "1 1 0 2 0\n",
+                    encoding="utf-8")
+    with pytest.raises(InputError, match=f"{path}: not a trajectory file hubero can read: "
+                                         f"nobody in it is measured long enough for a speed"):
+        measure([experiment_for(path)])
