@@ -56,6 +56,13 @@ class World(Protocol):
     def finish(self, index: int, status: TaskStatus, reason: str = "") -> None: ...
 
 FACE_REFRESH = 0.2  # s between re-aims at a moving target
+# A group's talking circle (an F-formation)
+IN_PLACE = 0.1         # m: a member this near its place on the circle is in it
+JOIN_SLACK = 1.0       # s beyond the walk to its place a member takes to reach it
+CIRCLE_GAP = 0.4       # m between neighbours' bodies on the circle
+CIRCLE_RADIUS = 0.6    # m: the smallest circle, two people about 1.2 m apart (personal distance)
+FORMED_DISTANCE = 0.4  # m from the centre at least, for a group already formed
+FORMED_GAP = math.radians(45.0)  # between neighbours' bearings from the centre, at least
 
 
 @dataclass(frozen=True, slots=True)
@@ -157,11 +164,10 @@ class Talk(Stand):
                 self.state = "joining"
                 # the others' bodies may keep it short of its place: it talks from where it
                 # got to once the way there should have been walked
-                self.joined_by = engine.tick + engine.ticks(way / speed + JOIN_SLACK)
+                joined_by = engine.tick + engine.ticks(way / speed + JOIN_SLACK)
                 if self.timing.duration is not None:  # the talk's time runs from its start
                     self.deadline = engine.tick + engine.ticks(self.timing.duration)
-                engine.set_timer_tick(self.index, min(self.joined_by, self.deadline
-                                                      or self.joined_by))
+                engine.set_timer_tick(self.index, min(joined_by, self.deadline or joined_by))
                 return
         super().start(engine)
         self.state = "talking"
@@ -195,16 +201,6 @@ class Talk(Stand):
         engine.halt(self.index)
         self.state = "talking"
         self._aim(engine)
-
-
-IN_PLACE = 0.1         # m: a member this near its place on a talking circle is in it
-JOIN_SLACK = 1.0       # s beyond the walk to its place a member takes to reach it
-CIRCLE_GAP = 0.4       # m between neighbours' bodies on a talking circle
-CIRCLE_RADIUS = 0.6    # m: the smallest circle, two people about 1.2 m apart (personal distance)
-
-
-FORMED_DISTANCE = 0.4            # m from the centre at least, for a group already formed
-FORMED_GAP = math.radians(45.0)  # between neighbours' bearings from the centre, at least
 
 
 def in_formation(position: FloatArray) -> bool:
