@@ -595,6 +595,12 @@ class Checker:
             self.report("E105", exc.message, param.name_span)
             return None
         if model is None:
+            flow = self._flow_of_member(planner)
+            if flow is not None:
+                self.report("E105", f"'{planner}' is a member of flow '{flow}': a flow's "
+                            "members take their parameters from the flow", param.name_span,
+                            f"give it in the flow's block: `flow {flow} ... {{ {name} ... }}`")
+                return None
             hint = did_you_mean(planner, [*self.planners, *self.symbols.names_of(NameKind.HUMAN)])
             self.report("E105", f"'{planner}' is neither a planner nor a human", param.name_span,
                         hint or "planners: " + ", ".join(self.planners))
@@ -844,6 +850,12 @@ class Checker:
         elif target.name in self._members_of(subject):
             self.report("E203", f"{target.name} is one of {subject}: it cannot {words}",
                         target.span, f"give the task to the others of {subject} one by one")
+
+    def _flow_of_member(self, name: str) -> str | None:
+        """The flow whose member `name` would be (`NAME_N`), or None."""
+        found = re.fullmatch(r"(\w+)_[1-9][0-9]*", name)
+        flow = found.group(1) if found is not None else None
+        return flow if flow is not None and self.symbols.kind_of(flow) is NameKind.FLOW else None
 
     def _members_of(self, name: str) -> tuple[str, ...]:
         """The members of crowd or group `name` (none for anyone else)."""

@@ -199,6 +199,10 @@ def _syntax_diagnostic(exc: UnexpectedInput, source: ast.SourceFile) -> Diagnost
         if token.type == "NAME" and _follows_number(exc):
             hint = (f"'{token.value}' is not a unit; units are m cm mm, s ms min h, m/s km/h, "
                     "deg rad")
+        elif token.type in ("ALWAYS", "EVENTUALLY", "WITHIN") and _expects_a_metric(
+                source.line(line)):
+            hint = ("a metric's expectation is judged once, when the run ends: it takes no "
+                    "`always`, `eventually` or `within`")
         related = _unclosed_note(source) if token.type == "$END" else ()
         return error("E001", message, span, hint, related)
     if isinstance(exc, UnexpectedCharacters):
@@ -255,6 +259,14 @@ def _expected_hint(expected: list[str]) -> str | None:
     if len(expected) == 1:
         return f"expected {expected[0]}"
     return "expected one of: " + ", ".join(expected)
+
+
+def _expects_a_metric(line: str) -> bool:
+    """Whether a source line is `expect METRIC(...) ...` (of the social-navigation metrics)."""
+    from hubero_dsl.socialnav import METRICS
+
+    called = re.match(r"\s*expect\s+(\w+)\s*\(", line)
+    return called is not None and called.group(1) in METRICS
 
 
 def _follows_number(exc: UnexpectedToken) -> bool:

@@ -506,3 +506,14 @@ def test_a_value_out_of_range_is_shown_in_the_unit_it_was_written_in(check: Chec
     (diagnostic,) = check("flow f from rect((1, 1), (3, 3)) to (5, 5) rate 1001 /s "
                           "for 2 s\n").diagnostics
     assert diagnostic.message == "a flow's rate is 1001 /s; the most it may be is 1000 /s"
+
+
+def test_a_metrics_expectation_with_a_mode_says_it_takes_none(check: Check) -> None:
+    result = check("activity { actor1 stand for 1 s }\n"
+                   "expect min_distance(actor1) >= 0.2 m always\n")
+    (diagnostic,) = result.diagnostics
+    assert diagnostic.code == "E001" and diagnostic.hint is not None
+    assert "judged once, when the run ends" in diagnostic.hint
+    # a condition's `distance(...)` takes a mode: no such hint
+    assert not check("activity { actor1 stand for 1 s }\n"
+                     "expect distance(actor1, actor2) > 0.5 m always\n").diagnostics

@@ -195,3 +195,10 @@ def test_a_flow_with_an_end_is_an_activity_of_its_own(room_map: Path) -> None:
     endless = "flow f from rect((1, 1), (3, 3)) to (9, 4) rate 1 /s"
     assert [d.code for d in check_source(_text(room_map, endless), "t.hub").diagnostics] == [
         "W502"]
+
+
+def test_a_flow_members_parameter_in_a_variant_points_at_the_flow(room_map: Path) -> None:
+    body = ("flow f from rect((1, 1), (3, 3)) to (9, 4) rate 1 /s for 5 s\n"
+            "variant v { f_2.speed 1 m/s }")
+    (error,) = check_source(_text(room_map, body), "t.hub").errors
+    assert error.code == "E105" and "'f_2' is a member of flow 'f'" in error.message
