@@ -12,7 +12,8 @@ another reaction have that velocity adjusted while a robot is near (surface gap 
   `STARTLED`, for `SURPRISE` seconds, then carries on.
 - `curious`: once per encounter, walks towards the robot for up to `CURIOSITY` seconds,
   stopping `CLOSE` from it, then carries on.
-- `threatening`: walks into the robot's way: to the point just ahead of a moving robot.
+- `threatening`: once per encounter, walks into the robot's way (to the point just ahead of a
+  moving robot) for up to `MENACE` seconds, then carries on.
 
 An encounter ends when the robot is more than `FORGOTTEN` away. All of it is deterministic.
 """
@@ -33,6 +34,7 @@ STARTLED = 1.5        # m: how near a robot surprises
 SURPRISE = 2.0        # s a surprised human stands and looks
 CURIOSITY = 5.0       # s a curious human approaches
 CLOSE = 0.6           # m: the gap a curious human keeps
+MENACE = 40.0         # s a threatening human blocks a robot's way (HuNavSim's BT timer)
 SCARED_PUSH = 1.5     # m/s away from a robot at contact
 SCARED_RANGE = 1.0    # m over which that push decays (e-fold)
 
@@ -93,9 +95,12 @@ class Reactions:
             if self.until[i] > tick:
                 return toward * speed if gap > CLOSE else np.zeros(2)
             return velocity
-        # threatening: to the point just ahead of the robot, in its way
+        # threatening: to the point just ahead of the robot, in its way, for MENACE seconds
+        # of an encounter (HuNavSim's timer), then its own way again
+        if not self.spent[i]:
+            self.spent[i], self.until[i] = True, tick + round(MENACE / self.dt)
         moving = float(np.hypot(*robot_velocity))
-        if moving < 0.05:
+        if moving < 0.05 or self.until[i] <= tick:
             return velocity
         ahead = robot + robot_velocity / moving * (float(humans.radius[i]) + 0.8)
         way = ahead - humans.position[i]

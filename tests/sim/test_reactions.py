@@ -79,3 +79,15 @@ def test_an_unknown_reaction_is_reported(room_map: Path) -> None:
     text = f'scenario "r"\nmap "{room_map}"\nhuman h at (5, 5) {{ robot_reaction scard }}\n'
     (error,) = check_source(text, "t.hub").errors
     assert error.code == "E201" and error.hint == "did you mean 'scared'?"
+
+
+def test_a_threatening_person_gives_up_after_a_while(room_map: Path) -> None:
+    """Against a robot that drives on whatever is in its way, a threatening person blocks it
+    for 40 s of the encounter (HuNavSim's timer), then walks its own way again."""
+    text = (f'scenario "r"\nmap "{room_map}"\ntime_limit 90 s\nhuman h at (2, 6)\n'
+            "robot r at (1, 4) { speed 0.3 m/s; path (1, 4) -> (9, 4) -> (1, 4) loop; "
+            "radius 0.3 m }\n"
+            "defaults { robot_reaction threatening }\nactivity { h move_to (8, 7) }\n")
+    result = run_program(Simulation(compile_source(text, str(room_map.parent / "t.hub"))))
+    (done,) = [e for e in result.events if e.human == "h" and e.status.is_final]
+    assert done.status.value == "SUCCEEDED" and done.time > 40.0
