@@ -208,7 +208,8 @@ def _syntax_diagnostic(exc: UnexpectedInput, source: ast.SourceFile) -> Diagnost
     if isinstance(exc, UnexpectedCharacters):
         char = source.line(line)[column - 1: column] or "?"
         span = Span(source.path, line, column, line, column + 1)
-        hint = "strings use double quotes" if char == "'" else None
+        hint = {"'": "strings use double quotes",
+                "/": "a rate is written per second, minute or hour: /s, /min, /h"}.get(char)
         return error("E002", f"unexpected character {char!r}", span, hint)
     if isinstance(exc, UnexpectedEOF):
         line, column = _end_position(source.text)

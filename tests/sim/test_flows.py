@@ -202,3 +202,9 @@ def test_a_flow_members_parameter_in_a_variant_points_at_the_flow(room_map: Path
             "variant v { f_2.speed 1 m/s }")
     (error,) = check_source(_text(room_map, body), "t.hub").errors
     assert error.code == "E105" and "'f_2' is a member of flow 'f'" in error.message
+
+
+def test_a_rate_in_an_unknown_unit_lists_the_rate_units(room_map: Path) -> None:
+    body = "flow f from rect((1, 1), (3, 3)) to (9, 4) rate 2 /day for 5 s"
+    (error,) = check_source(_text(room_map, body), "t.hub").errors
+    assert error.code == "E002" and error.hint is not None and "/s, /min, /h" in error.hint
