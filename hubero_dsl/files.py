@@ -4,8 +4,10 @@ they should not.
 A scenario names its map, and a map its image: either may point at a device (`/dev/zero` reads
 for ever), a FIFO (blocks), a directory, or a huge file. `read_bounded` reads only regular files
 and at most a given number of bytes; `check_output` refuses to write over anything but a
-regular file, and over the files a command reads; `write_replacing` writes an output beside
-its name and renames it into place, so that a failure never leaves a partial file there.
+regular file, and over the files a command reads; `refuse_other_kind` over a file of
+another kind than the one written (a user's CSV named as a log); `write_replacing` writes an
+output beside its name and renames it into place, so that a failure never leaves a partial file
+there.
 """
 
 from __future__ import annotations
@@ -46,6 +48,22 @@ def read_bounded(path: Path, limit: int, what: str, failure: Failure = InputErro
     if len(data) > limit:
         raise failure(f"{what} {path} is larger than {_size(limit)}, the most hubero reads")
     return data
+
+
+def refuse_other_kind(path: Path, magic: bytes, kind: str, advice: str) -> None:
+    """Refuse (InputError) to write over a regular file at `path` that does not start as a
+    file of `kind` does (its `magic` bytes): a log is written over a log, a picture over a
+    picture, a user's file never. Nothing but a regular file is opened (a FIFO would block);
+    folders and devices are `check_output`'s to refuse."""
+    if not path.is_file():
+        return
+    try:
+        with path.open("rb") as stream:
+            same_kind = stream.read(len(magic)) == magic
+    except OSError:
+        same_kind = False
+    if not same_kind:
+        raise InputError(f"{path} exists and is not {kind}: not writing over it ({advice})")
 
 
 def check_output(path: Path, reads: Sequence[Path] = (),

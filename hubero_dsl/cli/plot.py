@@ -77,12 +77,8 @@ PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 def _beside_the_log(log: Path) -> Path:
     """RUN.png beside RUN.mcap; never over a file there that is not a PNG."""
-    from hubero_dsl.errors import InputError
+    from hubero_dsl.files import refuse_other_kind
 
     picture = log.with_suffix(".png")
-    if picture.is_file():
-        with picture.open("rb") as stream:
-            if stream.read(len(PNG_MAGIC)) != PNG_MAGIC:
-                raise InputError(f"{picture} exists and is not a PNG: not writing over it "
-                                 "(give -o OUT.png)")
+    refuse_other_kind(picture, PNG_MAGIC, "a PNG", "give -o OUT.png")
     return picture

@@ -157,10 +157,10 @@ def run(args: argparse.Namespace) -> int:
             if len(variants) == 1:
                 raise
             # one variant's error (a robot's controller raised): said, and the others run
-            from hubero_dsl.cli.diagnostic_formats import Printer, input_error_lines
+            from hubero_dsl.cli.diagnostic_formats import report_error
 
-            Printer.to(sys.stderr).lines(input_error_lines(
-                f"variant {variant or '(as written)'}: {exc.message}"))
+            report_error(SimulationError(f"variant {variant or '(as written)'}: {exc.message}",
+                                         exc.span, exc.hint))
             failed = True
             continue
         if not args.quiet:
@@ -202,24 +202,10 @@ def default_log_path(stem: str) -> Path:
 def writable_log_path(path: Path) -> Path:
     """`path`, unless a file that is not an MCAP log is there (InputError): a log is written
     over, a user's file never (nor a folder, a device or a FIFO: `RunLog` refuses those)."""
-    from hubero_dsl.errors import InputError
+    from hubero_dsl.files import refuse_other_kind
 
-    if path.is_file() and not _is_log(path):  # a folder or a device: RunLog says so
-        raise InputError(f"{path} exists and is not an MCAP log: not writing over it (give "
-                         "another -o OUT.mcap, or --no-log)")
+    refuse_other_kind(path, MCAP_MAGIC, "an MCAP log", "give another -o OUT.mcap, or --no-log")
     return path
-
-
-def _is_log(path: Path) -> bool:
-    """A regular file that starts as an MCAP file does (its magic bytes); nothing else is
-    opened (a FIFO would block)."""
-    if not path.is_file():
-        return False
-    try:
-        with path.open("rb") as stream:
-            return stream.read(len(MCAP_MAGIC)) == MCAP_MAGIC
-    except OSError:
-        return False
 
 
 def handed_controllers(args: argparse.Namespace) -> dict[str, type]:
