@@ -28,10 +28,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from hubero_dsl.cli.calibrate import MAX_SEEDS, check_seeds
+from hubero_dsl.cli.outputs import PNG
 
 if TYPE_CHECKING:
     from hubero_dsl.validation.validate import Validation
-from hubero_dsl.cli.outputs import PNG
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:

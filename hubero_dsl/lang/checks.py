@@ -41,6 +41,7 @@ MAX_VARIANTS = 10_000  # variants of a scenario (named variants times sweep valu
 MAX_HUMANS = 20_000    # humans of a scenario, crowds included (a log has 65,535 channels)
 TARGETS = (NameKind.PLACE, NameKind.HUMAN, NameKind.ROBOT, NameKind.GROUP)
 MANY = (NameKind.CROWD, NameKind.GROUP, NameKind.FLOW)  # names of sets of humans
+_MEMBER_NAME = re.compile(r"(\w+)_([1-9][0-9]*)")  # a crowd's or flow's member: NAME_N
 
 @dataclass(frozen=True)
 class CrowdFacts:
@@ -409,11 +410,10 @@ class Checker:
     def _flow_member_clashes(self, flow: FlowFacts, count: int) -> None:
         """Names that a flow's members (NAME_1 ... NAME_count) would take too: an error at the
         later of the two definitions."""
-        member = re.compile(re.escape(flow.name) + r"_([1-9][0-9]*)")
         members = f"{flow.name}_1 ... {flow.name}_{count}"
         for symbol in list(self.symbols.symbols.values()):
-            found = member.fullmatch(symbol.name)
-            if found is None or int(found.group(1)) > count:
+            found = _MEMBER_NAME.fullmatch(symbol.name)
+            if found is None or found.group(1) != flow.name or int(found.group(2)) > count:
                 continue
             if (symbol.span.line, symbol.span.column) > (flow.span.line, flow.span.column):
                 self.report("E102", f"'{symbol.name}' is defined twice: it names a member of "
@@ -853,7 +853,7 @@ class Checker:
 
     def _flow_of_member(self, name: str) -> str | None:
         """The flow whose member `name` would be (`NAME_N`), or None."""
-        found = re.fullmatch(r"(\w+)_[1-9][0-9]*", name)
+        found = _MEMBER_NAME.fullmatch(name)
         flow = found.group(1) if found is not None else None
         return flow if flow is not None and self.symbols.kind_of(flow) is NameKind.FLOW else None
 

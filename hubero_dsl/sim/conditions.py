@@ -34,9 +34,6 @@ class LabelBook:
     done: set[str] = field(default_factory=set)
     failed: set[str] = field(default_factory=set)
 
-    def holds(self, label: str, event: c.LabelEvent) -> bool:
-        return label in self.book(event)
-
     def book(self, event: c.LabelEvent) -> set[str]:
         """The labels of which `event` has happened (the set itself, which grows)."""
         if event is c.LabelEvent.STARTED:
