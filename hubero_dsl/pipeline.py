@@ -193,15 +193,10 @@ def _humans(module: ast.Module, facts: Facts) -> tuple[HumanSpec, ...]:
         for decl in module.of_type(ast.HumanDecl))
 
 
-def _group_starts(facts: Facts) -> dict[str, tuple[float, float]]:
-    """Each group's centroid of its members' declared starts."""
-    starts = {}
-    for name, members in facts.groups.items():
-        known = [facts.human_starts[m].xy for m in members if m in facts.human_starts]
-        if known:
-            starts[name] = (sum(x for x, _ in known) / len(known),
-                            sum(y for _, y in known) / len(known))
-    return starts
+def _group_starts(facts: Facts) -> dict[str, dict[str, tuple[float, float]]]:
+    """Each group's members' declared starts (those declared with one)."""
+    return {name: {m: facts.human_starts[m].xy for m in members if m in facts.human_starts}
+            for name, members in facts.groups.items()}
 
 
 @dataclass(frozen=True)

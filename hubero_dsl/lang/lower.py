@@ -85,14 +85,15 @@ class Lowering:
     def __init__(self, source: SourceFile, places: Mapping[str, Pose],
                  areas: Mapping[str, Polygon], bounds: Polygon | None,
                  groups: Mapping[str, tuple[str, ...]] | None = None,
-                 formations: Mapping[str, tuple[float, float]] | None = None) -> None:
+                 formations: Mapping[str, Mapping[str, tuple[float, float]]] | None = None
+                 ) -> None:
         self.source = source
         self.places = places
         self.areas = areas
         self.bounds = bounds
         self.groups = groups or {}   # a crowd's or group's name -> its members
-        # a group's name -> where it starts (the centroid of its members' starts): a group
-        # sent to a point arrives side by side, abreast across its way there
+        # a group's name -> its members' declared starts: a group sent to a point arrives
+        # side by side, abreast across its way there
         self.formations = formations or {}
 
     # ---- activities ------------------------------------------------------------------------
@@ -142,12 +143,13 @@ class Lowering:
         lowered = self.step(replace(step, human=ast.NameRef(member, step.human.span),
                                     label=None))
         group = step.human.name
-        if not isinstance(lowered, m.TaskStep) or group not in self.formations:
+        if not isinstance(lowered, m.TaskStep) or not self.formations.get(group):
             return lowered
         task = lowered.task
         if task.kind in ("move_to", "run_to") and isinstance(task.target, tuple):
-            offset = _abreast(self.formations[group], task.target, index, len(members))
-            task = replace(task, target=(task.target[0] + offset[0], task.target[1] + offset[1]))
+            offset = _abreast(self.formations[group], members, index, task.target)
+            task = replace(task, target=(task.target[0] + offset[0], task.target[1] + offset[1]),
+                           group=group)
         elif task.kind == "talk" and "to" not in task.arguments:
             task = replace(task, arguments={**task.arguments, "to": group})  # face its centre
         return replace(lowered, task=task)
@@ -262,15 +264,22 @@ class Lowering:
 GROUP_SPACING = 0.7  # m between neighbours of a group walking abreast
 
 
-def _abreast(start: tuple[float, float], goal: tuple[float, float], index: int,
-             count: int) -> tuple[float, float]:
-    """Member `index`'s offset from the group's goal: side by side across the way there."""
+def _abreast(starts: Mapping[str, tuple[float, float]], members: tuple[str, ...], index: int,
+             goal: tuple[float, float]) -> tuple[float, float]:
+    """Member `index`'s offset from the group's goal: side by side across the way there from
+    the centroid of the members' starts, in the order they start across it (so that no one
+    crosses another's way to its place; in the group's order when some start undeclared)."""
+    xs, ys = zip(*starts.values(), strict=True)
+    start = (sum(xs) / len(xs), sum(ys) / len(ys))
     dx, dy = goal[0] - start[0], goal[1] - start[1]
     length = math.hypot(dx, dy)
     if length < 1e-9:
         return (0.0, 0.0)
     across = (-dy / length, dx / length)
-    shift = (index - (count - 1) / 2) * GROUP_SPACING
+    order = list(members)
+    if len(starts) == len(members):
+        order.sort(key=lambda m: starts[m][0] * across[0] + starts[m][1] * across[1])
+    shift = (order.index(members[index]) - (len(members) - 1) / 2) * GROUP_SPACING
     return (across[0] * shift, across[1] * shift)
 
 

@@ -156,6 +156,7 @@ class Task:
     target: Target | None = None
     arguments: Mapping[str, Any] = field(default_factory=dict)
     span: Span | None = None
+    group: str | None = None  # the group whose task this is, given to each of its members
 
     @property
     def spec(self) -> TaskKind:

@@ -43,7 +43,7 @@ class World(Protocol):
     def body_radius_of(self, name: str) -> float: ...
     def walking_speed(self, index: int, running: bool = False) -> float: ...
     def walk_to(self, index: int, goal: tuple[float, float], speed: float, stop_distance: float,
-                *, abort: bool = True) -> str | None: ...
+                *, abort: bool = True, abreast: bool = False) -> str | None: ...
     def standing_at_goal(self, index: int) -> str | None: ...
     def halt(self, index: int) -> None: ...
     def face(self, index: int, heading: float) -> None: ...
@@ -242,12 +242,13 @@ class MoveTo(Behaviour):
     kind = "move_to"
 
     def __init__(self, target: Target, heading: float | None = None, speed: float | None = None,
-                 running: bool = False) -> None:
+                 running: bool = False, abreast: bool = False) -> None:
         super().__init__()
         self.target = target
         self.heading = heading
         self.speed = speed
         self.running = running
+        self.abreast = abreast  # a group's walk: its members keep abreast
 
     def start(self, engine: World) -> None:
         goal = engine.position_of(self.target)
@@ -259,7 +260,7 @@ class MoveTo(Behaviour):
         tolerance = engine.humans.goal_tolerance[self.index]
         if isinstance(self.target, str):  # a body: stop beside it, not on it
             tolerance += engine.body_radius_of(self.target) + engine.humans.radius[self.index]
-        engine.walk_to(self.index, goal, speed, float(tolerance))
+        engine.walk_to(self.index, goal, speed, float(tolerance), abreast=self.abreast)
 
     def on_arrived(self, engine: World) -> None:
         if self.heading is None:
@@ -445,13 +446,15 @@ def _stand(task: Task) -> Behaviour:
 @builds("move_to")
 def _move_to(task: Task) -> Behaviour:
     assert task.target is not None
-    return MoveTo(task.target, task.get("heading"), task.get("speed"))
+    return MoveTo(task.target, task.get("heading"), task.get("speed"),
+                  abreast=task.group is not None)
 
 
 @builds("run_to")
 def _run_to(task: Task) -> Behaviour:
     assert task.target is not None
-    behaviour = MoveTo(task.target, task.get("heading"), running=True)
+    behaviour = MoveTo(task.target, task.get("heading"), running=True,
+                       abreast=task.group is not None)
     behaviour.kind = "run_to"
     return behaviour
 

@@ -22,7 +22,7 @@ from scipy.spatial import cKDTree
 from hubero_dsl.errors import SimulationError
 from hubero_dsl.planners.base import Crowd, Drive, NoPath
 from hubero_dsl.sim import physics
-from hubero_dsl.sim.arrays import FloatArray, HumanArrays, IntArray, PathPool
+from hubero_dsl.sim.arrays import BoolArray, FloatArray, HumanArrays, IntArray, PathPool
 from hubero_dsl.sim.behaviours import Behaviour
 from hubero_dsl.sim.reactions import Reactions
 from hubero_dsl.sim.robots import Robots
@@ -50,6 +50,12 @@ LOOK_AGAIN = 0.25
 REACH = 1.5
 GROUP_SPACING = 0.7     # m between neighbours of a walking group
 GROUP_PULL = 1.0        # 1/s: m/s towards the group's centre per metre too far from it
+# Members walking on their group's task keep abreast (`Engine._walk_abreast`)
+ABREAST_LANE = 0.6      # m across the group's way at least: a companion in the next lane
+ABREAST_CLOSE = 1.0     # s over which a lead is closed
+ABREAST_SLOWEST = 0.2   # of its desired speed, the slowest one waiting walks
+ABREAST_ROOM = 1.0      # m further on where there must still be room for two
+ABREAST_ONE_WAY = 0.8   # the mean of the members' unit ways at least this long: one way
 
 
 @dataclass(frozen=True, slots=True)
@@ -175,7 +181,7 @@ class Engine:
         return float(source[index])
 
     def walk_to(self, index: int, goal: tuple[float, float], speed: float, stop_distance: float,
-                *, abort: bool = True) -> str | None:
+                *, abort: bool = True, abreast: bool = False) -> str | None:
         """Plan and start walking; on failure abort the task (or just return the reason)."""
         humans = self.humans
         start = (float(humans.position[index, 0]), float(humans.position[index, 1]))
@@ -189,6 +195,7 @@ class Engine:
             return exc.reason
         self.paths.set_path(index, plan.waypoints)
         humans.moving[index] = True
+        humans.abreast[index] = abreast
         humans.teleop[index] = False
         humans.desired_speed[index] = speed
         humans.goal[index] = goal
@@ -446,7 +453,7 @@ class Engine:
             for part, part_velocity in zip(steering.parts, steered, strict=True):
                 velocity[part.rows] = part_velocity
             if self.groups:
-                velocity = self._keep_together(velocity)
+                velocity = self._walk_abreast(self._keep_together(velocity))
             if self._reactions is not None and self.robots.count:
                 velocity = self._react(velocity, steering.parts)
         if humans.teleop.any():
@@ -477,6 +484,56 @@ class Engine:
                 velocity[walking[far]] = moved * np.minimum(1.0, limit / np.maximum(
                     speed, 1e-9))[:, None]
         return velocity
+
+    def _walk_abreast(self, velocity: FloatArray) -> FloatArray:
+        """Members walking on their group's task keep abreast where there is room, after
+        Moussaid et al.'s gaze rule (a walker who must turn its head to see a companion
+        slows): one ahead of a companion beside it walks no faster than the companion walks
+        its way, less its lead over ABREAST_CLOSE, and the one behind hurries by as much (the
+        companions ahead hold it back as any walkers ahead do), so they close up level at
+        about the slower one's pace."""
+        h = self.humans
+        for rows in self.groups.values():
+            walking = rows[h.moving[rows] & h.abreast[rows]]
+            found = self._abreast(walking) if len(walking) > 1 else None
+            if found is None:
+                continue
+            way, lead, beside = found
+            pace = np.maximum(velocity[walking] @ way, 0.0)
+            cap = np.where(beside, pace[None, :] - lead / ABREAST_CLOSE, np.inf).min(axis=1)
+            cap = np.clip(cap, ABREAST_SLOWEST * h.desired_speed[walking], h.max_speed[walking])
+            lag = np.where(beside.T, lead.T, 0.0).max(axis=1)
+            moved = velocity[walking] + (lag / ABREAST_CLOSE)[:, None] * way
+            speed = physics.lengths(moved)
+            velocity[walking] = moved * np.minimum(1.0, cap / np.maximum(speed, 1e-9))[:, None]
+        return velocity
+
+    def _abreast(self, walking: IntArray) -> tuple[FloatArray, FloatArray, BoolArray] | None:
+        """The group's way, how far each walker is ahead of each other along it (i ahead of
+        j), and who walks beside whom: in the next lane (ABREAST_LANE across the way) with room
+        to walk level (j's place level with i, and ABREAST_ROOM further on, clear of walls: not
+        in a door or a corridor too narrow for two). None when they do not go one way (stepping
+        into a talking circle)."""
+        h = self.humans
+        # the group's way: the mean of the members' ways to their next waypoints (each one's
+        # own differs as it keeps its lane, and a small turn of it would read a companion
+        # beside as one behind; velocities die away in a jam)
+        ahead = self.paths.current_targets(walking) - h.position[walking]
+        way = (ahead / np.maximum(physics.lengths(ahead), 1e-9)[:, None]).mean(axis=0)
+        if math.hypot(*way) < ABREAST_ONE_WAY:
+            return None
+        way /= math.hypot(*way)
+        offset = h.position[walking][None, :, :] - h.position[walking][:, None, :]
+        lead = -offset @ way
+        across = np.abs(offset[..., 0] * way[1] - offset[..., 1] * way[0])
+        beside = (across >= ABREAST_LANE) & (lead > 0)
+        if beside.any():
+            i, j = np.nonzero(beside)
+            level = h.position[walking[j]] + lead[i, j, None] * way
+            radius = h.radius[walking[j]]
+            beside[i, j] = ((self.grid.clearance_at(level) > radius)
+                            & (self.grid.clearance_at(level + ABREAST_ROOM * way) > radius))
+        return way, lead, beside
 
     def _react(self, velocity: FloatArray, parts: list[Part]) -> FloatArray:
         """Humans' reactions to robots: the impassive are steered as if there were no robot,

@@ -59,7 +59,7 @@ class _Actor:
         target = self._task_target(kind, task.target)
         arguments = {name: self._argument(kind, name, value)
                      for name, value in task.arguments.items()}
-        resolved = Task(kind.name, target, arguments, task.span)
+        resolved = Task(kind.name, target, arguments, task.span, task.group)
         handle = TaskHandle(next(self._ids), self.name, kind.name,
                             kind.describe(task.target, task.arguments), task.span)
         handle._cancel = self._engine.cancel

@@ -13,6 +13,8 @@ from hubero_dsl.pipeline import check_source, compile_source
 from hubero_dsl.sim.loop import run_program
 from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.sim.status import TaskStatus
+from hubero_dsl.world.mapfile import save_map
+from tests.sim.conftest import room_grid
 
 FAMILY = """\
 human mum at (1.5, 4.0)
@@ -53,6 +55,80 @@ def test_a_group_keeps_together_and_arrives_side_by_side(room_map: Path) -> None
     for a, b in ((0, 1), (0, 2), (1, 2)):
         assert math.dist(ends[a], ends[b]) > 0.5   # abreast, not on one point
     assert all(math.dist(end, (8.0, 4.0)) < 1.0 for end in ends)
+
+
+def test_a_group_takes_places_in_the_order_it_stands_across_its_way(room_map: Path) -> None:
+    # mum starts lowest, dad highest and the kid between them: nobody crosses another's way
+    _, (mum, dad, kid) = _spread(room_map, grouped=True)
+    assert mum[1] < kid[1] < dad[1]
+
+
+PAIR = """\
+human slow at (2, 5) {{ speed 0.7 m/s }}
+human fast at (2, 5.7) {{ speed 1.5 m/s }}
+group pair of (slow, fast)
+activity {{ {task} }}
+"""
+
+
+def _pair_walk(map_path: Path, task: str) -> tuple[list[float], list[float], dict[str, float]]:
+    """How far the fast one walks ahead of the slow one, and how far beside it, while both
+    walk their middle stretch; when each finished."""
+    sim = Simulation(compile_source(_text(map_path, PAIR.format(task=task)), "t.hub"))
+    ahead: list[float] = []
+    beside: list[float] = []
+
+    def observe(s: Simulation) -> None:
+        h = s.engine.humans
+        if h.moving.all() and h.position[:, 0].min() > 8.0 and h.position[:, 0].max() < 20.0:
+            ahead.append(float(h.position[1, 0] - h.position[0, 0]))
+            beside.append(float(abs(h.position[1, 1] - h.position[0, 1])))
+
+    result = run_program(sim, [observe])
+    ended = {e.human: e.time for e in result.events if e.status is TaskStatus.SUCCEEDED}
+    assert set(ended) == {"slow", "fast"}, [(e.human, e.status, e.reason)
+                                            for e in result.events]
+    return ahead, beside, ended
+
+
+@pytest.fixture
+def hall_map(tmp_path: Path) -> Path:
+    path = tmp_path / "hall.yaml"
+    save_map(room_grid(30.0, 10.0), path)
+    return path
+
+
+@pytest.fixture
+def hall_corridor_map(tmp_path: Path) -> Path:
+    """The hall with a corridor 1 m wide from x = 8 to 20: too narrow to walk two abreast."""
+    path = tmp_path / "corridor.yaml"
+    save_map(room_grid(30.0, 10.0, walls=((8.0, 0.0, 20.0, 4.5), (8.0, 5.5, 20.0, 10.0))),
+             path)
+    return path
+
+
+def test_a_group_of_two_speeds_walks_side_by_side_where_there_is_room(
+        hall_map: Path) -> None:
+    ahead, beside, ended = _pair_walk(hall_map, "pair move_to (25, 5)")
+    assert ahead and max(abs(a) for a in ahead) < 0.2     # level, not one after the other
+    assert min(beside) > 0.6                              # in lanes side by side
+    assert abs(ended["fast"] - ended["slow"]) < 0.5       # the fast one waited
+    assert ended["slow"] < 23.0 / 0.7 + 1.5               # at the slow one's own pace
+
+
+def test_a_group_walks_in_file_where_the_way_is_too_narrow(hall_corridor_map: Path) -> None:
+    ahead, beside, ended = _pair_walk(hall_corridor_map, "pair move_to (25, 5)")
+    assert ahead and min(abs(a) for a in ahead) > 0.5     # one after the other
+    assert max(beside) < 0.4
+    assert max(ended.values()) < 23.0 / 0.7 + 3.0         # nobody waits for the impossible
+
+
+def test_members_sent_on_tasks_of_their_own_do_not_keep_abreast(hall_map: Path) -> None:
+    # each on its own errand: the fast one is only drawn back when it falls too far apart
+    ahead, _, ended = _pair_walk(hall_map, "parallel { slow move_to (25, 5); "
+                                           "fast move_to (25, 5.7) }")
+    assert float(np.mean(ahead)) > 0.5
+    assert ended["fast"] < ended["slow"] - 0.5
 
 
 def test_a_group_talks_facing_its_centre(room_map: Path) -> None:
