@@ -8,7 +8,8 @@ and the task events of a run, as numpy arrays and hubero's own types, for analys
 
 Anything that is not a complete hubero log (not MCAP, truncated, empty, a directory, another
 tool's MCAP without hubero's metadata, a log of a newer format) raises `LogError` saying so.
-CRCs of chunks are checked while reading.
+CRCs of chunks are checked while reading, and no chunk is unpacked that would take more than
+MAX_CHUNK_BYTES.
 """
 
 from __future__ import annotations
@@ -19,11 +20,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import lz4.frame
 import numpy as np
 import numpy.typing as npt
 import zstandard
 from mcap.exceptions import InvalidMagic, McapError
 from mcap.reader import make_reader
+from mcap.records import Chunk
+from mcap.stream_reader import StreamReader
 
 from hubero_dsl.diagnostics import Span
 from hubero_dsl.errors import LogError
@@ -34,6 +38,9 @@ from hubero_dsl.sim.status import Posture, TaskEvent, TaskStatus
 from hubero_dsl.world.grid import OccupancyGrid
 
 FloatArray = npt.NDArray[np.float64]
+# hubero writes chunks of 4 MB, or of one map message (4 bytes a cell at most, encoded): a
+# chunk that unpacks to more is forged, its few kilobytes made to take gigabytes of memory
+MAX_CHUNK_BYTES = 64 << 20
 POSTURE_VALUE = {posture.name: posture.value for posture in Posture}  # as the log names them
 
 
@@ -171,6 +178,8 @@ def load_run(path: str | Path) -> LoggedRun:
 
 
 def _read(path: Path, stream: Any) -> LoggedRun:
+    _refuse_chunk_bombs(path, stream)
+    stream.seek(0)
     reader = make_reader(stream, validate_crcs=True)
     records = {record.name: dict(record.metadata) for record in reader.iter_metadata()}
     provenance = records.get(s.METADATA_NAME)
@@ -199,6 +208,28 @@ def _read(path: Path, stream: Any) -> LoggedRun:
         humans=collector.human_tracks(), robots=collector.robot_tracks(),
         events=collector.events, log=collector.log,
         result=_outcome(result) if result is not None else None, attachments=attachments)
+
+
+def _refuse_chunk_bombs(path: Path, stream: Any) -> None:
+    """LogError for a chunk that would unpack to more than MAX_CHUNK_BYTES, found before
+    anything unpacks it: the MCAP library trusts the sizes a chunk and its frame declare."""
+    for record in StreamReader(stream, emit_chunks=True).records:
+        if isinstance(record, Chunk) and _unpacked_size(record) > MAX_CHUNK_BYTES:
+            raise LogError(f"{path} is not a readable hubero run log: a chunk of it unpacks to "
+                           f"more than {MAX_CHUNK_BYTES >> 20} MB (hubero writes 4 MB chunks)")
+
+
+def _unpacked_size(chunk: Chunk) -> int:
+    """The most that unpacking `chunk` allocates: the larger of the size the chunk declares
+    and the size its zstd frame declares (which zstandard allocates, whatever it is told); an
+    lz4 frame, which need not declare one, is unpacked up to the limit to learn it."""
+    if chunk.compression == "zstd":
+        return max(chunk.uncompressed_size, zstandard.frame_content_size(chunk.data))
+    if chunk.compression == "lz4":
+        unpacked = lz4.frame.LZ4FrameDecompressor().decompress(
+            chunk.data, max_length=MAX_CHUNK_BYTES + 1)
+        return max(chunk.uncompressed_size, len(unpacked))
+    return int(chunk.uncompressed_size)
 
 
 def _metadata(values: dict[str, str], attachments: dict[str, bytes]) -> RunMetadata:

@@ -5,10 +5,14 @@ from __future__ import annotations
 import base64
 import json
 import re
+import struct
+import subprocess
+import sys
 from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+import zstandard
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
@@ -204,3 +208,65 @@ def test_a_logged_map_larger_than_a_map_may_be_is_refused(meeting: LoggedMeeting
 def test_a_logged_map_of_other_cells_reads_back(meeting: LoggedMeeting, tmp_path: Path) -> None:
     forged = _rewritten(meeting.log, tmp_path / "other_map.mcap", {}, _map_of(30, 20))
     assert load_run(forged).grid.shape == (20, 30)
+
+
+MAGIC = b"\x89MCAP0\r\n"
+
+
+def _record(opcode: int, body: bytes) -> bytes:
+    return struct.pack("<BQ", opcode, len(body)) + body
+
+
+def _string(text: str) -> bytes:
+    return struct.pack("<I", len(text)) + text.encode()
+
+
+def _zstd_zeros(size: int, declare: bool) -> bytes:
+    """A zstd frame of `size` zero bytes, made a megabyte at a time; its header declares the
+    size when `declare`."""
+    packer = zstandard.ZstdCompressor(write_content_size=declare).compressobj(
+        size=size if declare else -1)
+    block = bytes(1 << 20)
+    return b"".join([*(packer.compress(block) for _ in range(size >> 20)), packer.flush()])
+
+
+def _chunk_bomb(path: Path, frame: bytes, declared: int) -> Path:
+    """An MCAP file of one zstd chunk holding `frame`, the chunk declaring `declared` bytes
+    unpacked (its CRC 0: unchecked), and no summary."""
+    chunk = (struct.pack("<QQQI", 0, 0, declared, 0) + _string("zstd")
+             + struct.pack("<Q", len(frame)) + frame)
+    path.write_bytes(MAGIC + _record(0x01, _string("") + _string("forger"))
+                     + _record(0x06, chunk) + _record(0x0F, struct.pack("<I", 0))
+                     + _record(0x02, struct.pack("<QQI", 0, 0, 0)) + MAGIC)
+    return path
+
+
+SIZE_OF_THE_BOMB = 512 << 20
+
+
+@pytest.mark.parametrize(("declare", "declared"), [(True, 1024), (False, SIZE_OF_THE_BOMB)],
+                         ids=["the frame declares it", "the chunk declares it"])
+def test_a_chunk_that_unpacks_to_half_a_gigabyte_is_refused_before_unpacking(
+        tmp_path: Path, declare: bool, declared: int) -> None:
+    bomb = _chunk_bomb(tmp_path / "bomb.mcap", _zstd_zeros(SIZE_OF_THE_BOMB, declare),
+                       declared)
+    assert bomb.stat().st_size < 100_000
+    probe = ("import resource, sys\n"
+             "from hubero_dsl.errors import LogError\n"
+             "from hubero_dsl.log.reader import load_run\n"
+             "try:\n    load_run(sys.argv[1])\n"
+             "except LogError as error:\n    print(error)\n"
+             "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss // 1024)\n")
+    done = subprocess.run([sys.executable, "-c", probe, str(bomb)], capture_output=True,
+                          text=True, check=True)
+    message, peak_mb = done.stdout.strip().splitlines()
+    assert int(peak_mb) < 300, f"reading the bomb took {peak_mb} MB"
+    assert "a chunk of it unpacks to more than 64 MB" in message
+
+
+def test_commands_refuse_a_chunk_bomb_with_exit_2(tmp_path: Path) -> None:
+    bomb = _chunk_bomb(tmp_path / "bomb.mcap", _zstd_zeros(128 << 20, True), 1024)
+    outcome = hubero("plot", str(bomb), "-o", str(tmp_path / "bomb.png"))
+    assert outcome.returncode == 2, outcome.stderr
+    assert "unpacks to more than 64 MB" in outcome.stderr
+    assert not (tmp_path / "bomb.png").exists()
