@@ -68,3 +68,36 @@ def test_move_around_paths_depend_on_the_seed() -> None:
 
     assert guest1_path(5) == guest1_path(5)
     assert guest1_path(5) != guest1_path(6)
+
+
+EXP_DIGEST = """
+import hashlib, os, sys
+if sys.argv[1] == "hubero first":
+    import hubero_dsl
+import numpy as np
+x = np.linspace(-30.0, 3.0, 100_001)
+values = np.concatenate([np.exp(x), np.log1p(np.abs(x)), np.arctan2(x, x[::-1]), np.abs(x) ** 1.7])
+print(hashlib.sha256(values.tobytes()).hexdigest())
+print(os.environ.get("NPY_DISABLE_CPU_FEATURES"))
+"""
+
+
+def _exp_digest(order: str, **env: str) -> tuple[str, str]:
+    done = subprocess.run([sys.executable, "-c", EXP_DIGEST, order], capture_output=True,
+                          text=True, check=True,
+                          env={**{k: v for k, v in os.environ.items()
+                                  if k != "NPY_DISABLE_CPU_FEATURES"}, **env})
+    digest, features = done.stdout.splitlines()
+    return digest, features
+
+
+def test_hubero_loaded_first_runs_numpys_loops_of_every_x86_64_machine() -> None:
+    from hubero_dsl import _numpy_avx512
+
+    digest, features = _exp_digest("hubero first")
+    assert features == _numpy_avx512()
+    assert digest == _exp_digest("numpy alone", NPY_DISABLE_CPU_FEATURES=features)[0]
+
+
+def test_a_users_own_choice_of_numpys_loops_is_kept() -> None:
+    assert _exp_digest("hubero first", NPY_DISABLE_CPU_FEATURES="AVX512_SPR")[1] == "AVX512_SPR"
