@@ -16,6 +16,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.patches import Ellipse, FancyArrowPatch, FancyBboxPatch, Patch, Polygon, Rectangle
 from matplotlib.path import Path as MplPath
+from matplotlib.transforms import Bbox
 
 from hubero_dsl.graph.build import (
     FORK_KINDS,
@@ -35,6 +36,7 @@ _LINE_INCHES = 1.25 * FONT_SIZE / 72
 _WRAP = 34
 _MAX_PIXELS = 30_000
 _DIAMOND_INCHES = 0.12  # half the diagonal of a decision/merge rhombus
+_BAR_HEIGHT = 0.07 / ROW_INCHES  # a fork or join bar, in rows
 
 
 def to_png(graph: nx.DiGraph, path: str | Path, *, dpi: int = 110) -> Path:
@@ -205,8 +207,8 @@ def _draw_bar(axes: Axes, graph: nx.DiGraph, node: str,
     fork = node if graph.nodes[node]["kind"] in FORK_KINDS else graph.nodes[node]["fork"]
     columns = [positions[b.entry][0] for b in branches_of(graph, fork) if b.entry] + [x]
     left, right = min(columns) - 0.2, max(columns) + 0.2
-    height = 0.07 / ROW_INCHES
-    bar = Rectangle((left, y - height / 2), right - left, height, facecolor="black", zorder=2)
+    bar = Rectangle((left, y - _BAR_HEIGHT / 2), right - left, _BAR_HEIGHT, facecolor="black",
+                    zorder=2)
     axes.add_patch(bar)
     if graph.nodes[node]["kind"] in (NodeKind.RACE_FORK, NodeKind.RACE_JOIN):
         axes.text(right + 0.03, y, _short_caption(graph, node), ha="left", va="center",
@@ -228,14 +230,28 @@ def _draw_edge(axes: Axes, graph: nx.DiGraph, edge: tuple[str, str],
                positions: dict[str, tuple[float, float]], patches: dict[str, Patch]) -> None:
     source, target = edge
     (x0, y0), (x1, y1) = positions[source], positions[target]
-    # Arrows leave a fork bar and enter a join bar straight down, under their own branch.
+    patch_a: Patch | None = patches[source]
+    patch_b: Patch | None = patches[target]
+    # Arrows leave a fork bar and enter a join bar straight down, under their own branch,
+    # from and to the bar's edge: clipping a thousand arrows to a bar as wide as a thousand
+    # branches is most of the drawing's time
     if graph.nodes[source]["kind"] in FORK_KINDS:
-        x0 = x1
+        x0, y0, patch_a = x1, y0 - _BAR_HEIGHT / 2, None
     if graph.nodes[target]["kind"] in JOIN_KINDS:
-        x1 = x0
-    axes.add_patch(FancyArrowPatch((x0, y0), (x1, y1), patchA=patches[source],
-                                   patchB=patches[target], arrowstyle="-|>", mutation_scale=9,
-                                   shrinkA=0, shrinkB=0, linewidth=0.8, color="#222", zorder=1))
+        x1, y1, patch_b = x0, y1 + _BAR_HEIGHT / 2, None
+    if x0 == x1 and y0 > y1:  # straight down: from the bottom of one shape to the next's top
+        if patch_a is not None:
+            y0, patch_a = _extent(patch_a).y0, None
+        if patch_b is not None:
+            y1, patch_b = _extent(patch_b).y1, None
+    axes.add_patch(FancyArrowPatch((x0, y0), (x1, y1), patchA=patch_a, patchB=patch_b,
+                                   arrowstyle="-|>", mutation_scale=9, shrinkA=0, shrinkB=0,
+                                   linewidth=0.8, color="#222", zorder=1))
+
+
+def _extent(patch: Patch) -> Bbox:
+    """A shape's extent in the drawing's units."""
+    return patch.get_path().get_extents(patch.get_patch_transform())
 
 
 def _loop_left(graph: nx.DiGraph, loop: tuple[str, str],
