@@ -159,7 +159,7 @@ def _check_module(module: ast.Module, diagnostics: list[Diagnostic]) -> Program 
                         cast("Polygon | None", facts.settings.get("bounds")),
                         {**{crowd.name: crowd.members for crowd in facts.crowds},
                          **{flow.name: flow.members for flow in facts.flows},
-                         **facts.groups}, _group_starts(facts))
+                         **facts.groups}, frozenset(facts.groups))
     activities = lowering.activities(module.of_type(ast.ActivityDecl))
     graph = build_activity_graph(activities)
     diagnostics.extend(verify_activities(activities, graph, label_names=False))
@@ -191,12 +191,6 @@ def _humans(module: ast.Module, facts: Facts) -> tuple[HumanSpec, ...]:
         HumanSpec(decl.name.name, facts.human_starts[decl.name.name],
                   facts.human_layers.get(decl.name.name, ParamLayer()), decl.span)
         for decl in module.of_type(ast.HumanDecl))
-
-
-def _group_starts(facts: Facts) -> dict[str, dict[str, tuple[float, float]]]:
-    """Each group's members' declared starts (those declared with one)."""
-    return {name: {m: facts.human_starts[m].xy for m in members if m in facts.human_starts}
-            for name, members in facts.groups.items()}
 
 
 @dataclass(frozen=True)

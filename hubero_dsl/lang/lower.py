@@ -85,16 +85,14 @@ class Lowering:
     def __init__(self, source: SourceFile, places: Mapping[str, Pose],
                  areas: Mapping[str, Polygon], bounds: Polygon | None,
                  groups: Mapping[str, tuple[str, ...]] | None = None,
-                 formations: Mapping[str, Mapping[str, tuple[float, float]]] | None = None
-                 ) -> None:
+                 walking_groups: frozenset[str] = frozenset()) -> None:
         self.source = source
         self.places = places
         self.areas = areas
         self.bounds = bounds
         self.groups = groups or {}   # a crowd's or group's name -> its members
-        # a group's name -> its members' declared starts: a group sent to a point arrives
-        # side by side, abreast across its way there
-        self.formations = formations or {}
+        # the `group`s among them: their members walk together, and talk facing each other
+        self.walking_groups = walking_groups
 
     # ---- activities ------------------------------------------------------------------------
 
@@ -110,10 +108,9 @@ class Lowering:
                 # a task given to a crowd or group is given to every member; it ends when all
                 # have
                 members = self.groups[step.human.name]
-                return m.ParallelStep(tuple(
-                    self._member_step(step, member, index, members)
-                    for index, member in enumerate(members)), step.span, label,
-                    crowd=step.human.name)
+                return m.ParallelStep(tuple(self._member_step(step, member)
+                                            for member in members), step.span, label,
+                                      crowd=step.human.name)
             case ast.TaskStep():
                 return m.TaskStep(step.human.name, self.task(step.task),
                                   self.condition(step.until) if step.until else None,
@@ -138,18 +135,15 @@ class Lowering:
                 return m.SequenceStep(tuple(self.step(s) for s in step.steps), step.span, label)
         raise TypeError(f"not a step: {step!r}")
 
-    def _member_step(self, step: ast.TaskStep, member: str, index: int,
-                     members: tuple[str, ...]) -> m.Step:
+    def _member_step(self, step: ast.TaskStep, member: str) -> m.Step:
         lowered = self.step(replace(step, human=ast.NameRef(member, step.human.span),
                                     label=None))
         group = step.human.name
-        if not isinstance(lowered, m.TaskStep) or not self.formations.get(group):
+        if not isinstance(lowered, m.TaskStep) or group not in self.walking_groups:
             return lowered
         task = lowered.task
-        if task.kind in ("move_to", "run_to") and isinstance(task.target, tuple):
-            offset = _abreast(self.formations[group], members, index, task.target)
-            task = replace(task, target=(task.target[0] + offset[0], task.target[1] + offset[1]),
-                           group=group)
+        if task.kind in ("move_to", "run_to"):  # side by side: `behaviours._place_abreast`
+            task = replace(task, group=group)
         elif task.kind == "talk" and "to" not in task.arguments:
             task = replace(task, arguments={**task.arguments, "to": group})  # face its centre
         return replace(lowered, task=task)
@@ -259,28 +253,6 @@ class Lowering:
         line = self.source.line(span.line)
         end = span.end_column - 1 if span.end_line == span.line else len(line)
         return line[span.column - 1:end].strip().removeprefix("expect").strip()
-
-
-GROUP_SPACING = 0.7  # m between neighbours of a group walking abreast
-
-
-def _abreast(starts: Mapping[str, tuple[float, float]], members: tuple[str, ...], index: int,
-             goal: tuple[float, float]) -> tuple[float, float]:
-    """Member `index`'s offset from the group's goal: side by side across the way there from
-    the centroid of the members' starts, in the order they start across it (so that no one
-    crosses another's way to its place; in the group's order when some start undeclared)."""
-    xs, ys = zip(*starts.values(), strict=True)
-    start = (sum(xs) / len(xs), sum(ys) / len(ys))
-    dx, dy = goal[0] - start[0], goal[1] - start[1]
-    length = math.hypot(dx, dy)
-    if length < 1e-9:
-        return (0.0, 0.0)
-    across = (-dy / length, dx / length)
-    order = list(members)
-    if len(starts) == len(members):
-        order.sort(key=lambda m: starts[m][0] * across[0] + starts[m][1] * across[1])
-    shift = (order.index(members[index]) - (len(members) - 1) / 2) * GROUP_SPACING
-    return (across[0] * shift, across[1] * shift)
 
 
 def _label(ref: ast.NameRef | None) -> c.Label | None:

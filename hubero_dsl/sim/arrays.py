@@ -49,7 +49,7 @@ class HumanArrays:
     field_of_view: FloatArray
     # drive, set by behaviours
     moving: BoolArray             # steered by the local planner this tick
-    abreast: BoolArray            # walking on a group's task, beside its companions
+    with_group: BoolArray         # walking on its group's task, with its companions
     desired_speed: FloatArray     # m/s while moving
     goal: FloatArray              # (N, 2) final goal of the current walk (nan: none)
     stop_distance: FloatArray     # arrive when this close to the goal

@@ -43,7 +43,7 @@ class World(Protocol):
     def body_radius_of(self, name: str) -> float: ...
     def walking_speed(self, index: int, running: bool = False) -> float: ...
     def walk_to(self, index: int, goal: tuple[float, float], speed: float, stop_distance: float,
-                *, abort: bool = True, abreast: bool = False) -> str | None: ...
+                *, abort: bool = True, with_group: bool = False) -> str | None: ...
     def standing_at_goal(self, index: int) -> str | None: ...
     def halt(self, index: int) -> None: ...
     def face(self, index: int, heading: float) -> None: ...
@@ -53,9 +53,11 @@ class World(Protocol):
     def set_timer_tick(self, index: int, tick: int) -> None: ...
     def random_goal(self, index: int, area: Polygon | None) -> tuple[float, float] | None: ...
     def fits(self, index: int, point: tuple[float, float]) -> bool: ...
+    def in_sight(self, a: tuple[float, float], b: tuple[float, float]) -> bool: ...
     def finish(self, index: int, status: TaskStatus, reason: str = "") -> None: ...
 
 FACE_REFRESH = 0.2  # s between re-aims at a moving target
+GROUP_SPACING = 0.7  # m between neighbours of a group walking abreast
 # A group's talking circle (an F-formation)
 IN_PLACE = 0.1         # m: a member this near its place on the circle is in it
 JOIN_SLACK = 1.0       # s beyond the walk to its place a member takes to reach it
@@ -154,9 +156,8 @@ class Talk(Stand):
     kind = "talk"
 
     def start(self, engine: World) -> None:
-        circle = self._circle(engine)
-        if circle is not None:
-            place, self.facing = circle  # the centre as the circle was drawn: it stays put
+        place = self._place_on_circle(engine)
+        if place is not None:  # it faces the members' centre as they stand when in place
             way = math.dist(place, engine.humans.position[self.index].tolist())
             speed = engine.walking_speed(self.index)
             if way > IN_PLACE and engine.walk_to(self.index, place, speed, IN_PLACE,
@@ -172,18 +173,18 @@ class Talk(Stand):
         super().start(engine)
         self.state = "talking"
 
-    def _circle(self, engine: World) -> tuple[tuple[float, float], tuple[float, float]] | None:
-        """This member's place on its group's talking circle and the circle's centre; None
-        when it is not told to talk in a group of its own, or its place is in a wall."""
+    def _place_on_circle(self, engine: World) -> tuple[float, float] | None:
+        """This member's place on its group's talking circle; None when it is not told to
+        talk in a group of its own, or its place is in a wall."""
         rows = engine.groups.get(self.facing) if isinstance(self.facing, str) else None
         if rows is None or self.index not in rows:
             return None
         h = engine.humans
         if in_formation(h.position[rows]):
             return None  # already round their centre (as a scenario placed them): they face it
-        places, centre = talking_circle(h.position[rows], h.radius[rows])
+        places = talking_circle(h.position[rows], h.radius[rows])
         place = places[int(np.flatnonzero(rows == self.index)[0])]
-        return (place, centre) if engine.fits(self.index, place) else None
+        return place if engine.fits(self.index, place) else None
 
     def on_arrived(self, engine: World) -> None:
         self._in_place(engine)
@@ -216,11 +217,9 @@ def in_formation(position: FloatArray) -> bool:
     return bool(gaps.min() >= FORMED_GAP)
 
 
-def talking_circle(position: FloatArray, radius: FloatArray
-                   ) -> tuple[list[tuple[float, float]], tuple[float, float]]:
+def talking_circle(position: FloatArray, radius: FloatArray) -> list[tuple[float, float]]:
     """Places on a circle round the members' centre, evenly spread, each member's in the order
-    of their bearings from the centre and turned to be nearest where they stand; and the
-    centre."""
+    of their bearings from the centre and turned to be nearest where they stand."""
     count = len(position)
     centre = position.mean(axis=0)
     bearing = np.arctan2(position[:, 1] - centre[1], position[:, 0] - centre[0])
@@ -233,7 +232,28 @@ def talking_circle(position: FloatArray, radius: FloatArray
     angle = np.empty(count)
     angle[order] = start + spread
     places = centre + size * np.column_stack([np.cos(angle), np.sin(angle)])
-    return [(float(x), float(y)) for x, y in places], (float(centre[0]), float(centre[1]))
+    return [(float(x), float(y)) for x, y in places]
+
+
+def _place_abreast(engine: World, group: str, index: int, goal: tuple[float, float]
+                   ) -> tuple[float, float]:
+    """Member `index`'s place at its group's goal: side by side across the way there from the
+    members' centre, GROUP_SPACING apart, in the order they stand across that way now (so that
+    nobody crosses another's way); the goal itself where that place is in a wall or behind one
+    (a door, a corner)."""
+    rows = engine.groups.get(group)
+    if rows is None or len(rows) < 2 or index not in rows:
+        return goal
+    position = engine.humans.position[rows]
+    centre = position.mean(axis=0)
+    length = math.hypot(goal[0] - centre[0], goal[1] - centre[1])
+    if length < 1e-9:
+        return goal
+    across = np.array([centre[1] - goal[1], goal[0] - centre[0]]) / length
+    order = np.argsort(position @ across, kind="stable").tolist()
+    shift = (order.index(rows.tolist().index(index)) - (len(rows) - 1) / 2) * GROUP_SPACING
+    place = (goal[0] + float(across[0]) * shift, goal[1] + float(across[1]) * shift)
+    return place if engine.fits(index, place) and engine.in_sight(goal, place) else goal
 
 
 class MoveTo(Behaviour):
@@ -242,13 +262,13 @@ class MoveTo(Behaviour):
     kind = "move_to"
 
     def __init__(self, target: Target, heading: float | None = None, speed: float | None = None,
-                 running: bool = False, abreast: bool = False) -> None:
+                 running: bool = False, group: str | None = None) -> None:
         super().__init__()
         self.target = target
         self.heading = heading
         self.speed = speed
         self.running = running
-        self.abreast = abreast  # a group's walk: its members keep abreast
+        self.group = group  # the group whose task this is: its members walk together
 
     def start(self, engine: World) -> None:
         goal = engine.position_of(self.target)
@@ -260,7 +280,13 @@ class MoveTo(Behaviour):
         tolerance = engine.humans.goal_tolerance[self.index]
         if isinstance(self.target, str):  # a body: stop beside it, not on it
             tolerance += engine.body_radius_of(self.target) + engine.humans.radius[self.index]
-        engine.walk_to(self.index, goal, speed, float(tolerance), abreast=self.abreast)
+        if self.group is not None and not isinstance(self.target, str):
+            place = _place_abreast(engine, self.group, self.index, goal)
+            if place != goal and engine.walk_to(self.index, place, speed, float(tolerance),
+                                                abort=False, with_group=True) is None:
+                return  # else the group's goal itself: its place cannot be planned to
+        engine.walk_to(self.index, goal, speed, float(tolerance),
+                       with_group=self.group is not None)
 
     def on_arrived(self, engine: World) -> None:
         if self.heading is None:
@@ -447,14 +473,14 @@ def _stand(task: Task) -> Behaviour:
 def _move_to(task: Task) -> Behaviour:
     assert task.target is not None
     return MoveTo(task.target, task.get("heading"), task.get("speed"),
-                  abreast=task.group is not None)
+                  group=task.group)
 
 
 @builds("run_to")
 def _run_to(task: Task) -> Behaviour:
     assert task.target is not None
     behaviour = MoveTo(task.target, task.get("heading"), running=True,
-                       abreast=task.group is not None)
+                       group=task.group)
     behaviour.kind = "run_to"
     return behaviour
 

@@ -23,7 +23,7 @@ from hubero_dsl.errors import SimulationError
 from hubero_dsl.planners.base import Crowd, Drive, NoPath
 from hubero_dsl.sim import physics
 from hubero_dsl.sim.arrays import BoolArray, FloatArray, HumanArrays, IntArray, PathPool
-from hubero_dsl.sim.behaviours import Behaviour
+from hubero_dsl.sim.behaviours import GROUP_SPACING, Behaviour
 from hubero_dsl.sim.reactions import Reactions
 from hubero_dsl.sim.robots import Robots
 from hubero_dsl.sim.status import Posture, TaskEvent, TaskHandle, TaskStatus
@@ -48,8 +48,7 @@ CROWDED = 2
 ALONE = 1.0
 LOOK_AGAIN = 0.25
 REACH = 1.5
-GROUP_SPACING = 0.7     # m between neighbours of a walking group
-GROUP_PULL = 1.0        # 1/s: m/s towards the group's centre per metre too far from it
+GROUP_PULL = 3.0        # 1/s: m/s towards the group's centre per metre too far from it
 # Members walking on their group's task keep abreast (`Engine._walk_abreast`)
 ABREAST_LANE = 0.6      # m across the group's way at least: a companion in the next lane
 ABREAST_CLOSE = 1.0     # s over which a lead is closed
@@ -181,7 +180,7 @@ class Engine:
         return float(source[index])
 
     def walk_to(self, index: int, goal: tuple[float, float], speed: float, stop_distance: float,
-                *, abort: bool = True, abreast: bool = False) -> str | None:
+                *, abort: bool = True, with_group: bool = False) -> str | None:
         """Plan and start walking; on failure abort the task (or just return the reason)."""
         humans = self.humans
         start = (float(humans.position[index, 0]), float(humans.position[index, 1]))
@@ -195,7 +194,7 @@ class Engine:
             return exc.reason
         self.paths.set_path(index, plan.waypoints)
         humans.moving[index] = True
-        humans.abreast[index] = abreast
+        humans.with_group[index] = with_group
         humans.teleop[index] = False
         humans.desired_speed[index] = speed
         humans.goal[index] = goal
@@ -239,6 +238,10 @@ class Engine:
     def fits(self, index: int, point: tuple[float, float]) -> bool:
         """Whether human `index`'s body fits at `point`, clear of walls."""
         return self.grid.clearance_at_point(*point) > float(self.humans.radius[index])
+
+    def in_sight(self, a: tuple[float, float], b: tuple[float, float]) -> bool:
+        """Whether no wall stands on the straight line from `a` to `b`."""
+        return not bool(self.grid.crosses_obstacle(np.array([a]), np.array([b]))[0])
 
     def halt(self, index: int) -> None:
         humans = self.humans
@@ -462,12 +465,13 @@ class Engine:
         return velocity
 
     def _keep_together(self, velocity: FloatArray) -> FloatArray:
-        """Walking group members who fall apart are drawn to their walking companions' centre
-        (the attraction of Moussaid et al. 2010, as a velocity): farther than (n - 1) / 2
-        spacings from it, a member steers towards it at GROUP_PULL per metre too far."""
+        """Members walking on their group's task who fall apart are drawn to their walking
+        companions' centre (the attraction of Moussaid et al. 2010, as a velocity): farther
+        than (n - 1) / 2 spacings from it, a member's walk shifts towards it by GROUP_PULL per
+        metre too far."""
         h = self.humans
         for rows in self.groups.values():
-            walking = rows[h.moving[rows]]
+            walking = rows[h.moving[rows] & h.with_group[rows]]
             if len(walking) < 2:
                 continue
             centre = h.position[walking].mean(axis=0)
@@ -478,7 +482,7 @@ class Engine:
             if far.any():
                 pull = offset[far] / distance[far, None] * (
                     GROUP_PULL * (distance[far] - slack))[:, None]
-                moved = velocity[walking[far]] + pull
+                moved = velocity[walking[far]] + pull * self._relaxing(walking[far])[:, None]
                 limit = h.max_speed[walking[far]]
                 speed = physics.lengths(moved)
                 velocity[walking[far]] = moved * np.minimum(1.0, limit / np.maximum(
@@ -494,7 +498,7 @@ class Engine:
         about the slower one's pace."""
         h = self.humans
         for rows in self.groups.values():
-            walking = rows[h.moving[rows] & h.abreast[rows]]
+            walking = rows[h.moving[rows] & h.with_group[rows]]
             found = self._abreast(walking) if len(walking) > 1 else None
             if found is None:
                 continue
@@ -503,10 +507,17 @@ class Engine:
             cap = np.where(beside, pace[None, :] - lead / ABREAST_CLOSE, np.inf).min(axis=1)
             cap = np.clip(cap, ABREAST_SLOWEST * h.desired_speed[walking], h.max_speed[walking])
             lag = np.where(beside.T, lead.T, 0.0).max(axis=1)
-            moved = velocity[walking] + (lag / ABREAST_CLOSE)[:, None] * way
+            moved = velocity[walking] + (lag / ABREAST_CLOSE * self._relaxing(walking)
+                                         )[:, None] * way
             speed = physics.lengths(moved)
             velocity[walking] = moved * np.minimum(1.0, cap / np.maximum(speed, 1e-9))[:, None]
         return velocity
+
+    def _relaxing(self, rows: IntArray) -> FloatArray:
+        """The share of a change of desired velocity the social force makes in a tick:
+        a shift of the walk added to each tick's velocity as it is would pile up, tick after
+        tick, to relaxation time / step times itself (ten times, by default)."""
+        return self.dt / self.humans.relaxation_time[rows]
 
     def _abreast(self, walking: IntArray) -> tuple[FloatArray, FloatArray, BoolArray] | None:
         """The group's way, how far each walker is ahead of each other along it (i ahead of

@@ -390,7 +390,7 @@ def _human_arrays(program: Program, params: dict[str, dict[str, ParamValue]]) ->
                                       "relaxation_time", "goal_tolerance", "goal_strength",
                                       "avoidance_strength", "obstacle_strength",
                                       "interaction_range", "field_of_view")},
-        moving=np.zeros(count, dtype=bool), abreast=np.zeros(count, dtype=bool),
+        moving=np.zeros(count, dtype=bool), with_group=np.zeros(count, dtype=bool),
         desired_speed=np.zeros(count),
         goal=np.full((count, 2), np.nan), stop_distance=np.zeros(count),
         heading_goal=np.full(count, np.nan), teleop_velocity=np.zeros((count, 2)),

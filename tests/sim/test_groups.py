@@ -196,3 +196,50 @@ def test_a_member_whose_place_is_in_a_wall_talks_from_where_it_stands(
 ])
 def test_group_mistakes_are_reported(room_map: Path, body: str, code: str) -> None:
     assert code in {d.code for d in check_source(_text(room_map, body), "t.hub").errors}
+
+
+def test_members_on_errands_of_their_own_are_not_held_to_each_other(hall_map: Path) -> None:
+    # a group's pull is for a walk together: sent opposite ways, each gets where it was sent
+    couple = ("human mum at (15, 5)\nhuman dad at (15.7, 5)\ngroup family of (mum, dad)\n"
+              "activity { parallel { mum move_to (5, 5); dad move_to (25, 5) } }\n")
+    sim = Simulation(compile_source(_text(hall_map, couple), "t.hub"))
+    result = run_program(sim)
+    assert all(e.status is not TaskStatus.ABORTED for e in result.events)
+    assert sim.human("dad").position[0] > 24.5 and sim.human("mum").position[0] < 5.5
+
+
+def test_a_group_sent_back_arrives_side_by_side_again(hall_map: Path) -> None:
+    # each walk's places are drawn from where the members stand when it starts
+    trio = ("human a at (9, 4.3)\nhuman b at (9, 5)\nhuman c at (9, 5.7)\ngroup g of (a, b, c)\n"
+            "activity { g move_to (15, 5); g move_to (9, 5) }\n")
+    sim = Simulation(compile_source(_text(hall_map, trio), "t.hub"))
+    result = run_program(sim)
+    assert not [e for e in result.events if e.status is TaskStatus.ABORTED or e.reason]
+    ends = sorted(sim.human(n).position[1] for n in "abc")
+    assert np.allclose(np.diff(ends), 0.7, atol=0.15)
+
+
+def test_a_group_of_a_crowds_members_walks_abreast_and_talks_in_a_circle(
+        hall_map: Path) -> None:
+    drawn = ("crowd c 3 in rect((8, 4), (10, 6))\ngroup g of (c_1, c_2, c_3)\n"
+             "activity { g move_to (15, 5); g talk for 3 s }\n")
+    sim = Simulation(compile_source(_text(hall_map, drawn), "t.hub"))
+    run_program(sim)
+    places = np.array([sim.human(f"c_{i}").position for i in (1, 2, 3)])
+    centre = places.mean(axis=0)
+    assert min(math.dist(p, q) for p, q in ((places[0], places[1]), (places[1], places[2]),
+                                             (places[0], places[2]))) > 0.5
+    for i, (x, y) in enumerate(places, start=1):
+        bearing = math.atan2(centre[1] - y, centre[0] - x)
+        assert abs(math.remainder(bearing - sim.human(f"c_{i}").heading, math.tau)) < 0.1
+
+
+def test_a_group_sent_into_a_door_goes_there_when_its_places_are_in_the_walls(
+        hall_corridor_map: Path) -> None:
+    # the point is in the corridor 1 m wide: the places beside it are in its walls
+    pair = ("human a at (4, 4.7)\nhuman b at (4, 5.4)\ngroup g of (a, b)\n"
+            "activity { g move_to (12, 5) }\n")
+    sim = Simulation(compile_source(_text(hall_corridor_map, pair), "t.hub"))
+    result = run_program(sim)
+    assert [e.status for e in result.events if e.status is not TaskStatus.ACTIVE] == [
+        TaskStatus.SUCCEEDED] * 2
