@@ -69,3 +69,8 @@ class SimulationError(HuberoError):
 
 class LogError(InputError):
     """A log file that cannot be written or read back."""
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (what `timeout` and process managers send): stopped like Ctrl-C, so a run's
+    temporary log is removed and a sweep stops its workers, but reported as terminated."""

@@ -34,6 +34,7 @@ from hubero_dsl.analysis.plot import (
     set_colours,
 )
 from hubero_dsl.errors import InputError
+from hubero_dsl.files import write_replacing
 from hubero_dsl.world.personal_space import outline
 
 if TYPE_CHECKING:
@@ -139,9 +140,6 @@ def animate_run(run: LoggedRun, out: str | Path, *, max_frames: int = MAX_FRAMES
     place_legend(figure, axes, handles)
     times = frame_times(run, max_frames)
     animation = FuncAnimation(figure, scene.show, frames=list(times), blit=False)
-    out = Path(out)
-    try:
-        animation.save(str(out), writer=PillowWriter(fps=fps), dpi=GIF_DPI)
-    except OSError as exc:
-        raise InputError(f"{out}: cannot be written ({exc.strerror or exc})") from None
-    return out
+    # beside it first, then renamed: an interrupted animation leaves no half a GIF
+    return write_replacing(Path(out), lambda temp: animation.save(
+        str(temp), writer=PillowWriter(fps=fps), dpi=GIF_DPI))

@@ -328,10 +328,14 @@ def _print_sweep(sweep: SweepDiff, humans: set[str], console: Console) -> None:
     for variant, changes in _variant_changes(sweep).items():
         console.print(escape(f"  {variant}: {changes or 'no parameter differs'}"))
     table = Table(box=box.SIMPLE_HEAD, pad_edge=False)
+    # variants' names whole up to 48 characters, folded beyond, never cut: two may differ
+    # only at their ends
+    widest = min(48, max([24, *(len(str(c.variant)) for c in sweep.comparisons)]))
     for column in _SWEEP_COLUMNS:
         text = column in ("variant", "human")
         table.add_column(column, justify="left" if text else "right", no_wrap=not text,
-                         max_width=24 if column == "variant" else None)
+                         max_width=widest if column == "variant" else None,
+                         overflow="fold" if text else "ellipsis")
     for comparison in sweep.comparisons:
         variant = escape(str(comparison.variant))
         if comparison.diff is None:

@@ -29,7 +29,7 @@ from collections.abc import Sequence
 from typing import TextIO
 
 from hubero_dsl import __version__
-from hubero_dsl.errors import HuberoError, InputError
+from hubero_dsl.errors import HuberoError, InputError, Terminated
 
 # Command modules in the order `hubero --help` lists them.
 COMMANDS: tuple[str, ...] = ("check", "run", "test", "graph", "sweep", "plot", "diff",
@@ -118,11 +118,6 @@ def _dispatch(argv: Sequence[str] | None) -> int:
         return exc.code if isinstance(exc.code, int) else EXIT_USAGE if exc.code else EXIT_OK
     status: int = args.run(args)
     return status
-
-
-class Terminated(KeyboardInterrupt):
-    """SIGTERM (what `timeout` and process managers send): stopped like Ctrl-C, so a run's
-    temporary log is removed and a sweep stops its workers, but reported as terminated."""
 
 
 def _on_sigterm(signum: int, frame: object) -> None:

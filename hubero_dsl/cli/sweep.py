@@ -34,6 +34,8 @@ if TYPE_CHECKING:
 
 EXECUTORS = ("process", "serial", "dask")
 EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143
+MAX_CONNECT = 3600.0  # s: --connect-timeout at most an hour
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -92,8 +94,9 @@ def _check_options(args: argparse.Namespace) -> None:
         raise InputError("--executor dask needs --scheduler ADDR (tcp://HOST:8786)")
     if args.scheduler and args.executor != "dask":
         raise InputError("--scheduler is for --executor dask")
-    if not (math.isfinite(args.connect_timeout) and args.connect_timeout > 0):
-        raise InputError("--connect-timeout must be a number of seconds above 0")
+    if not (math.isfinite(args.connect_timeout) and 0 < args.connect_timeout <= MAX_CONNECT):
+        raise InputError(f"--connect-timeout must be a number of seconds above 0 and at most "
+                         f"{MAX_CONNECT:g}, got {args.connect_timeout:g}")
     if not (math.isfinite(args.log_rate) and args.log_rate > 0):
         raise InputError("--log-rate must be a number of hertz above 0")
 
@@ -108,8 +111,9 @@ def _variant_names(args: argparse.Namespace) -> list[str] | None:
 
 def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
     from hubero_dsl.cli.console import make_console
+    from hubero_dsl.files import check_output
     from hubero_dsl.sweep.executors import available_cores, open_executor
-    from hubero_dsl.sweep.index import write_index
+    from hubero_dsl.sweep.index import INDEX_CSV, INDEX_JSON, write_index
     from hubero_dsl.sweep.runner import prepare_out_dir, run_sweep
     from hubero_dsl.sweep.worker import standard_metrics
 
@@ -119,16 +123,19 @@ def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
     with open_executor(args.executor, jobs=jobs, scheduler=args.scheduler,
                        connect_timeout=args.connect_timeout) as executor, \
             _SweepProgress(errors, plan, quiet=args.quiet) as on_done:
-        prepare_out_dir(plan, args.out_dir)  # after connecting: nothing is created for nothing
+        folder = prepare_out_dir(plan, args.out_dir)  # after connecting: nothing for nothing
+        for index in (INDEX_JSON, INDEX_CSV):  # before any run, not after them all
+            check_output(folder / index)
         outcome = run_sweep(plan, args.out_dir, executor, log_rate=args.log_rate,
                             metrics=None if args.no_metrics else standard_metrics,
                             on_done=on_done)
     elapsed = time.monotonic() - started
     json_path, csv_path = write_index(args.out_dir, plan, outcome)
     if not outcome.complete:
-        errors.print(f"hubero: interrupted: {len(outcome.records)} of {len(plan.runs)} runs "
+        stop = "terminated" if outcome.terminated else "interrupted"
+        errors.print(f"hubero: {stop}: {len(outcome.records)} of {len(plan.runs)} runs "
                      f"finished; their index is in {json_path}", highlight=False, soft_wrap=True)
-        return EXIT_INTERRUPTED
+        return EXIT_TERMINATED if outcome.terminated else EXIT_INTERRUPTED
     if not args.quiet:
         _print_table(plan, outcome)
         where = "inline" if args.executor == "serial" else (

@@ -23,7 +23,8 @@ from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from dataclasses import dataclass
 from pathlib import Path
 
-from hubero_dsl.errors import LogError
+from hubero_dsl.errors import LogError, Terminated
+from hubero_dsl.files import refuse_other_kind
 from hubero_dsl.sweep.executors import executor_slots, terminate
 from hubero_dsl.sweep.plan import SweepPlan
 from hubero_dsl.sweep.worker import (
@@ -42,6 +43,7 @@ OnDone = Callable[[RunRecord], None]
 class SweepOutcome:
     records: tuple[RunRecord, ...]  # in the plan's order; only finished runs if interrupted
     complete: bool                  # False when the sweep was interrupted
+    terminated: bool = False        # interrupted by SIGTERM, not Ctrl-C
 
     @property
     def succeeded(self) -> bool:
@@ -51,7 +53,9 @@ class SweepOutcome:
 
 def prepare_out_dir(plan: SweepPlan, out_dir: str | Path) -> Path:
     """Create the output folders, check they are writable, and remove the logs of an earlier
-    sweep at this sweep's log paths (so a log the index names is always this sweep's)."""
+    sweep at this sweep's log paths (so a log the index names is always this sweep's); a file
+    there that is not a log is the user's, and refused."""
+    from hubero_dsl.log.container import MAGIC
     from hubero_dsl.log.writer import ensure_directory
 
     folder = ensure_directory(out_dir)
@@ -60,6 +64,9 @@ def prepare_out_dir(plan: SweepPlan, out_dir: str | Path) -> Path:
             pass
     except OSError as exc:
         raise LogError(f"cannot write into {folder}: {exc.strerror or exc}") from None
+    for spec in plan.runs:
+        log = folder / spec.log
+        refuse_other_kind(log, MAGIC, "an MCAP log", "give another --out-dir")
     for spec in plan.runs:
         log = folder / spec.log
         if not log.parent.is_dir():
@@ -108,11 +115,12 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, executor: Executor, *,
                 index = pending.pop(future)
                 collect(index, _record_of(future, tasks[index]))
             _submit(executor, queue, tasks, pending, collect, max(1, limit))
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as stop:
         terminate(executor)
         _harvest(pending, records)
         _drop_unrecorded_logs(tasks, records)
-        return SweepOutcome(tuple(records[i] for i in sorted(records)), complete=False)
+        return SweepOutcome(tuple(records[i] for i in sorted(records)), complete=False,
+                            terminated=isinstance(stop, Terminated))
     return SweepOutcome(tuple(records[i] for i in sorted(records)), complete=True)
 
 

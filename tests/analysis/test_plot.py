@@ -163,3 +163,28 @@ def test_animation_gif(tmp_path: Path, build_run: Factory, track: Factory) -> No
     assert share_of_colour(last, tab10("h", ["h"])) > 0.002  # the body and its space
     with pytest.raises(InputError, match="cannot be written"):
         animate_run(run, tmp_path / "no" / "x.gif", max_frames=2)
+
+
+def test_an_interrupted_animation_leaves_the_gif_that_was_there(
+        tmp_path: Path, build_run: Factory, track: Factory,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from matplotlib.animation import PillowWriter
+
+    times = np.arange(0.0, 10.0, 0.1)
+    run = build_run([track("h", times, np.column_stack([times * 0.5 - 2, np.zeros_like(times)]))])
+    out = tmp_path / "run.gif"
+    out.write_bytes(b"GIF89a an earlier replay")
+    frames = [0]
+    grab = PillowWriter.grab_frame
+
+    def grab_then_ctrl_c(self: PillowWriter, **options: object) -> None:
+        frames[0] += 1
+        if frames[0] == 3:
+            raise KeyboardInterrupt
+        grab(self, **options)
+
+    monkeypatch.setattr(PillowWriter, "grab_frame", grab_then_ctrl_c)
+    with pytest.raises(KeyboardInterrupt):
+        animate_run(run, out, max_frames=6, fps=5)
+    assert out.read_bytes() == b"GIF89a an earlier replay"
+    assert [p.name for p in tmp_path.iterdir()] == ["run.gif"]

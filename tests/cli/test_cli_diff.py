@@ -4,6 +4,7 @@ input ending in exit 2 with a message and no traceback."""
 from __future__ import annotations
 
 import json
+import re
 import shutil
 from collections.abc import Callable
 from pathlib import Path
@@ -221,3 +222,24 @@ def test_exit_status_in_a_real_process(cli_subprocess: Cli, tmp_path: Path) -> N
     outcome = cli_subprocess("diff", str(bad), str(bad))
     assert outcome.status == 2
     assert "error" in outcome.err and "bad.mcap" in outcome.err
+
+
+def test_a_sweeps_long_variant_names_are_shown_whole(cli: Cli, logs: dict[str, Path],
+                                                     tmp_path: Path) -> None:
+    # two variants whose names differ only at their ends, past the first 24 characters
+    names = {"near": "near", "speed=1.4 m/s,avoidance_strength=0.5": "far",
+             "speed=1.4 m/s,avoidance_strength=1.5": "far"}
+    folder = tmp_path / "out"
+    (folder / "runs").mkdir(parents=True)
+    entries = []
+    for number, (variant, source) in enumerate(names.items()):
+        shutil.copyfile(logs[source], folder / "runs" / f"{number}.mcap")
+        entries.append({"variant": variant, "seed": 1, "parameters": {}, "status": "completed",
+                        "reason": "", "duration": 3.0, "metrics": {},
+                        "log": f"runs/{number}.mcap"})
+    (folder / "index.json").write_text(json.dumps({"version": 1, "scenario": "swap.hub",
+                                                   "runs": entries}), encoding="utf-8")
+    outcome = cli("diff", str(folder), "--baseline", "near")
+    assert outcome.status == 0, outcome.err
+    for name in list(names)[1:]:  # the table's rows: the name, then the seed
+        assert re.search(rf"^\s*{re.escape(name)}\s+1\s", outcome.out, re.MULTILINE), name

@@ -120,6 +120,8 @@ def test_a_scenario_without_variants_runs_as_written(cli: Run, tmp_path: Path) -
     (["--log-rate", "0"], "--log-rate must be a number of hertz above 0"),
     (["--executor", "dask", "--scheduler", "tcp://x", "--connect-timeout", "nan"],
      "--connect-timeout must be"),
+    (["--executor", "dask", "--scheduler", "tcp://x", "--connect-timeout", "1e308"],
+     "--connect-timeout must be a number of seconds above 0 and at most 3600, got 1e+308"),
 ])
 def test_bad_options_exit_2(cli: Run, tmp_path: Path, options: list[str], message: str
                             ) -> None:
@@ -186,6 +188,37 @@ def test_ctrl_c_stops_the_sweep_and_writes_the_finished_runs(tmp_path: Path) -> 
     assert 1 <= len(written["runs"]) < 8
     logs = sorted(p.name for p in out.glob("runs/*/*"))
     assert logs == sorted(Path(r["log"]).name for r in written["runs"])  # no .part files left
+
+
+def test_sigterm_stops_the_sweep_as_terminated(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    process = _long_sweep(tmp_path, out, jobs=1)
+    deadline = time.monotonic() + 60
+    while not list(out.glob("runs/*/seed-*.mcap")) and time.monotonic() < deadline:
+        time.sleep(0.02)
+    process.send_signal(signal.SIGTERM)
+    stdout, stderr = process.communicate(timeout=60)
+    assert_no_traceback(Outcome(process.returncode, stdout, stderr))
+    assert process.returncode == 143
+    assert "hubero: terminated:" in stderr
+    assert index(out)["complete"] is False
+
+
+def test_a_users_file_at_a_log_path_or_an_index_that_cannot_be_written_is_refused_first(
+        cli: Run, tmp_path: Path) -> None:
+    out = tmp_path / "o"
+    notes = out / "runs" / "speed=1.0m_s" / "seed-3.mcap"
+    notes.parent.mkdir(parents=True)
+    notes.write_text("my notes", encoding="utf-8")
+    outcome = cli("sweep", scenario(tmp_path, SWEPT), "--out-dir", str(out), "-q")
+    assert outcome.status == 2
+    assert f"{notes} exists and is not an MCAP log" in outcome.err
+    assert notes.read_text(encoding="utf-8") == "my notes"
+    notes.unlink()
+    (out / "index.json").mkdir()
+    outcome = cli("sweep", scenario(tmp_path, SWEPT), "--out-dir", str(out), "-q")
+    assert outcome.status == 2 and "index.json" in outcome.err
+    assert not list(out.glob("runs/*/*.mcap"))  # refused before any run
 
 
 def test_workers_end_with_a_killed_sweep(tmp_path: Path) -> None:
