@@ -144,7 +144,7 @@ def test_stale_logs_of_an_earlier_sweep_are_removed(write_scenario: Write,
     plan = plan_for(write_scenario(OUTCOMES), seeds=(1,), variants=["quick"])
     stale = tmp_path / "runs" / "quick" / "seed-1.mcap"
     stale.parent.mkdir(parents=True)
-    stale.write_bytes(b"old")
+    stale.write_bytes(b"\x89MCAP0\r\n an earlier sweep's log")
     prepare_out_dir(plan, tmp_path)
     assert not stale.exists()
 
