@@ -763,6 +763,11 @@ class Checker:
         radius = {name: self._largest_radius(name) for name in self.facts.human_starts}
         for robot in self.facts.robots:
             radius[robot.name] = robot.radius
+        for crowd in self.facts.crowds:  # a crowd's or group's goal: where its largest fits
+            radius[crowd.name] = self._largest_radius(crowd.name, crowd.layer)
+            radius |= dict.fromkeys(crowd.members, radius[crowd.name])
+        for group, members in self.facts.groups.items():
+            radius[group] = max((radius[m] for m in members if m in radius), default=0.0)
         for decl in self.module.of_type(ast.HumanDecl):
             name = decl.name.name
             start = self.facts.human_starts.get(name)
@@ -791,8 +796,11 @@ class Checker:
         pose = self.facts.places.get(target.name)
         return pose.xy if pose is not None else None
 
-    def _largest_radius(self, human: str) -> float:
-        layers = [self.facts.defaults, self.facts.human_layers.get(human, ParamLayer()),
+    def _largest_radius(self, human: str, own: ParamLayer | None = None) -> float:
+        """The largest radius `human` (or a crowd of that name, whose block is `own`) may
+        have: in any variant, at the upper end of a distribution."""
+        own = own or self.facts.human_layers.get(human, ParamLayer())
+        layers = [self.facts.defaults, own,
                   *(layer for _, layer in self.facts.variants),
                   *(layer for _, options in self.facts.sweeps for _, layer in options)]
         found = [float(HUMAN_PARAMS["radius"].default)]  # type: ignore[arg-type]
@@ -804,7 +812,7 @@ class Checker:
                 elif isinstance(value, Distribution):  # a draw may be this large
                     found.append(value.second if value.kind == "uniform"
                                  else value.first + 2 * value.second)
-        base = [self.facts.defaults, self.facts.human_layers.get(human, ParamLayer())]
+        base = [self.facts.defaults, own]
         if any("radius" in layer.values for layer in base):  # the file's own, not built-in
             found = found[1:] or found
         return max(found)

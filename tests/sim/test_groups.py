@@ -243,3 +243,16 @@ def test_a_group_sent_into_a_door_goes_there_when_its_places_are_in_the_walls(
     result = run_program(sim)
     assert [e.status for e in result.events if e.status is not TaskStatus.ACTIVE] == [
         TaskStatus.SUCCEEDED] * 2
+
+
+@pytest.mark.parametrize("actor", ["family", "visitors"])
+def test_a_crowds_or_groups_goal_where_its_largest_member_does_not_fit_is_e405(
+        room_map: Path, actor: str) -> None:
+    # the room's wall is at x = 10: a goal 0.1 m from it, and a crowd's members as large
+    # as the block says
+    text = _text(room_map, FAMILY + "group family of (mum, dad, kid)\n"
+                 "crowd visitors 2 in rect((2, 1), (4, 3)) { radius 0.3 m }\n"
+                 f"activity {{ {actor} move_to (9.85, 4) }}\n")
+    (error,) = check_source(text, "t.hub").errors
+    assert error.code == "E405" and f"the goal of {actor}'s move_to" in error.message
+    assert (error.span.line, error.span.column) == (8, 12 + len(actor) + len(" move_to "))
