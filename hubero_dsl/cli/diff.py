@@ -137,11 +137,23 @@ def _sweep(args: argparse.Namespace) -> int:
     if args.plot is not None:
         raise InputError("--plot draws two runs: give two logs (A.mcap B.mcap)")
     sweep = diff_sweep(args.first, args.baseline, epsilon=args.epsilon)
+    humans = _sweep_humans(args.human, sweep)
     if args.json:
         print(json.dumps(sweep.to_dict(), indent=2))
     else:
-        _print_sweep(sweep, set(args.human or ()), _console())
+        _print_sweep(sweep, humans, _console())
     return 0
+
+
+def _sweep_humans(wanted: list[str] | None, sweep: SweepDiff) -> set[str]:
+    """The humans --human names in a sweep's runs, a crowd's, flow's or group's name standing
+    for its members; InputError for a name no compared run has."""
+    diffs = [c.diff for c in sweep.comparisons if c.diff is not None]
+    if not wanted or not diffs:
+        return set(wanted or ())
+    sets = {name: members for diff in diffs for name, (_, members) in diff.sets.items()}
+    known = sorted({human for diff in diffs for human in diff.humans})
+    return set(_chosen(_expanded(wanted, lambda name: sets.get(name, (name,))), known))
 
 
 # ---- rendering ----------------------------------------------------------------------------

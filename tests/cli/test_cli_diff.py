@@ -243,3 +243,15 @@ def test_a_sweeps_long_variant_names_are_shown_whole(cli: Cli, logs: dict[str, P
     assert outcome.status == 0, outcome.err
     for name in list(names)[1:]:  # the table's rows: the name, then the seed
         assert re.search(rf"^\s*{re.escape(name)}\s+1\s", outcome.out, re.MULTILINE), name
+
+
+def test_a_sweeps_human_is_checked_as_a_pairs_is(cli: Cli, logs: dict[str, Path],
+                                                tmp_path: Path) -> None:
+    folder = sweep_folder(tmp_path / "out", logs, [("near", 1), ("far", 1)])
+    unknown = cli("diff", str(folder), "--baseline", "near", "--human", "zz")
+    assert unknown.status == 2
+    assert "no human zz in these runs (humans: a, b)" in unknown.err
+    chosen = cli("diff", str(folder), "--baseline", "near", "--human", "b")
+    assert chosen.status == 0, chosen.err
+    rows = [line.split()[:3] for line in chosen.out.splitlines() if line.startswith(" far")]
+    assert rows == [["far", "1", "b"]]
