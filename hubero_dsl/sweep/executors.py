@@ -140,6 +140,7 @@ def connect_dask(address: str, timeout: float) -> Any:
     except ImportError:
         raise InputError("the Dask executor needs the 'distributed' package: "
                          "pip install 'hubero[dask]'") from None
+    _check_dask_address(address)
     try:
         return Client(address, timeout=timeout, set_as_default=False)
     except (OSError, TimeoutError) as exc:
@@ -147,6 +148,25 @@ def connect_dask(address: str, timeout: float) -> Any:
                          f"({exc}); is it running, and is the address right "
                          "(tcp://HOST:8786)?") from None
     except (ValueError, TypeError) as exc:
+        raise InputError(f"bad Dask scheduler address '{address}': {exc}") from None
+
+
+def _check_dask_address(address: str) -> None:
+    """InputError for an address Dask cannot connect to by its form (no protocol Dask knows,
+    no port), before a Client is made: a Client that failed on it would wait out its timeout
+    and print a traceback when it is collected."""
+    from distributed.comm import parse_address
+    from distributed.comm.addressing import parse_host_port
+    from distributed.comm.registry import backends
+
+    try:
+        scheme, location = parse_address(address, strict=True)
+        if scheme not in backends:
+            known = ", ".join(sorted(backends))
+            raise ValueError(f"unknown protocol '{scheme}' (protocols: {known})")
+        if scheme in ("tcp", "tls", "ws", "wss"):
+            parse_host_port(location)
+    except ValueError as exc:
         raise InputError(f"bad Dask scheduler address '{address}': {exc}") from None
 
 

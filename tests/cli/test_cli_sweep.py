@@ -120,6 +120,9 @@ def test_a_scenario_without_variants_runs_as_written(cli: Run, tmp_path: Path) -
     (["--log-rate", "0"], "--log-rate must be a number of hertz above 0"),
     (["--executor", "dask", "--scheduler", "tcp://x", "--connect-timeout", "nan"],
      "--connect-timeout must be"),
+    (["--executor", "dask", "--scheduler", "foo"], "bad Dask scheduler address 'foo'"),
+    (["--executor", "dask", "--scheduler", "tcp://"], "missing port number"),
+    (["--executor", "dask", "--scheduler", "http://127.0.0.1:1"], "unknown protocol 'http'"),
     (["--executor", "dask", "--scheduler", "tcp://x", "--connect-timeout", "1e308"],
      "--connect-timeout must be a number of seconds above 0 and at most 3600, got 1e+308"),
 ])
