@@ -76,10 +76,15 @@ class SerialExecutor(Executor):
         self.shutdown()
 
 
-class ProcessExecutor(ProcessPoolExecutor):
-    """A process pool whose workers ignore Ctrl-C and can be stopped at once."""
+class ProcessExecutor(Executor):
+    """A process pool whose workers ignore Ctrl-C and can be stopped at once, and which can
+    be renewed when a worker died (which breaks a `ProcessPoolExecutor` for good)."""
 
     def __init__(self, jobs: int) -> None:
+        self.slots = jobs
+        self._pool = self._new_pool()
+
+    def _new_pool(self) -> ProcessPoolExecutor:
         from hubero_dsl.sweep.worker import install_worker_signals
 
         context: Any
@@ -90,13 +95,27 @@ class ProcessExecutor(ProcessPoolExecutor):
             context.set_forkserver_preload(list(WORKER_MODULES))
         else:
             context = multiprocessing.get_context("spawn")
-        super().__init__(max_workers=jobs, mp_context=context,
-                         initializer=install_worker_signals, initargs=(os.getpid(),))
-        self.slots = jobs
+        return ProcessPoolExecutor(max_workers=self.slots, mp_context=context,
+                                   initializer=install_worker_signals, initargs=(os.getpid(),))
+
+    def submit(self, fn: Callable[P, T], /, *args: P.args, **kwargs: P.kwargs) -> Future[T]:
+        return self._pool.submit(fn, *args, **kwargs)
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        self._pool.shutdown(wait=wait, cancel_futures=cancel_futures)
+
+    def renew(self) -> None:
+        """A fresh pool in place of one a dead worker broke (it refuses all work after)."""
+        self._pool.shutdown(wait=False, cancel_futures=True)
+        self._pool = self._new_pool()
+
+    def workers(self) -> list[multiprocessing.process.BaseProcess]:
+        """The pool's worker processes now."""
+        return list((getattr(self._pool, "_processes", None) or {}).values())
 
     def terminate(self) -> None:
         """Cancel the queued runs and stop the running ones (their logs are not kept)."""
-        workers = list((getattr(self, "_processes", None) or {}).values())
+        workers = self.workers()
         self.shutdown(wait=False, cancel_futures=True)
         for process in workers:
             with contextlib.suppress(OSError, ValueError):

@@ -16,10 +16,11 @@ finish are removed (a Dask worker may still finish a run it had started, and wri
 from __future__ import annotations
 
 import contextlib
+import itertools
 import os
 import tempfile
 from collections.abc import Callable, Iterator, Mapping
-from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
+from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, Executor, Future, wait
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -100,7 +101,7 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, executor: Executor, *,
     limit = window if window is not None else 2 * executor_slots(executor)
     records: dict[int, RunRecord] = {}
     pending: dict[Future[RunRecord], int] = {}
-    queue = iter(enumerate(tasks))
+    queue: Iterator[tuple[int, RunTask]] = iter(enumerate(tasks))
 
     def collect(index: int, record: RunRecord) -> None:
         records[index] = record
@@ -111,6 +112,13 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, executor: Executor, *,
         _submit(executor, queue, tasks, pending, collect, max(1, limit))
         while pending:
             finished, _ = wait(pending, return_when=FIRST_COMPLETED)
+            if any(_broke_the_pool(future) for future in finished) and _renew(executor):
+                finished = set(wait(pending).done)  # every submitted run fails with the pool
+                unstarted = {f: pending.pop(f) for f in finished
+                             if _broke_the_pool(f) and not _started(tasks[pending[f]])}
+                finished -= set(unstarted)  # they go again, first, in the fresh pool
+                queue = itertools.chain(((i, tasks[i]) for i in sorted(unstarted.values())),
+                                        queue)
             for future in sorted(finished, key=pending.__getitem__):
                 index = pending.pop(future)
                 collect(index, _record_of(future, tasks[index]))
@@ -144,14 +152,43 @@ def _submit(executor: Executor, queue: Iterator[tuple[int, RunTask]], tasks: lis
             pending[future] = index
 
 
+def _broke_the_pool(future: Future[RunRecord]) -> bool:
+    return not future.cancelled() and isinstance(future.exception(), BrokenExecutor)
+
+
+def _renew(executor: Executor) -> bool:
+    """A worker died: a process pool refuses all work after, so the runs not yet started go
+    on in a fresh one (those in flight cannot be told from the one that died, and fail).
+    False for an executor that cannot be renewed."""
+    renew = getattr(executor, "renew", None)
+    if renew is not None:
+        renew()
+    return renew is not None
+
+
+def _started(task: RunTask) -> bool:
+    """Whether a run had begun writing its log (its temporary file, or the log itself)."""
+    folder, name = os.path.split(task.log_path)
+    return os.path.exists(task.log_path) or any(Path(folder).glob(f".{name}.*.part"))
+
+
 def _record_of(future: Future[RunRecord], task: RunTask) -> RunRecord:
-    """The worker's record, or an error record when the worker itself failed."""
+    """The worker's record, or an error record when the worker itself failed (its log's
+    temporary file, which a killed worker leaves, removed)."""
     try:
         return future.result()
     except KeyboardInterrupt:
         raise
     except BaseException as exc:  # the worker died or exited, a pickling error, Dask lost it
+        _remove_temporary_logs(task)
         return error_record(task.variant, task.seed, _worker_failure(exc))
+
+
+def _remove_temporary_logs(task: RunTask) -> None:
+    folder, name = os.path.split(task.log_path)
+    for temp in Path(folder).glob(f".{name}.*.part"):
+        with contextlib.suppress(OSError):
+            temp.unlink()
 
 
 def _worker_failure(exc: BaseException) -> str:
