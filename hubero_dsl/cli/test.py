@@ -10,7 +10,7 @@ to that robot in every file that has one.
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from hubero_dsl.cli.run import (
     add_run_options,
@@ -19,6 +19,9 @@ from hubero_dsl.cli.run import (
     run_one,
     variants_to_run,
 )
+
+if TYPE_CHECKING:
+    from hubero_dsl.model.program import Program
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -45,22 +48,27 @@ def run(args: argparse.Namespace) -> int:
     failures = runs = 0
     bad_input = False
     controllers = handed_controllers(args)
-    handed_to: set[str] = set()
     if args.variant is not None:
         args.all_variants = False
+    programs: list[tuple[str, Program]] = []
     for file in args.files:
         try:
-            program = compile_file(file)
+            programs.append((file, compile_file(file)))
         except HuberoError as exc:  # this file's mistakes are said; the other files still run
             report_error(exc)
             console.print(f"[red]ERROR[/] {escape(file)}: does not compile")
             runs, failures = runs + 1, failures + 1
             bad_input = bad_input or isinstance(exc, InputError)
-            continue
-        robots = {robot.name for robot in program.robots}
-        mine = {name: cls for name, cls in controllers.items() if name in robots}
-        handed_to |= set(mine)
-        for variant in variants_to_run(program, args):
+    # the options are checked against every file before anything runs
+    planned = [(file, program, _variants(file, program, args)) for file, program in programs]
+    robots = {robot.name for _, program, _ in planned for robot in program.robots}
+    unused = sorted(set(controllers) - robots)
+    if unused:
+        raise InputError(f"--controller: no robot named '{unused[0]}' in any of the files")
+    for file, program, variants in planned:
+        mine = {name: cls for name, cls in controllers.items()
+                if name in {robot.name for robot in program.robots}}
+        for variant in variants:
             runs += 1
             name = escape(file + (f" [{variant}]" if variant else ""))
             try:
@@ -81,7 +89,14 @@ def run(args: argparse.Namespace) -> int:
                 if not expectation.held:
                     console.print(f"    expectation fails: {escape(expectation.text)}")
     console.print(f"{runs - failures} passed, {failures} failed")
-    unused = sorted(set(controllers) - handed_to)
-    if unused:
-        raise InputError(f"--controller: no robot named '{unused[0]}' in any of the files")
     return 2 if bad_input else 1 if failures else 0
+
+
+def _variants(file: str, program: Program, args: argparse.Namespace) -> list[str | None]:
+    """The variants of `file` to run; InputError naming the file for an unknown --variant."""
+    from hubero_dsl.errors import InputError
+
+    try:
+        return variants_to_run(program, args)
+    except InputError as exc:
+        raise InputError(f"{file}: {exc.message}") from None

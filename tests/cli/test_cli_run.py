@@ -160,3 +160,17 @@ def test_the_summary_has_a_row_per_crowd_or_every_member_with_members(
     listed = cli("run", scenario, "--no-log", "--members")
     assert "visitors_1 " in listed.out and "visitors (crowd)" not in listed.out
     assert cli("test", scenario, "--members").status == 2  # a summary option of run only
+
+
+def test_hubero_test_checks_its_options_against_every_file_before_running_any(
+        cli: Callable[..., Outcome], tmp_path: Path) -> None:
+    plain = scenario(tmp_path, "activity { a stand for 1 s }\n")
+    variant = cli("test", LIVING_ROOM, plain, "--variant", "circle")
+    assert variant.status == 2
+    assert f"{plain}: unknown variant 'circle' (variants: none)" in variant.err
+    assert "PASS" not in variant.out
+    robot = cli("test", LIVING_ROOM, "--controller",
+                "robot9=tests.sweep.bench_controllers:Raising")
+    assert robot.status == 2
+    assert "--controller: no robot named 'robot9' in any of the files" in robot.err
+    assert "PASS" not in robot.out
