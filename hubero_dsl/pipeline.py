@@ -38,6 +38,7 @@ from hubero_dsl.model.program import (
     FlowSpec,
     HumanSpec,
     ParamLayer,
+    ParamValue,
     Pose,
     Program,
     Variant,
@@ -205,7 +206,7 @@ class _Crowds:
 def _crowd_members(facts: Facts, grid: OccupancyGrid, lowering: Lowering,
                    diagnostics: list[Diagnostic]) -> _Crowds:
     """Every crowd's members, placed at seeded random places of its area where they fit."""
-    taken = [(*start.xy, _radius(facts.human_layers.get(name), facts))
+    taken = [(*start.xy, _radius(facts.human_layers.get(name), facts, name))
              for name, start in facts.human_starts.items()]
     taken += [(*robot.start.xy, robot.radius) for robot in facts.robots]
     fixed = tuple(taken)
@@ -213,7 +214,8 @@ def _crowd_members(facts: Facts, grid: OccupancyGrid, lowering: Lowering,
     members: list[HumanSpec] = []
     specs: list[CrowdSpec] = []
     for crowd in facts.crowds:
-        spec = CrowdSpec(crowd.name, lowering.area(crowd.area), _radius(crowd.layer, facts),
+        spec = CrowdSpec(crowd.name, lowering.area(crowd.area),
+                         _radius(crowd.layer, facts, crowd.name),
                          crowd.heading, crowd.members)
         places = place_crowd(grid, crowd.name, len(crowd.members), spec.area, spec.radius,
                              taken, seed, crowd.span, diagnostics)
@@ -233,7 +235,7 @@ def _flows(facts: Facts, grid: OccupancyGrid, lowering: Lowering,
     for flow in facts.flows:
         if flow.target is None or flow.rate is None:
             continue
-        area, radius = lowering.area(flow.area), _radius(flow.layer, facts)
+        area, radius = lowering.area(flow.area), _radius(flow.layer, facts, flow.name)
         check_bodies(grid, [(f"the target of flow '{flow.name}'", flow.target, radius,
                              flow.span)], diagnostics)
         if not len(grid.entry_places(area, flow.target, radius)):
@@ -251,15 +253,26 @@ def _flows(facts: Facts, grid: OccupancyGrid, lowering: Lowering,
     return tuple(flows), tuple(members)
 
 
-def _radius(layer: ParamLayer | None, facts: Facts) -> float:
-    """The largest body radius a human of this layer may have (a distribution's upper end)."""
-    for source in (layer, facts.defaults):
-        value = source.values.get("radius") if source is not None else None
-        if isinstance(value, float):
-            return value
-        if isinstance(value, Distribution):
-            return value.second if value.kind == "uniform" else value.first + 2 * value.second
-    return float(HUMAN_PARAMS["radius"].default)  # type: ignore[arg-type]
+def _radius(layer: ParamLayer | None, facts: Facts, name: str) -> float:
+    """The largest body radius a human (crowd, flow) `name` of this layer may have, as
+    written or in any variant (a distribution's upper end): people are placed once, for every
+    variant, where the largest of them fits."""
+    written = next((_largest(value) for source in (layer, facts.defaults)
+                    if source is not None and (value := source.values.get("radius")) is not None),
+                   float(HUMAN_PARAMS["radius"].default))  # type: ignore[arg-type]
+    varied = [_largest(value) for variant in (
+        *(layer for _, layer in facts.variants),
+        *(layer for _, options in facts.sweeps for _, layer in options))
+        for value in (variant.values.get("radius"),
+                      variant.per_human.get(name, {}).get("radius")) if value is not None]
+    return max([written, *varied])
+
+
+def _largest(value: ParamValue) -> float:
+    """A radius, or the upper end of a distribution of radii."""
+    if isinstance(value, Distribution):
+        return value.second if value.kind == "uniform" else value.first + 2 * value.second
+    return float(cast(float, value))
 
 
 def _variants(facts: Facts) -> dict[str, Variant]:

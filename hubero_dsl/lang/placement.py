@@ -109,7 +109,8 @@ def place_crowd(grid: OccupancyGrid, name: str, count: int, area: Polygon, radiu
     if len(placed) == count:
         return placed
     diagnostics.append(error("E406", f"only {len(placed)} of the {count} people of crowd "
-                             f"'{name}' fit in its area", span,
+                             f"'{name}' fit in its area, as bodies of radius {radius:g} m "
+                             "(the largest the crowd has in any variant)", span,
                              "make the area larger, or the crowd smaller"))
     return placed
 

@@ -6,6 +6,7 @@ import itertools
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from hubero_dsl.errors import SimulationError
@@ -134,3 +135,27 @@ def test_a_crowd_forever_before_other_steps_is_one_error(room_map: Path) -> None
     text = _text(room_map, "crowd v 5 in rect((1, 1), (9, 7))\n"
                            "activity { v move_around forever; v stand for 1 s }\n")
     assert [d.code for d in check_source(text, "t.hub").errors] == ["E308"]
+
+
+def test_a_crowd_is_placed_where_its_largest_variant_fits(room_map: Path) -> None:
+    # placed once for every variant: the members of the 0.4 m variant do not overlap
+    body = ("crowd c 8 in rect((1, 1), (5, 5))\nvariant big { c.radius 0.4 m }\n"
+            "activity { c stand for 1 s }\n")
+    program = compile_source(_text(room_map, body, 1), "t.hub")
+    sim = Simulation(program, variant="big")
+    place = sim.engine.humans.position
+    apart = np.hypot(*(place[:, None, :] - place[None, :, :]).transpose(2, 0, 1))
+    assert apart[np.triu_indices(len(place), 1)].min() >= 0.8
+    crowded = ("crowd c 60 in rect((1, 1), (5, 5))\nvariant big { c.radius 0.4 m }\n"
+               "activity { c stand for 1 s }\n")
+    (error,) = check_source(_text(room_map, crowded, 1), "t.hub").errors
+    assert error.code == "E406" and "as bodies of radius 0.4 m" in error.message
+
+
+def test_a_flow_whose_variant_makes_it_too_wide_for_its_area_is_e407(room_map: Path) -> None:
+    body = ("flow f from rect((0.1, 0.1), (0.5, 0.5)) to (8, 4) rate 6 /min for 10 s\n"
+            "variant big { f.radius 0.55 m }\n")
+    assert check_source(_text(room_map, body.replace("variant", "# variant"), 1),
+                        "t.hub").program is not None
+    (error,) = check_source(_text(room_map, body, 1), "t.hub").errors
+    assert error.code == "E407" and "radius 0.55 m" in error.message
