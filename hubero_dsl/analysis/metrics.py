@@ -145,6 +145,15 @@ def _flatten(prefix: str, value: object, rows: dict[str, Scalar]) -> None:
 # ---- computing ---------------------------------------------------------------------------
 
 
+def _final_status(time: FloatArray, status: npt.NDArray[Any], events: list[TaskEvent]) -> str:
+    """The status in the last frame; a task's end after it (a flow's member leaves the scene
+    as it arrives: its last frame shows it still walking) is the human's last word."""
+    last = events[-1] if events else None
+    if last is not None and (not len(time) or last.time > float(time[-1])):
+        return str(last.status.value)
+    return str(status[-1]) if len(status) else NO_STATUS
+
+
 @dataclass(frozen=True)
 class _Actor:
     """What the pairwise metrics need of any actor, human or robot."""
@@ -172,7 +181,7 @@ def compute_metrics(run: LoggedRun) -> RunMetrics:
             min_distance=pairs.min_distance[name],
             personal_space_intrusion_time=pairs.intrusion_time[name],
             collisions=pairs.collisions[name],
-            final_status=str(track.status[-1]) if len(track.status) else NO_STATUS)
+            final_status=_final_status(track.time, track.status, events))
     robots = {}
     for name in sorted(run.robots):
         speeds = _Motion.of(actors[name], [])

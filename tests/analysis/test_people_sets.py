@@ -214,3 +214,19 @@ def test_the_overlay_of_two_runs_draws_a_crowd_as_the_picture_does(
     # a member asked for by name is drawn in full, as a named human is
     plot_module.plot_overlay(a, b, tmp_path / "one.png", humans=["visitors_2"])
     assert "visitors_2" in legends[-1] and not any("crowd" in x for x in legends[-1])
+
+
+def test_a_flows_member_who_left_at_its_target_ends_with_its_task_done(
+        tmp_path: Path) -> None:
+    from hubero_dsl.analysis.metrics import compute_metrics
+    from hubero_dsl.pipeline import compile_source
+
+    text = (f'scenario "f"\nmap "{ROOT / "maps" / "parking.yaml"}"\nseed 2\ntime_limit 40 s\n'
+            "flow walkers from rect((14, 0), (16, 3)) to (12.0, 7.0) rate 20 /min for 10 s\n")
+    log = tmp_path / "flow.mcap"
+    simulate(compile_source(text, str(tmp_path / "f.hub")), log=log, writer_process=False)
+    run = load_run(log)
+    came = {e.human for e in run.events if e.status.value == "SUCCEEDED"}
+    assert came
+    metrics = compute_metrics(run)
+    assert {metrics.humans[name].final_status for name in came} == {"SUCCEEDED"}
