@@ -519,11 +519,13 @@ def diff_sweep(directory: str | Path, baseline: str, *,
     from hubero_dsl.log.reader import load_run
 
     index = load_index(directory)
-    variants = sorted({str(r.variant) for r in index.runs})
+    variants = sorted({r.variant for r in index.runs if r.variant is not None})
     bases = {r.seed: r for r in index.runs if r.variant == baseline}
     if not bases:
+        known = (f"variants: {', '.join(variants)}" if variants else
+                 "its scenario has no variants: a sweep of seeds alone has no baseline")
         raise InputError(f"no run of the baseline variant '{baseline}' in {index.directory} "
-                         f"(variants: {', '.join(variants)})")
+                         f"({known})")
     loaded: dict[Path, tuple[LoggedRun, RunMetrics]] = {}
 
     def read(path: Path) -> tuple[LoggedRun, RunMetrics]:

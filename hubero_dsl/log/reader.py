@@ -173,8 +173,9 @@ def load_run(path: str | Path) -> LoggedRun:
             IndexError, AttributeError, OverflowError) as exc:
         # Whatever a damaged file makes the MCAP library or the JSON decoder trip on; an
         # OverflowError is a number too large for a float or an integer (a forged timestamp).
+        said = str(exc) or type(exc).__name__  # some say nothing: name what they are
         raise LogError(f"{path} is not a readable hubero run log (truncated or corrupt?): "
-                       f"{exc}") from None
+                       f"{said}") from None
 
 
 def _read(path: Path, stream: Any) -> LoggedRun:

@@ -199,6 +199,9 @@ def test_sweep_table(cli: Cli, logs: dict[str, Path], tmp_path: Path) -> None:
     ('{"version": 1, "runs": []}', ("--baseline", "near"), "lists no runs"),
     ("[1, 2", ("--baseline", "near"), "cannot be read as a sweep index"),
     ("sweep", ("--baseline", "square"), "no run of the baseline variant 'square'"),
+    ('{"version": 1, "runs": [{"variant": null, "seed": 1, "log": "runs/1.mcap"}]}',
+     ("--baseline", "near"), "its scenario has no variants: a sweep of seeds alone has no "
+     "baseline"),
     ("sweep", (), "--baseline VARIANT"),
     ("sweep", ("--baseline", "near", "--plot", "x.png"), "--plot draws two runs"),
 ])

@@ -49,8 +49,9 @@ def test_truncated(meeting: LoggedMeeting, tmp_path: Path, keep: float) -> None:
     data = meeting.log.read_bytes()
     path = tmp_path / "truncated.mcap"
     path.write_bytes(data[:int(len(data) * keep)])
-    with pytest.raises(LogError, match="truncated or corrupt"):
+    with pytest.raises(LogError, match="truncated or corrupt") as raised:
         load_run(path)
+    assert not raised.value.message.rstrip().endswith(":"), raised.value.message  # says what
 
 
 def test_corrupt_chunk(meeting: LoggedMeeting, tmp_path: Path) -> None:
