@@ -529,10 +529,15 @@ class Checker:
             layer = self._layer((param,), per_human_allowed=True)
             text = self.module.source.text
             options.append((f"{param.dotted}={_source_text(text, value.span)}", layer))
-        names = [name for name, _ in options]
-        for index, name in enumerate(names):
-            if name in names[:index]:
-                self.report("E102", f"the sweep lists '{name}' twice", sweep.values[index].span)
+        for index, (name, layer) in enumerate(options):
+            # the same value however written (`1.0 m/s` and `1 m/s`) would run twice
+            said = bool(layer.values or layer.per_human)  # (a value in error says nothing)
+            same = next((earlier for earlier, other in options[:index]
+                         if earlier == name or (said and other == layer)), None)
+            if same is not None:
+                written = "" if same == name else f" (as '{same}')"
+                self.report("E102", f"the sweep lists '{name}' twice{written}",
+                            sweep.values[index].span)
         self.facts.sweeps.append((sweep.param.dotted, options))
 
     # ---- parameters ------------------------------------------------------------------------

@@ -417,6 +417,18 @@ def test_a_sweep_value_listed_twice(check: Check) -> None:
     assert spans(result) == [("E102", 5, 33, 38)]
 
 
+@pytest.mark.parametrize("values", ["1.0 m/s, 1 m/s", "0.5 m/s, 0.50 m/s",
+                                    "circle(radius: 0.2 m), circle(radius:0.2m)"])
+def test_a_sweep_value_written_twice_in_two_ways(check: Check, values: str) -> None:
+    param = "personal_space" if "circle" in values else "speed"
+    (error,) = check(f"sweep {param} in [{values}]").errors
+    assert error.code == "E102" and "twice (as '" in error.message
+
+
+def test_a_sweep_of_values_in_error_is_not_said_to_repeat_them(check: Check) -> None:
+    assert "E102" not in {d.code for d in check("sweep speed in [1 kg, 2 kg]").errors}
+
+
 def test_a_sweep_of_an_unknown_parameter_is_one_error(check: Check) -> None:
     result = check("sweep sped in [1 m/s, 1.2 m/s, 1.4 m/s]")
     assert spans(result) == [("E105", 5, 7, 11)]
