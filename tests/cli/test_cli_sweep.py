@@ -16,6 +16,7 @@ import pytest
 
 from tests.cli.conftest import REPO_ROOT, Outcome, assert_no_traceback
 from tests.sweep.conftest import OUTCOMES as OUTCOMES_TEMPLATE
+from tests.sweep.conftest import wandering
 
 MAP = REPO_ROOT / "maps" / "living_room.yaml"
 Run = Callable[..., Outcome]
@@ -36,15 +37,7 @@ seed 9
 human a at (1, 1)
 activity {{ a stand for 1 s }}
 """
-LONG = f"""\
-scenario "long"
-map "{MAP}"
-time_limit 2 min
-human a at (1, 1)
-human b at (3, 1)
-activity {{ a move_around in rect((0, 0), (4, 3)) for 15 s }}
-activity {{ b move_around in rect((0, 0), (4, 3)) for 15 s }}
-"""
+LONG = wandering(MAP, 15)
 
 
 def scenario(tmp_path: Path, text: str) -> str:

@@ -3,6 +3,7 @@ centre."""
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 
@@ -131,16 +132,20 @@ def test_members_sent_on_tasks_of_their_own_do_not_keep_abreast(hall_map: Path) 
     assert ended["fast"] < ended["slow"] - 0.5
 
 
+def _each_faces_the_centre(sim: Simulation, names: tuple[str, ...]) -> bool:
+    """Whether each of `names` is turned to within 0.1 rad of their centre."""
+    centre = np.mean([sim.human(name).position for name in names], axis=0)
+    return all(abs(math.remainder(math.atan2(*(centre - sim.human(name).position)[::-1])
+                                  - sim.human(name).heading, math.tau)) < 0.1
+               for name in names)
+
+
 def test_a_group_talks_facing_its_centre(room_map: Path) -> None:
     program = compile_source(_text(room_map, FAMILY + "group family of (mum, dad, kid)\n"
                                    "activity { family talk for 2 s }\n"), "t.hub")
     sim = Simulation(program)
     run_program(sim)
-    centre = np.mean([sim.human(n).position for n in ("mum", "dad", "kid")], axis=0)
-    for name in ("mum", "dad", "kid"):
-        x, y = sim.human(name).position
-        bearing = math.atan2(centre[1] - y, centre[0] - x)
-        assert abs(math.remainder(bearing - sim.human(name).heading, math.tau)) < 0.1
+    assert _each_faces_the_centre(sim, ("mum", "dad", "kid"))
 
 
 def test_a_group_in_a_line_steps_into_a_circle_to_talk(room_map: Path) -> None:
@@ -161,9 +166,7 @@ def test_a_group_in_a_line_steps_into_a_circle_to_talk(room_map: Path) -> None:
     bearings = np.sort(np.arctan2(*(places - centre).T[::-1]))
     gaps = np.diff(np.append(bearings, bearings[0] + math.tau))
     assert np.allclose(gaps, math.tau / 4, atol=0.35)  # round it (a line: 0 and pi)
-    for name, (x, y) in zip(names, places, strict=True):
-        bearing = math.atan2(centre[1] - y, centre[0] - x)
-        assert abs(math.remainder(bearing - sim.human(name).heading, math.tau)) < 0.1
+    assert _each_faces_the_centre(sim, names)
 
 
 def test_a_group_already_round_its_centre_keeps_its_places(room_map: Path) -> None:
@@ -225,13 +228,10 @@ def test_a_group_of_a_crowds_members_walks_abreast_and_talks_in_a_circle(
              "activity { g move_to (15, 5); g talk for 3 s }\n")
     sim = Simulation(compile_source(_text(hall_map, drawn), "t.hub"))
     run_program(sim)
-    places = np.array([sim.human(f"c_{i}").position for i in (1, 2, 3)])
-    centre = places.mean(axis=0)
-    assert min(math.dist(p, q) for p, q in ((places[0], places[1]), (places[1], places[2]),
-                                             (places[0], places[2]))) > 0.5
-    for i, (x, y) in enumerate(places, start=1):
-        bearing = math.atan2(centre[1] - y, centre[0] - x)
-        assert abs(math.remainder(bearing - sim.human(f"c_{i}").heading, math.tau)) < 0.1
+    names = ("c_1", "c_2", "c_3")
+    places = [sim.human(name).position for name in names]
+    assert min(math.dist(p, q) for p, q in itertools.combinations(places, 2)) > 0.5
+    assert _each_faces_the_centre(sim, names)
 
 
 def test_a_group_sent_into_a_door_goes_there_when_its_places_are_in_the_walls(

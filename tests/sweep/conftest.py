@@ -55,6 +55,14 @@ human a at (1, 1)
 activity {{ a move_to (1.5, 1) }}
 """
 
+def wandering(map_path: Path | str, seconds: float) -> str:
+    """Two people wandering for `seconds`: a run that lasts long enough to be stopped in."""
+    return (f'scenario "wandering"\nmap "{map_path}"\ntime_limit 2 min\n'
+            "human a at (1, 1)\nhuman b at (3, 1)\n"
+            + "".join(f"activity {{ {who} move_around in rect((0, 0), (4, 3)) for {seconds} s }}\n"
+                      for who in "ab"))
+
+
 Write = Callable[[str], Path]
 
 

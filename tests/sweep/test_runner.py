@@ -17,7 +17,7 @@ from hubero_dsl.sweep.index import write_index
 from hubero_dsl.sweep.plan import SweepPlan, plan_sweep
 from hubero_dsl.sweep.runner import SweepOutcome, prepare_out_dir, run_sweep
 from hubero_dsl.sweep.worker import RunRecord
-from tests.sweep.conftest import ABORTED, OUTCOMES, SWEPT, Write
+from tests.sweep.conftest import ABORTED, MAP, OUTCOMES, SWEPT, Write, wandering
 
 
 def plan_for(path: Path, seeds: tuple[int, ...] | None = None, variants: list[str] | None = None
@@ -176,24 +176,17 @@ def test_ctrl_c_keeps_the_finished_runs_and_stops_the_workers(
     assert not [p for p in tmp_path.rglob("*") if p.name.endswith((".part", ".tmp"))]
 
 
-WANDERING = """\
-scenario "wandering"
-map "{map}"
-time_limit 1 min
-human a at (1, 1)
-human b at (3, 1)
-activity {{ a move_around in rect((0, 0), (4, 3)) for 40 s }}
-activity {{ b move_around in rect((0, 0), (4, 3)) for 40 s }}
-"""
 
 
 def test_a_worker_that_dies_fails_the_runs_in_flight_and_the_rest_go_on(
-        write_scenario: Write, tmp_path: Path) -> None:
+        tmp_path: Path) -> None:
     import signal
     import threading
     import time
 
-    plan = plan_for(write_scenario(WANDERING), seeds=(1, 2, 3, 4, 5, 6))
+    scenario = tmp_path / "wandering.hub"
+    scenario.write_text(wandering(MAP, 40), encoding="utf-8")
+    plan = plan_for(scenario, seeds=(1, 2, 3, 4, 5, 6))
     out = tmp_path / "out"
     prepare_out_dir(plan, out)
     with open_executor("process", jobs=2) as executor:  # type: ignore[arg-type]
