@@ -257,10 +257,10 @@ def _radius(layer: ParamLayer | None, facts: Facts, name: str) -> float:
     """The largest body radius a human (crowd, flow) `name` of this layer may have, as
     written or in any variant (a distribution's upper end): people are placed once, for every
     variant, where the largest of them fits."""
-    written = next((_largest(value) for source in (layer, facts.defaults)
+    written = next((_upper(value) for source in (layer, facts.defaults)
                     if source is not None and (value := source.values.get("radius")) is not None),
                    float(HUMAN_PARAMS["radius"].default))  # type: ignore[arg-type]
-    varied = [_largest(value) for variant in (
+    varied = [_upper(value) for variant in (
         *(layer for _, layer in facts.variants),
         *(layer for _, options in facts.sweeps for _, layer in options))
         for value in (variant.values.get("radius"),
@@ -268,11 +268,9 @@ def _radius(layer: ParamLayer | None, facts: Facts, name: str) -> float:
     return max([written, *varied])
 
 
-def _largest(value: ParamValue) -> float:
+def _upper(value: ParamValue) -> float:
     """A radius, or the upper end of a distribution of radii."""
-    if isinstance(value, Distribution):
-        return value.second if value.kind == "uniform" else value.first + 2 * value.second
-    return float(cast(float, value))
+    return value.upper if isinstance(value, Distribution) else float(cast(float, value))
 
 
 def _variants(facts: Facts) -> dict[str, Variant]:

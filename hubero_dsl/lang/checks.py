@@ -815,8 +815,7 @@ class Checker:
                 if isinstance(value, float):
                     found.append(value)
                 elif isinstance(value, Distribution):  # a draw may be this large
-                    found.append(value.second if value.kind == "uniform"
-                                 else value.first + 2 * value.second)
+                    found.append(value.upper)
         base = [self.facts.defaults, own]
         if any("radius" in layer.values for layer in base):  # the file's own, not built-in
             found = found[1:] or found

@@ -41,6 +41,11 @@ class Distribution:
     def describe(self) -> str:
         return f"{self.kind}({self.first:g}, {self.second:g})"
 
+    @property
+    def upper(self) -> float:
+        """The most a draw may be, as far as checks go: the high end, or two deviations up."""
+        return self.second if self.kind == "uniform" else self.first + 2 * self.second
+
 
 ParamValue = float | str | Shape | Distribution
 
