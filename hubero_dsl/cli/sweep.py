@@ -23,6 +23,7 @@ from collections import Counter
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from hubero_dsl.cli.main import EXIT_INTERRUPTED, EXIT_TERMINATED
 from hubero_dsl.cli.run import refuse_live
 
 if TYPE_CHECKING:
@@ -33,8 +34,6 @@ if TYPE_CHECKING:
     from hubero_dsl.sweep.worker import RunRecord
 
 EXECUTORS = ("process", "serial", "dask")
-EXIT_INTERRUPTED = 130
-EXIT_TERMINATED = 143
 MAX_CONNECT = 3600.0  # s: --connect-timeout at most an hour
 
 
