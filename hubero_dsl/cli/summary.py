@@ -66,7 +66,7 @@ def print_summary(program: Program, result: RunResult, output: Path | None,
     if result.reason:
         console.print(f"  reason: {result.reason}")
     sets = None if members else _sets_table(program, result.humans)
-    named = result.humans if members else _named(program, result.humans)
+    named = _came(program, result.humans) if members else _named(program, result.humans)
     if named or sets is None:
         console.print(_actors_table(named, "human", "humans"))
     if sets is not None:
@@ -132,6 +132,13 @@ def _named(program: Program, humans: list[HumanSummary]) -> list[HumanSummary]:
     """The humans declared one by one (not members of a crowd or flow)."""
     named = {spec.name for spec in program.humans if spec.group is None}
     return [human for human in humans if human.name in named]
+
+
+def _came(program: Program, humans: list[HumanSummary]) -> list[HumanSummary]:
+    """Everyone but the people a flow could have brought and did not (no task ever)."""
+    flows = {m for _, (kind, members) in program.people_sets().items() if kind == "flow"
+             for m in members}
+    return [human for human in humans if human.name not in flows or human.tasks_total]
 
 
 def _sets_table(program: Program, humans: list[HumanSummary]) -> Table | None:

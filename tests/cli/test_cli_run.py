@@ -174,3 +174,15 @@ def test_hubero_test_checks_its_options_against_every_file_before_running_any(
     assert robot.status == 2
     assert "--controller: no robot named 'robot9' in any of the files" in robot.err
     assert "PASS" not in robot.out
+
+
+def test_members_lists_a_flows_people_who_came_only(cli: Callable[..., Outcome],
+                                                    tmp_path: Path) -> None:
+    path = tmp_path / "flow.hub"
+    path.write_text(f'scenario "f"\nmap "{REPO_ROOT / "maps" / "parking.yaml"}"\nseed 2\n'
+                    "time_limit 40 s\nflow walkers from rect((14, 0), (16, 3)) to (12.0, 7.0) "
+                    "rate 20 /min for 10 s\n", encoding="utf-8")
+    listed = cli("run", str(path), "--no-log", "--members")
+    assert listed.status == 0, listed.err
+    rows = [line for line in listed.out.splitlines() if "walkers_" in line]
+    assert rows and all("SUCCEEDED" in row for row in rows)  # none of those who never came
