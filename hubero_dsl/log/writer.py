@@ -30,6 +30,7 @@ runs in this process, where the server is, and `path` may be None (watched, not 
 from __future__ import annotations
 
 import contextlib
+import glob
 import itertools
 import math
 import multiprocessing
@@ -446,6 +447,12 @@ def ensure_directory(folder: str | Path) -> Path:
     except OSError as exc:
         raise LogError(f"cannot create log directory {folder}: {_reason(exc)}") from None
     return folder
+
+
+def temporary_logs(final: Path) -> list[Path]:
+    """The temporary files beside `final` that writers of it left (`_create_temp` names them):
+    a log being written, or one a killed process never finished."""
+    return sorted(final.parent.glob(f".{glob.escape(final.name)}.*.part"))
 
 
 def _create_temp(final: Path) -> tuple[int, Path]:

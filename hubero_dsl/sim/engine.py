@@ -483,10 +483,7 @@ class Engine:
                 pull = offset[far] / distance[far, None] * (
                     GROUP_PULL * (distance[far] - slack))[:, None]
                 moved = velocity[walking[far]] + pull * self._relaxing(walking[far])[:, None]
-                limit = h.max_speed[walking[far]]
-                speed = physics.lengths(moved)
-                velocity[walking[far]] = moved * np.minimum(1.0, limit / np.maximum(
-                    speed, 1e-9))[:, None]
+                velocity[walking[far]] = physics.capped(moved, h.max_speed[walking[far]])
         return velocity
 
     def _walk_abreast(self, velocity: FloatArray) -> FloatArray:
@@ -509,8 +506,7 @@ class Engine:
             lag = np.where(beside.T, lead.T, 0.0).max(axis=1)
             moved = velocity[walking] + (lag / ABREAST_CLOSE * self._relaxing(walking)
                                          )[:, None] * way
-            speed = physics.lengths(moved)
-            velocity[walking] = moved * np.minimum(1.0, cap / np.maximum(speed, 1e-9))[:, None]
+            velocity[walking] = physics.capped(moved, cap)
         return velocity
 
     def _relaxing(self, rows: IntArray) -> FloatArray:

@@ -242,6 +242,11 @@ def _slide_along_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
     return result
 
 
+def capped(vectors: FloatArray, limit: FloatArray) -> FloatArray:
+    """Each row scaled down to at most `limit` long (a speed limit on velocities)."""
+    return vectors * np.minimum(1.0, limit / np.maximum(lengths(vectors), 1e-9))[:, None]
+
+
 def lengths(vectors: FloatArray) -> FloatArray:
     """(N,) length of each row of (N, 2) vectors.
 

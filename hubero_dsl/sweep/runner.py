@@ -168,8 +168,9 @@ def _renew(executor: Executor) -> bool:
 
 def _started(task: RunTask) -> bool:
     """Whether a run had begun writing its log (its temporary file, or the log itself)."""
-    folder, name = os.path.split(task.log_path)
-    return os.path.exists(task.log_path) or any(Path(folder).glob(f".{name}.*.part"))
+    from hubero_dsl.log.writer import temporary_logs
+
+    return os.path.exists(task.log_path) or bool(temporary_logs(Path(task.log_path)))
 
 
 def _record_of(future: Future[RunRecord], task: RunTask) -> RunRecord:
@@ -185,8 +186,9 @@ def _record_of(future: Future[RunRecord], task: RunTask) -> RunRecord:
 
 
 def _remove_temporary_logs(task: RunTask) -> None:
-    folder, name = os.path.split(task.log_path)
-    for temp in Path(folder).glob(f".{name}.*.part"):
+    from hubero_dsl.log.writer import temporary_logs
+
+    for temp in temporary_logs(Path(task.log_path)):
         with contextlib.suppress(OSError):
             temp.unlink()
 
