@@ -160,7 +160,8 @@ def _check_module(module: ast.Module, diagnostics: list[Diagnostic]) -> Program 
                         cast("Polygon | None", facts.settings.get("bounds")),
                         {**{crowd.name: crowd.members for crowd in facts.crowds},
                          **{flow.name: flow.members for flow in facts.flows},
-                         **facts.groups}, frozenset(facts.groups))
+                         **facts.groups}, frozenset(facts.groups),
+                        frozenset(flow.name for flow in facts.flows))
     activities = lowering.activities(module.of_type(ast.ActivityDecl))
     graph = build_activity_graph(activities)
     diagnostics.extend(verify_activities(activities, graph, label_names=False))

@@ -85,7 +85,8 @@ class Lowering:
     def __init__(self, source: SourceFile, places: Mapping[str, Pose],
                  areas: Mapping[str, Polygon], bounds: Polygon | None,
                  groups: Mapping[str, tuple[str, ...]] | None = None,
-                 walking_groups: frozenset[str] = frozenset()) -> None:
+                 walking_groups: frozenset[str] = frozenset(),
+                 flows: frozenset[str] = frozenset()) -> None:
         self.source = source
         self.places = places
         self.areas = areas
@@ -93,6 +94,9 @@ class Lowering:
         self.groups = groups or {}   # a crowd's or group's name -> its members
         # the `group`s among them: their members walk together, and talk facing each other
         self.walking_groups = walking_groups
+        # the flows among them: their people come and go, so `all` and `any` count where
+        # each one left the scene too (`c.FlowReaches`)
+        self.flows = flows
 
     # ---- activities ------------------------------------------------------------------------
 
@@ -204,6 +208,9 @@ class Lowering:
             case ast.DistanceCondition():
                 return c.DistanceTo(condition.subject.name, self.target(condition.target),
                                     condition.operator, seconds(condition.threshold), span, text)
+            case ast.AllReach() | ast.AnyReaches() if condition.group.name in self.flows:
+                return c.FlowReaches(condition.group.name, self.target(condition.target),
+                                     isinstance(condition, ast.AllReach), span, text)
             case ast.AllReach():
                 target = self.target(condition.target)
                 return c.AllOf(tuple(c.Reaches(member, target, span, text) for member in

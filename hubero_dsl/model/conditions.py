@@ -52,6 +52,20 @@ class Reaches:
 
 
 @dataclass(frozen=True, slots=True)
+class FlowReaches:
+    """`all FLOW reach TARGET` (`every`) or `any FLOW reaches TARGET`, over the people the flow
+    has brought: each where they are, or where they left the scene. `all` holds once the flow
+    brings nobody more, at least one came, and every one who came is within their goal
+    tolerance of the target."""
+
+    flow: str
+    target: Target
+    every: bool
+    span: Span
+    text: str
+
+
+@dataclass(frozen=True, slots=True)
 class DistanceTo:
     """`distance(NAME, TARGET) OP Q`, centre to centre, in metres."""
 
@@ -125,8 +139,8 @@ class MetricCompare:
     text: str
 
 
-Condition: TypeAlias = (LabelCondition | Reaches | DistanceTo | Inside | CountInside
-                        | TimeCompare | Not | AllOf | AnyOf)
+Condition: TypeAlias = (LabelCondition | Reaches | FlowReaches | DistanceTo | Inside
+                        | CountInside | TimeCompare | Not | AllOf | AnyOf)
 
 
 def walk_conditions(condition: Condition) -> list[Condition]:

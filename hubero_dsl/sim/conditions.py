@@ -21,6 +21,7 @@ from hubero_dsl.model.tasks import Target
 
 if TYPE_CHECKING:
     from hubero_dsl.sim.engine import Engine
+    from hubero_dsl.sim.flows import Flows
 
 COMPARE: dict[str, Callable[[float, float], bool]] = {
     "<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
@@ -52,6 +53,7 @@ class Conditions:
     def __init__(self, engine: Engine, labels: LabelBook) -> None:
         self.engine = engine
         self.labels = labels
+        self.flows: Flows | None = None   # the run's flows, set when it has any
         # by the condition's identity; the condition is kept, so its id is never reused
         self._tests: dict[int, tuple[c.Condition, Callable[[], bool]]] = {}
 
@@ -75,6 +77,8 @@ class Conditions:
             case c.Reaches(subject=subject, target=target):
                 return self._within(subject, target, operator.le,
                                     self.engine.goal_tolerance_of(subject))
+            case c.FlowReaches(flow=flow, target=target, every=every):
+                return self._flow_reaches(flow, target, every)
             case c.DistanceTo(subject=subject, target=target, operator=op, threshold=threshold):
                 return self._within(subject, target, COMPARE[op], threshold)
             case c.Inside(subject=subject, area=area):
@@ -111,6 +115,22 @@ class Conditions:
             a, b = here(), there()
             return a is not None and b is not None and compare(
                 math.hypot(b[0] - a[0], b[1] - a[1]), bound)
+        return holds
+
+    def _flow_reaches(self, flow: str, target: Target, every: bool) -> Callable[[], bool]:
+        """Whether all (`every`) or any of the people `flow` has brought are, or left the
+        scene, within their goal tolerance of `target`; `all` only once nobody more will come
+        and someone came."""
+        there, tolerance = self.engine.locator(target), self.engine.humans.goal_tolerance
+
+        def holds() -> bool:
+            assert self.flows is not None  # a program with a flow builds its flows
+            rows, where, more = self.flows.whereabouts(flow)
+            at = there()
+            if at is None or not len(rows) or (every and more):
+                return False
+            within = np.hypot(where[:, 0] - at[0], where[:, 1] - at[1]) <= tolerance[rows]
+            return bool(within.all() if every else within.any())
         return holds
 
     def _count_inside(self, members: tuple[str, ...], area: object) -> int:

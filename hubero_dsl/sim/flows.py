@@ -13,7 +13,9 @@ and adding a flow does not change the others. At their arrival tick a member app
 random place of the flow's area where their body fits clear of every body present (a few
 places are tried each tick; when none fits, the area is full and the arrival waits, and the
 flow's later arrivals wait behind it). A member who appears is given `move_to TARGET`; when
-that task ends (arrived, or given up as stuck or unreachable) they leave the scene.
+that task ends (arrived, or given up as stuck or unreachable) they leave the scene, and where
+they left is kept: `all FLOW reach T` and `any FLOW reaches T` count the people who came where
+they are, or where they left (`whereabouts`).
 """
 
 from __future__ import annotations
@@ -55,6 +57,7 @@ class FlowState:
     entries: FloatArray       # (K, 2) places of the area where a member may appear
     radius: FloatArray        # each member's body radius
     rng: np.random.Generator
+    end_tick: int             # the duration's end, or the time limit's
     arrived: int = 0          # members brought in so far
     stopped: bool = False     # no more arrivals: the duration passed or `until` held
     walking: dict[int, TaskHandle] = field(default_factory=dict)  # row -> its walk
@@ -63,6 +66,11 @@ class FlowState:
     @property
     def spawning(self) -> bool:
         return not self.stopped and self.arrived < len(self.arrival_ticks)
+
+    def may_bring_more(self, tick: int) -> bool:
+        """Whether someone may still come: an arrival is waiting, or the flow's time is not
+        over (judged by what a watcher knows, not by the arrivals drawn for later)."""
+        return self.spawning or (not self.stopped and tick < self.end_tick)
 
 
 class Flows:
@@ -75,7 +83,9 @@ class Flows:
         self._holds = holds
         humans = engine.humans
         humans.present = np.ones(humans.count, dtype=bool)
+        self.left_at = np.full((humans.count, 2), np.nan)  # where each one left the scene
         self.states = [self._state(spec, seed_for(spec.name), time_limit) for spec in flows]
+        self._by_name = {state.spec.name: state for state in self.states}
         for state in self.states:
             self._leave(state.rows)
 
@@ -90,7 +100,7 @@ class Flows:
         ticks = np.ceil(times[times < end] / engine.dt - 1e-9).astype(np.intp)
         radius = engine.humans.radius[rows]
         entries = engine.grid.entry_places(spec.area, spec.target, float(radius.max()))
-        return FlowState(spec, rows, ticks, entries, radius, rng)
+        return FlowState(spec, rows, ticks, entries, radius, rng, engine.ticks(end))
 
     # ---- each tick ---------------------------------------------------------------------------
 
@@ -105,6 +115,16 @@ class Flows:
                 if not self._bring_in(state):
                     break  # the area is full: this arrival, and those after it, wait
 
+    def whereabouts(self, flow: str) -> tuple[IntArray, FloatArray, bool]:
+        """The rows of the people `flow` has brought so far, where each is now (or where they
+        left the scene), and whether it may bring more."""
+        state = self._by_name[flow]
+        humans = self.engine.humans
+        assert humans.present is not None
+        rows = state.rows[:state.arrived]
+        where = np.where(humans.present[rows, None], humans.position[rows], self.left_at[rows])
+        return rows, where, state.may_bring_more(self.engine.tick)
+
     def keeps_alive(self) -> bool:
         """Whether a flow with a duration or `until` is still spawning or has people here."""
         return any(s.spec.keeps_alive and (s.spawning or s.walking) for s in self.states)
@@ -115,7 +135,9 @@ class Flows:
         ended, state.ended = state.ended, []
         for row in ended:
             del state.walking[row]
-        self._leave(np.array(ended, dtype=np.intp))
+        rows = np.array(ended, dtype=np.intp)
+        self.left_at[rows] = self.engine.humans.position[rows]
+        self._leave(rows)
 
     def _bring_in(self, state: FlowState) -> bool:
         row = int(state.rows[state.arrived])

@@ -260,6 +260,7 @@ class Simulation:
                       lambda name: np.random.default_rng(stable_seed(seed, "flow", name)),
                       lambda name, task: self._humans[name].give(task), conditions.holds,
                       self.program.time_limit)
+        conditions.flows = flows
         if self.scheduler is not None:
             self.scheduler.keep_alive = flows.keeps_alive
         return flows

@@ -126,6 +126,55 @@ def test_conditions_count_the_people_present(room_map: Path) -> None:
     assert all(e.held for e in result.expectations), [e.text for e in result.expectations]
 
 
+def _verdicts(room_map: Path, body: str) -> dict[str, bool]:
+    result = run_program(Simulation(compile_source(_text(room_map, body), "t.hub")))
+    return {e.text: e.held for e in result.expectations}
+
+
+def test_all_and_any_count_the_people_who_came_where_they_left(room_map: Path) -> None:
+    # everyone walks to the target and leaves there: when the last has left, all reached it
+    assert _verdicts(room_map, """
+    time_limit 1 min
+    flow f from rect((0.5, 0.5), (2.5, 7.5)) to (9.0, 4.0) rate 1 /s for 6 s
+    expect all f reach (9.0, 4.0) eventually
+    expect any f reaches (9.0, 4.0) eventually
+    expect not (all f reach (9.0, 4.0)) within 6 s
+    expect all f reach (2.0, 4.0) eventually
+    """) == {"all f reach (9.0, 4.0) eventually": True,
+             "any f reaches (9.0, 4.0) eventually": True,
+             "not (all f reach (9.0, 4.0)) within 6 s": True,
+             "all f reach (2.0, 4.0) eventually": False}
+
+
+def test_all_never_holds_while_people_may_still_come(room_map: Path) -> None:
+    # a flow without `for` or `until` brings people until the time limit, however many of
+    # the arrivals drawn fall before it
+    assert _verdicts(room_map, """
+    time_limit 40 s
+    human h at (5, 7)
+    flow f from rect((0.5, 0.5), (2.5, 7.5)) to (9.0, 4.0) rate 0.2 /s
+    activity { h stand for 35 s }
+    expect all f reach (9.0, 4.0) eventually
+    expect any f reaches (9.0, 4.0) eventually
+    """) == {"all f reach (9.0, 4.0) eventually": False,
+             "any f reaches (9.0, 4.0) eventually": True}
+
+
+def test_a_walker_who_stopped_short_did_not_reach(room_map: Path) -> None:
+    # someone stands on the target: the walkers stop short of it and leave where they stood
+    result = run_program(Simulation(compile_source(_text(room_map, """
+    time_limit 2 min
+    human h at (9.0, 4.0)
+    flow f from rect((0.5, 0.5), (2.5, 7.5)) to (9.0, 4.0) rate 1 /s for 2 s
+    activity { h stand for 100 s }
+    expect all f reach (9.0, 4.0) eventually
+    expect any f reaches (9.0, 4.0) eventually
+    """), "t.hub")))
+    assert {e.reason for e in result.events if e.human.startswith("f_")
+            and e.status.is_final} == {"stopped short of a goal taken by h"}
+    assert [e.held for e in result.expectations] == [False, False]
+
+
 def test_a_variant_sets_the_parameters_of_a_whole_flow(room_map: Path) -> None:
     program = compile_source(_text(room_map, """
     flow f from rect((0.5, 0.5), (2.5, 7.5)) to (9.0, 4.0) rate 1 /s for 5 s { speed 1.1 m/s }
