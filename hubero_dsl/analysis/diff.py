@@ -346,6 +346,13 @@ def set_diffs(diff: RunDiff) -> dict[str, SetDiff]:
     return result
 
 
+def never_came(diff: RunDiff) -> set[str]:
+    """The flows' members who came in neither run: names with nothing to compare."""
+    return {member for kind, members in diff.sets.values() if kind == "flow"
+            for member in members if member in diff.humans
+            and not any(_came(diff.humans[member], side) for side in ("a", "b"))}
+
+
 def _came(human: HumanDiff, side: str) -> bool:
     """Whether a flow's member came in the run of `side` (it had a task: flows give their
     people theirs when they come)."""

@@ -10,9 +10,10 @@ Per human: every metric of both runs with B - A, the discrete Fréchet and Hausd
 between the two paths, the largest distance between the two at the same instant, the first
 instant they are more than --epsilon apart, and the parameters that differ. A crowd or flow is
 one table of its members' metrics summed up (--members, or --human NAME, lists its members one
-by one), and a human's closest approach to its members is one row. Exit 0 when the
-comparison was made (runs of different scenario texts or maps with the same humans are
-compared, with a note), 2 for unreadable logs, runs whose humans differ or a missing baseline.
+by one: a flow's who came in either run), and a human's closest approach to its members is one
+row. Exit 0 when the comparison was made (runs of different scenario texts or maps with the
+same humans are compared, with a note), 2 for unreadable logs, runs whose humans differ or a
+missing baseline.
 """
 
 from __future__ import annotations
@@ -85,7 +86,7 @@ def check_writable(path: Path, reads: tuple[Path, ...] = ()) -> None:
 
 
 def _pair(args: argparse.Namespace) -> int:
-    from hubero_dsl.analysis.diff import diff_runs, set_diffs
+    from hubero_dsl.analysis.diff import diff_runs, never_came, set_diffs
     from hubero_dsl.log.reader import load_run
 
     a, b = load_run(args.first), load_run(args.second)
@@ -102,7 +103,9 @@ def _pair(args: argparse.Namespace) -> int:
         return 0
     # with neither --human nor --members a crowd's or flow's members are its table
     sets = {} if args.human or args.members else set_diffs(diff)
-    listed = [h for h in humans if a.metadata.set_of(h) not in sets]
+    # a flow's members who came in neither run have no table, unless named one by one
+    absent = never_came(diff) - set(args.human or ())
+    listed = [h for h in humans if a.metadata.set_of(h) not in sets and h not in absent]
     _print_pair(diff, listed, list(sets.values()), a.metadata.set_of, _console())
     return 0
 
@@ -266,11 +269,14 @@ def _set_table(crowd: SetDiff, epsilon: float) -> Any:
     """A crowd's or flow's members summed up (`hubero_dsl.analysis.diff.SetDiff`)."""
     from rich.markup import escape
 
-    table = _metric_table(f"[bold]{crowd.kind} {escape(crowd.name)}[/]  {crowd.members} "
-                          "members")
+    # a flow's members are as many as it may bring; the first row says how many came
+    size = "" if crowd.kind == "flow" else f"  {crowd.members} members"
+    table = _metric_table(f"[bold]{crowd.kind} {escape(crowd.name)}[/]{size}")
     for metric in crowd.metrics:
         unit = _unit(metric.name)
-        table.add_row(_SET_LABELS[metric.name], _value(metric.a, unit), _value(metric.b, unit),
+        label = ("members who came" if metric.name == "members" and crowd.kind == "flow"
+                 else _SET_LABELS[metric.name])
+        table.add_row(label, _value(metric.a, unit), _value(metric.b, unit),
                       _delta(metric.delta, unit))
     table.add_section()
     table.add_row("path Fréchet distance (median)", "", "", _value(crowd.frechet_median, "m"))

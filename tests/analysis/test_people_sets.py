@@ -160,7 +160,14 @@ def test_a_crowds_table_sums_up_its_members(lounge: Path, reseeded: Path,
 
 
 def test_a_flows_table_counts_the_members_who_came() -> None:
-    from hubero_dsl.analysis.diff import HumanDiff, MetricDelta, RunDiff, RunSide, set_diffs
+    from hubero_dsl.analysis.diff import (
+        HumanDiff,
+        MetricDelta,
+        RunDiff,
+        RunSide,
+        never_came,
+        set_diffs,
+    )
 
     def member(name: str, status_a: str, status_b: str, length: float) -> HumanDiff:
         metrics = (MetricDelta("path_length", length, length, 0.0),
@@ -177,6 +184,28 @@ def test_a_flows_table_counts_the_members_who_came() -> None:
     assert (metrics["members"].a, metrics["members"].b) == (2, 1)
     assert (metrics["path_length"].a, metrics["path_length"].b) == (7.0, 10.0)
     assert (metrics["succeeded"].a, metrics["succeeded"].delta) == (1, 0)
+    assert never_came(diff) == {"p_3"}
+
+
+def test_diff_lists_a_flows_members_who_came(tmp_path: Path,
+                                             capsys: pytest.CaptureFixture[str]) -> None:
+    from hubero_dsl.pipeline import compile_source
+
+    text = (f'scenario "f"\nmap "{ROOT / "maps" / "parking.yaml"}"\nseed 2\ntime_limit 40 s\n'
+            "flow walkers from rect((14, 0), (16, 3)) to (12.0, 7.0) rate 20 /min for 10 s\n")
+    program = compile_source(text, str(tmp_path / "f.hub"))
+    logs = [tmp_path / "a.mcap", tmp_path / "b.mcap"]
+    for log, seed in zip(logs, (2, 3), strict=True):
+        simulate(program, log=log, seed=seed, writer_process=False)
+    came = {e.human for log in logs for e in load_run(log).events}
+    members = load_run(logs[0]).metadata.members("walkers")
+    assert came < set(members)   # the flow may bring more than came in either run
+    assert main(["diff", *map(str, logs)]) == 0
+    table = capsys.readouterr().out
+    assert "flow walkers\n" in table and "members who came" in table
+    assert main(["diff", *map(str, logs), "--human", "walkers"]) == 0
+    listed = set(re.findall(r"^(walkers_\d+)$", capsys.readouterr().out, re.MULTILINE))
+    assert listed == came
 
 
 def test_a_sweeps_table_gives_a_crowd_one_row(lounge: Path, reseeded: Path, tmp_path: Path,
