@@ -175,6 +175,7 @@ def _check_module(module: ast.Module, diagnostics: list[Diagnostic]) -> Program 
         diagnostics.append(idle)
     return Program(
         source=module.source, title=facts.title, map_path=map_path(module.source, facts.map),
+        map_written=facts.map.value,
         grid=grid, seed=cast(int, facts.settings.get("seed") or 0),
         step=cast(float, facts.settings.get("step") or 0.05),
         time_limit=cast(float, facts.settings.get("time_limit") or 600.0),

@@ -6,17 +6,15 @@ that means to alter behaviour regenerates the digests on purpose and says why in
 
     HUBERO_REGENERATE_LOG_DIGESTS=1 python -m pytest tests/test_log_identity.py
 
-The metadata records the map's absolute path, so the scenarios and maps are copied to one fixed
-folder and run from there with relative paths, as a user would type them.
+A log names its scenario by the file's name and its map as the file writes it, so the
+checkout's own files give the same bytes wherever it lies.
 """
 
 from __future__ import annotations
 
-import fcntl
 import hashlib
 import json
 import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -25,32 +23,22 @@ import pytest
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 DIGESTS = REPO_ROOT / "tests" / "cases" / "logs" / "digests.json"
-# fixed, so that the absolute map path in the metadata is the same on every machine
-STAGE = Path("/tmp/hubero-log-identity")
 REGENERATE = os.environ.get("HUBERO_REGENERATE_LOG_DIGESTS") == "1"
 
 pytestmark = pytest.mark.slow
 
 
-def _stage() -> Path:
-    shutil.rmtree(STAGE, ignore_errors=True)
-    for folder in ("scenarios", "maps"):
-        shutil.copytree(REPO_ROOT / folder, STAGE / folder)
-    return STAGE
-
-
-def _logs() -> dict[str, str]:
-    stage = _stage()
+def _logs(out: Path) -> dict[str, str]:
     digests: dict[str, str] = {}
-    scenarios = stage / "scenarios"
+    scenarios = REPO_ROOT / "scenarios"
     # the benchmark suite's logs are pinned too, keyed benchmark/NAME/...
     for scenario in sorted([*scenarios.glob("*.hub"), *scenarios.glob("benchmark/*.hub")]):
         name = scenario.relative_to(scenarios).with_suffix("").as_posix()
-        out_dir = stage / "logs" / name
+        out_dir = out / name
         command = [sys.executable, "-m", "hubero_dsl", "run", f"scenarios/{name}.hub",
                    "--all-variants", "--quiet", "--out-dir", str(out_dir)]
-        done = subprocess.run(command, cwd=stage, capture_output=True, text=True, check=False,
-                              env={**os.environ, "PYTHONHASHSEED": "0"})
+        done = subprocess.run(command, cwd=REPO_ROOT, capture_output=True, text=True,
+                              check=False, env={**os.environ, "PYTHONHASHSEED": "0"})
         assert done.returncode in (0, 1), done.stderr
         for log in sorted(out_dir.glob("*.mcap")):
             key = f"{name}/{log.name}"
@@ -58,10 +46,8 @@ def _logs() -> dict[str, str]:
     return digests
 
 
-def test_logs_of_shipped_scenarios_are_unchanged() -> None:
-    with open(f"{STAGE}.lock", "w") as lock:  # other checkouts on this machine share STAGE
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        digests = _logs()
+def test_logs_of_shipped_scenarios_are_unchanged(tmp_path: Path) -> None:
+    digests = _logs(tmp_path)
     if REGENERATE:
         DIGESTS.write_text(json.dumps(digests, indent=2, sort_keys=True) + "\n")
     expected = json.loads(DIGESTS.read_text())

@@ -59,7 +59,7 @@ class LogSetup:
     robots: list[str]
     robot_radius: list[float]
     robot_controllers: list[str]
-    source_path: str
+    source_path: str                            # the scenario as the log names it
     source_lines: list[str]
     metadata: dict[str, str]
     attachments: list[tuple[str, str, bytes]]  # name, media type, data
@@ -152,7 +152,7 @@ class LogEncoder:
         self._out.add_message(self._channel[s.TASKS_TOPIC], ns, s.dumps({
             "timestamp": s.timestamp(ns), "tick": event.tick, "task_id": event.task_id,
             "human": event.human, "kind": event.kind, "status": event.status.value,
-            "reason": event.reason, "file": span.file if span else "",
+            "reason": event.reason, "file": self._setup.source_path if span else "",
             "line": span.line if span else 0, "column": span.column if span else 0,
             "end_line": span.end_line if span else 0,
             "end_column": span.end_column if span else 0,
@@ -206,7 +206,7 @@ class LogEncoder:
     def _log(self, level: int, message: str, span: Span | None, ns: int) -> None:
         self._out.add_message(self._channel[s.LOG_TOPIC], ns, s.dumps({
             "timestamp": s.timestamp(ns), "level": level, "message": message,
-            "name": "hubero", "file": span.file if span else self._setup.source_path,
+            "name": "hubero", "file": self._setup.source_path,
             "line": span.line if span else 0}).encode())
 
     # ---- the end ----------------------------------------------------------------------------

@@ -16,7 +16,7 @@ from hubero_dsl.log import schemas as s
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle
 
 if TYPE_CHECKING:
-    from hubero_dsl.model.program import RobotSpec
+    from hubero_dsl.model.program import Program, RobotSpec
     from hubero_dsl.sim.simulation import Simulation
 
 MEDIA_TYPES = {".yaml": "application/yaml", ".yml": "application/yaml",
@@ -25,11 +25,18 @@ MEDIA_TYPES = {".yaml": "application/yaml", ".yml": "application/yaml",
                ".tiff": "image/tiff", ".gif": "image/gif", ".ppm": "image/x-portable-pixmap"}
 
 
+def logged_source_path(program: Program) -> str:
+    """The scenario file as a log names it: its name, the same however it was reached (the
+    path typed, the folder it lies in), so that a file logs the same bytes wherever it is
+    run; the text itself is attached beside."""
+    return Path(program.source.path).name or "scenario.hub"
+
+
 def provenance(sim: Simulation, rate_hz: float
                ) -> tuple[dict[str, str], list[tuple[str, str, bytes]]]:
     """The metadata record and the attachments (scenario, map YAML, map image)."""
     program = sim.program
-    source_name = Path(program.source.path).name or "scenario.hub"
+    source_name = logged_source_path(program)
     source = program.source.text.encode("utf-8")
     map_yaml, image_path, image = read_map_files(program.map_path)
     names = {"source": f"source/{source_name}", "map": f"map/{program.map_path.name}",
@@ -37,9 +44,9 @@ def provenance(sim: Simulation, rate_hz: float
     metadata = {
         "format": s.FORMAT, "format_version": str(s.FORMAT_VERSION),
         "hubero_version": __version__, "title": program.title,
-        "source_path": program.source.path,
+        "source_path": logged_source_path(program),
         "source_sha256": hashlib.sha256(source).hexdigest(),
-        "map_path": str(program.map_path),
+        "map_path": program.map_written or str(program.map_path),
         "map_sha256": hashlib.sha256(map_yaml).hexdigest(),
         "map_image_sha256": hashlib.sha256(image).hexdigest(),
         "seed": str(sim.seed), "variant": sim.variant or "",

@@ -49,7 +49,7 @@ from hubero_dsl.log import schemas as s
 from hubero_dsl.log.crowds import members_of_crowds
 from hubero_dsl.log.encoder import LogEncoder, LogSetup, Update, discard_file
 from hubero_dsl.log.frames import Capturer
-from hubero_dsl.log.provenance import provenance
+from hubero_dsl.log.provenance import logged_source_path, provenance
 from hubero_dsl.log.sinks import MessageSink
 from hubero_dsl.world.mapfile import map_files
 
@@ -211,7 +211,8 @@ class RunLog:
             crowds=self._crowds,
             robots=list(robots.names), robot_radius=[float(r) for r in robots.radius],
             robot_controllers=robots.controller_names(),
-            source_path=program.source.path, source_lines=program.source.text.splitlines(),
+            source_path=logged_source_path(program),
+            source_lines=program.source.text.splitlines(),
             metadata=metadata, attachments=attachments,
             grid=s.dumps(s.grid_message(program.grid)).encode(),
             start_message=(f"run of '{program.title}' started: {variant}, seed {sim.seed}, "

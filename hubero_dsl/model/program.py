@@ -189,6 +189,9 @@ class Program:
     # humans and robots: x, y, radius): what a run with another seed places the crowds anew by.
     crowds: tuple[CrowdSpec, ...] = ()
     fixed_bodies: tuple[tuple[float, float, float], ...] = ()
+    # the map as the file wrote it (relative to the file): what a log records, so that the
+    # same file logs the same bytes wherever it lies; `map_path` when empty
+    map_written: str = ""
 
     def people_sets(self) -> dict[str, tuple[str, tuple[str, ...]]]:
         """The crowds, flows and groups: name -> (kind, members), crowds and flows in the order

@@ -31,3 +31,23 @@ def test_another_seed_or_variant_gives_another_log(world: World, tmp_path: Path)
         write_log(scenario, logs[name], variant=variant, seed=seed)
     contents = {path.read_bytes() for path in logs.values()}
     assert len(contents) == 3
+
+
+def test_the_same_file_logs_the_same_bytes_wherever_it_lies(world: World, tmp_path: Path
+                                                            ) -> None:
+    """However the path is typed, from whichever folder, and in a copy elsewhere: the log
+    names the scenario by its file name and the map as the file writes it."""
+    scenario = world.scenario("meeting.hub", MEETING)
+    copy = tmp_path / "elsewhere"
+    copy.mkdir()
+    for name in ("meeting.hub", *(p.name for p in world.folder.glob("room*"))):
+        (copy / name).write_bytes((world.folder / name).read_bytes())
+    runs = [(str(scenario), REPO_ROOT), ("meeting.hub", world.folder),
+            ("./meeting.hub", world.folder), ("elsewhere/meeting.hub", tmp_path)]
+    logs = []
+    for number, (typed, cwd) in enumerate(runs):
+        output = tmp_path / f"run-{number}.mcap"
+        done = hubero("run", typed, "-q", "-o", str(output), cwd=cwd)
+        assert done.returncode == 0, done.stderr
+        logs.append(output.read_bytes())
+    assert all(log == logs[0] for log in logs[1:])

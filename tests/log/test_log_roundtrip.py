@@ -103,7 +103,7 @@ def test_every_task_change_is_on_tasks_with_its_source_line(meeting: LoggedMeeti
         assert value["source_line"] == source[event.span.line - 1].strip()
     first = tasks[0]
     assert first["source_line"] == "go: alice move_to (8, 2) heading 90 deg"
-    assert first["file"] == str(meeting.scenario)
+    assert first["file"] == meeting.scenario.name  # as the log names its attached source
 
 
 def test_reader_gives_back_the_run(meeting: LoggedMeeting) -> None:
@@ -150,7 +150,9 @@ def test_metadata_says_what_made_the_run(meeting: LoggedMeeting) -> None:
     assert params["bob"]["speed"] == 1.5
     assert params["bob"]["personal_space"] == Ellipse(0.8, 0.5, 0.2)
     assert params["alice"]["global_planner"] == "navfn"
-    assert metadata.map_path == str(program.map_path)
+    # the map as the file writes it, the scenario by its name: the same wherever they lie
+    assert metadata.map_path == "room.yaml" and program.map_path.is_absolute()
+    assert metadata.source_path == meeting.scenario.name
 
 
 def test_a_drawn_parameter_is_recorded_as_drawn(world: World, tmp_path: Path) -> None:
