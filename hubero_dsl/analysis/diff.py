@@ -40,7 +40,6 @@ from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, describe_shape
 
 if TYPE_CHECKING:
     from hubero_dsl.log.reader import HumanTrack, LoggedRun, RobotTrack
-    from hubero_dsl.sim.status import TaskEvent
 
     FloatArray = np.ndarray[Any, np.dtype[np.float64]]
 
@@ -130,10 +129,7 @@ def diff_runs(a: LoggedRun, b: LoggedRun, *, epsilon: float = DEFAULT_EPSILON,
         separation, diverged = divergence(a.humans[name], b.humans[name], epsilon)
         humans[name] = HumanDiff(
             name=name,
-            metrics=metric_deltas(
-                metrics_a.humans[name], metrics_b.humans[name],
-                task_places([e for e in a.events if e.human == name]),
-                task_places([e for e in b.events if e.human == name])),
+            metrics=metric_deltas(metrics_a.humans[name], metrics_b.humans[name]),
             frechet=frechet, hausdorff=hausdorff, max_separation=separation,
             diverged_at=diverged,
             parameters=parameter_changes(a.metadata.params.get(name, {}),
@@ -192,18 +188,7 @@ def _rounded(value: float) -> float:
     return round(value, DECIMALS) + 0.0
 
 
-def task_places(events: Sequence[TaskEvent]) -> dict[str, str]:
-    """`kind#task_id` -> `kind@line:column` for tasks with a place in the scenario.
-
-    Task ids count tasks in the order they start, which differs between runs when parallel
-    branches start in another order; where the task is written does not, so unlabelled tasks
-    are matched across runs by that.
-    """
-    return {f"{e.kind}#{e.task_id}": f"{e.kind}@{e.span.line}:{e.span.column}"
-            for e in events if e.span is not None}
-
-
-def _metric_values(metrics: HumanMetrics, places: dict[str, str]) -> dict[str, Scalar]:
+def _metric_values(metrics: HumanMetrics) -> dict[str, Scalar]:
     values: dict[str, Scalar] = {}
     for key, value in vars_of(metrics).items():
         if not isinstance(value, dict):
@@ -211,8 +196,7 @@ def _metric_values(metrics: HumanMetrics, places: dict[str, str]) -> dict[str, S
             values[key] = value
             continue
         for inner, number in sorted(value.items()):
-            name = f"{key}.{places.get(inner, inner) if key == 'task_finish_times' else inner}"
-            values[name] = max(number, values.get(name, number))  # a repeated task: its last
+            values[f"{key}.{inner}"] = number
     return values
 
 
@@ -229,11 +213,10 @@ def _order(name: str) -> tuple[int, str]:
     return _ORDER.index(name.split(".", 1)[0]), name
 
 
-def metric_deltas(a: HumanMetrics, b: HumanMetrics, places_a: dict[str, str] | None = None,
-                  places_b: dict[str, str] | None = None) -> tuple[MetricDelta, ...]:
-    """Every metric either run has, in table order, with B - A where both are numbers.
-    `places_*` rename unlabelled tasks (see `task_places`) so the two runs' tasks line up."""
-    values_a, values_b = _metric_values(a, places_a or {}), _metric_values(b, places_b or {})
+def metric_deltas(a: HumanMetrics, b: HumanMetrics) -> tuple[MetricDelta, ...]:
+    """Every metric either run has, in table order, with B - A where both are numbers (tasks
+    line up by their keys: labels, or where they are written)."""
+    values_a, values_b = _metric_values(a), _metric_values(b)
     return tuple(_compared(name, _tidy(values_a.get(name)), _tidy(values_b.get(name)))
                  for name in sorted(set(values_a) | set(values_b), key=_order))
 

@@ -24,9 +24,11 @@ Definitions (docs/analysis.md says the same with examples):
   another touched or overlapped (centre distance below the sum of the radii plus
   `socialnav.CONTACT`), summed over the others.
 - `task_finish_times`: for each task of the human that ended done (SUCCEEDED or PREEMPTED, as
-  the language's `LABEL done`), its label, or `kind#task_id` when it has none, to the time it
-  ended; a labelled `parallel`/`race`/sequence/`repeat` step also gets an entry, the time this
-  human's last task inside it ended, when all of them ended done.
+  the language's `LABEL done`), its label, or `kind@line:column` where it is written when it
+  has none (`kind#task_id` for a task with no place in a scenario), to the time it ended: the
+  same key in every run, whatever order tasks started in; a labelled `parallel`/`race`/
+  sequence/`repeat` step also gets an entry, the time this human's last task inside it ended,
+  when all of them ended done.
 """
 
 from __future__ import annotations
@@ -69,7 +71,7 @@ class HumanMetrics:
     name: str
     path_length: float                      # m
     duration: float                         # s
-    task_finish_times: dict[str, float]     # label or "kind#task_id" -> s
+    task_finish_times: dict[str, float]     # label, "kind@line:column" or "kind#id" -> s
     mean_speed: float                       # m/s
     max_speed: float                        # m/s
     min_distance: dict[str, float]          # other actor -> m (centre to centre)
@@ -379,7 +381,7 @@ def task_finish_times(events: list[TaskEvent],
     for task_id, event in sorted(ended.items()):
         if event.status not in _DONE:
             continue
-        key = _own_label(event.span, labels) or f"{event.kind}#{task_id}"
+        key = _own_label(event.span, labels) or _task_place(event.kind, task_id, event.span)
         finished[key] = max(finished.get(key, event.time), event.time)
     for name, span, single in labels:
         inside = [i for i, e in started.items() if _inside(e.span, span)]
@@ -388,6 +390,12 @@ def task_finish_times(events: list[TaskEvent],
         if all(i in ended and ended[i].status in _DONE for i in inside):
             finished[name] = max(ended[i].time for i in inside)
     return dict(sorted(finished.items()))
+
+
+def _task_place(kind: str, task_id: int, span: Span | None) -> str:
+    """An unlabelled task's key: where it is written (task ids count tasks in the order they
+    start, which differs between runs when branches or a flow's arrivals interleave)."""
+    return f"{kind}@{span.line}:{span.column}" if span is not None else f"{kind}#{task_id}"
 
 
 def _own_label(span: Span | None, labels: list[tuple[str, Span, bool]]) -> str | None:

@@ -145,8 +145,8 @@ def test_task_finish_times_by_label(build_run: Factory, track: Factory,
               track("h2", [0.0, 6.0], [(3, 3), (3, 3)])]
     metrics = compute_metrics(build_run(humans, events=events, source=SOURCE))
     # the aborted move_to did not finish; the parallel ends for each human with its own part
-    assert metrics.humans["h1"].task_finish_times == {"both": 3.0, "go": 2.0, "stand#2": 3.0}
-    assert metrics.humans["h2"].task_finish_times == {"both": 4.0, "stand#3": 4.0}
+    assert metrics.humans["h1"].task_finish_times == {"both": 3.0, "go": 2.0, "stand@4:9": 3.0}
+    assert metrics.humans["h2"].task_finish_times == {"both": 4.0, "stand@5:9": 4.0}
     # h1 had tasks from 0 s to 6 s, though it moved only between its two frames
     assert metrics.humans["h1"].duration == pytest.approx(6.0)
     assert metrics.humans["h2"].duration == pytest.approx(2.0)  # a task, no movement
@@ -156,7 +156,7 @@ def test_task_finish_times_without_source(build_run: Factory, track: Factory,
                                           event: Factory) -> None:
     events = [event("h1", 1, "move_to", TaskStatus.SUCCEEDED, 2.0, 2, 5)]
     run = build_run([track("h1", [0.0, 2.0], [(0, 0), (1, 0)])], events=events)
-    assert compute_metrics(run).humans["h1"].task_finish_times == {"move_to#1": 2.0}
+    assert compute_metrics(run).humans["h1"].task_finish_times == {"move_to@2:5": 2.0}
 
 
 def test_robot_metrics_and_radius_from_source(build_run: Factory, track: Factory,

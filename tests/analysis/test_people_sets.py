@@ -259,3 +259,27 @@ def test_a_flows_member_who_left_at_its_target_ends_with_its_task_done(
     assert came
     metrics = compute_metrics(run)
     assert {metrics.humans[name].final_status for name in came} == {"SUCCEEDED"}
+
+
+def test_an_unlabelled_task_has_one_key_whatever_else_started_before_it(
+        tmp_path: Path) -> None:
+    """Task ids count tasks as they start, and a flow's arrivals interleave with the humans'
+    tasks by the seed: the metrics key a task by where it is written, so that the sweep's
+    columns and diff's rows line up across runs."""
+    from hubero_dsl.analysis.metrics import compute_metrics
+    from hubero_dsl.pipeline import compile_source
+
+    text = (f'scenario "f"\nmap "{ROOT / "maps" / "parking.yaml"}"\ntime_limit 40 s\n'
+            "human h at (12.0, 7.0)\n"
+            "flow walkers from rect((14, 0), (16, 3)) to (12.0, 4.0) rate 30 /min for 10 s\n"
+            "activity {\n    h stand for 3 s\n    h move_to (10.0, 7.0)\n}\n")
+    program = compile_source(text, str(tmp_path / "f.hub"))
+    keys, ids = set(), set()
+    for seed in (1, 2, 3):
+        log = tmp_path / f"{seed}.mcap"
+        simulate(program, log=log, seed=seed, writer_process=False)
+        run = load_run(log)
+        ids.add(max(e.task_id for e in run.events if e.human == "h"))
+        keys.add(tuple(compute_metrics(run).humans["h"].task_finish_times))
+    assert len(ids) > 1                                   # the walk's id differs by seed
+    assert keys == {("move_to@8:5", "stand@7:5")}          # its key does not
