@@ -89,14 +89,18 @@ def export_ros2(log: str | Path, folder: str | Path) -> Path:
     except ImportError:
         raise InputError("exporting a ROS 2 bag needs the rosbags package: "
                          "pip install 'hubero[ros]'") from None
-    target = Path(folder)
-    if target.exists() and (not target.is_dir() or any(target.iterdir())):
-        raise InputError(f"{target} exists and is not an empty folder: a bag is written into "
+    named = Path(folder)
+    if named.is_symlink() and not named.exists():
+        raise InputError(f"{named} is a symbolic link to {named.readlink()}, which does not "
+                         "exist: give a new folder, or link to an empty one")
+    if named.exists() and (not named.is_dir() or any(named.iterdir())):
+        raise InputError(f"{named} exists and is not an empty folder: a bag is written into "
                          "a new folder")
     run = load_run(log)
-    parent = target.resolve().parent
+    target = named.resolve()   # a link to an empty folder: the bag goes where it leads
+    parent = target.parent
     if not parent.is_dir():
-        raise InputError(f"cannot write {target}: {parent} is not a folder")
+        raise InputError(f"cannot write {named}: {parent} is not a folder")
     work = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=parent))
     try:
         bag = work / "bag"
@@ -107,7 +111,7 @@ def export_ros2(log: str | Path, folder: str | Path) -> Path:
         bag.rename(target)
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    return target
+    return named
 
 
 def _typestore() -> Typestore:

@@ -32,3 +32,20 @@ def test_the_command_writes_a_bag_and_refuses_bad_input(tmp_path: Path, cli: Any
     assert nowhere.status == 2
     assert "Traceback" not in again.err + wrong.err + nowhere.err
     assert not (tmp_path / "b2").exists()
+
+
+def test_a_link_to_an_empty_folder_takes_the_bag_and_a_dangling_one_is_refused(
+        tmp_path: Path, cli: Any) -> None:
+    log = tmp_path / "run.mcap"
+    simulate(compile_file(ROOT / "scenarios" / "living_room.hub"), log=log,
+             writer_process=False)
+    (tmp_path / "real").mkdir()
+    (tmp_path / "link").symlink_to(tmp_path / "real")
+    done = cli("export", str(log), "--ros2", str(tmp_path / "link"))
+    assert done.status == 0, done.err
+    assert (tmp_path / "link").is_symlink() and (tmp_path / "real" / "metadata.yaml").is_file()
+    (tmp_path / "dangling").symlink_to(tmp_path / "gone")
+    refused = cli("export", str(log), "--ros2", str(tmp_path / "dangling"))
+    assert refused.status == 2 and "which does not exist" in refused.err
+    assert not (tmp_path / "gone").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["dangling", "link", "real", "run.mcap"]
