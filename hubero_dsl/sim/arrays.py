@@ -125,26 +125,30 @@ class PathPool:
             self.careful[passing] = False
 
     def retreat(self, rows: IntArray, position: FloatArray, hidden: Sight, reach: float
-                ) -> None:
+                ) -> IntArray:
         """Send humans `rows` whose target is `hidden` from `position` (their rows of it) back
         to the last waypoint they passed that is not, and is within `reach`: pushed back round
         a corner just after passing it, they walk to the corner again (and pass it only once
         they see past it) rather than press into the wall. A path's first point, where the
         human stood when it was planned, is no corner: nobody is sent back there; nor is
-        anyone who sees none of their last few waypoints nearby."""
-        rows = rows[self.cursor[rows] > self.start[rows] + 1]
+        anyone who sees none of their last few waypoints nearby. Returns those: the rows
+        whose target is hidden and who were sent back nowhere."""
         if rows.size:
             rows = rows[hidden(position[rows], self.points[self.cursor[rows]])]
+        lost = []
         for back in range(1, 5):  # the few corners of a bend, as `advance` passes them
-            rows = rows[self.cursor[rows] - back > self.start[rows]]
+            cornerless = self.cursor[rows] - back <= self.start[rows]
+            lost.append(rows[cornerless])
+            rows = rows[~cornerless]
             if not rows.size:
-                return
+                break
             corner = self.points[self.cursor[rows] - back]
             here = position[rows]
             found = (lengths(corner - here) < reach) & ~hidden(here, corner)
             self.cursor[rows[found]] -= back
             self.careful[rows[found]] = True
             rows = rows[~found]
+        return np.sort(np.concatenate([*lost, rows]))
 
     def current_targets(self, rows: IntArray) -> FloatArray:
         return self.points[self.cursor[rows]]

@@ -1,17 +1,21 @@
 """Someone pushed back behind a door's jamb after passing the corner of their path walks to
 the corner again, instead of pressing into the wall (the social force's goal straight into
-it, the jamb's corner pushing them back) until the run gives them up as stuck."""
+it, the jamb's corner pushing them back) until the run gives them up as stuck; someone pushed
+off their path far from its corners plans anew; and of two who hold each other up at a narrow
+way, one steps aside."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from hubero_dsl.pipeline import compile_source
 from hubero_dsl.sim.arrays import PathPool
 from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.sim.status import TaskStatus
+from hubero_dsl.world.mapfile import save_map
 from tests.sim.conftest import room_grid
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
@@ -41,6 +45,15 @@ def test_a_hidden_target_sends_one_back_to_the_corner_nearby() -> None:
     assert sent_back(BEHIND_THE_JAMB).careful[0]
     assert sent_back((4.5, 3.5)).cursor[0] == 2       # the goal in sight: left as it is
     assert sent_back((2.5, 3.5)).cursor[0] == 2       # the corner 1.9 m away: out of reach
+
+
+def test_who_is_sent_back_nowhere_is_told() -> None:
+    pool = walking(THROUGH, 2)
+    lost = pool.retreat(np.array([0]), np.array([(2.5, 3.5)]), DOOR.crosses_obstacle, REACH)
+    assert lost.tolist() == [0] and pool.cursor[0] == 2   # the corner is out of reach
+    lost = pool.retreat(np.array([0]), np.array([BEHIND_THE_JAMB]), DOOR.crosses_obstacle,
+                        REACH)
+    assert lost.size == 0 and pool.cursor[0] == 1         # sent back to the corner
 
 
 def test_nobody_is_sent_back_to_where_they_started() -> None:
@@ -98,3 +111,42 @@ def test_in_a_crowd_nobody_is_sent_back() -> None:
         sim.step()
         assert not engine.paths.careful[0]
     assert (engine.tick - engine.anchor_tick[0]) * engine.dt > 5.0  # stalled all along
+
+
+# a room with a corridor 1 m wide (y 3.5 .. 4.5) from x = 8 to 14, its mouth flush with a wall
+CORRIDOR = room_grid(20.0, 8.0, walls=((8.0, 0.0, 14.0, 3.5), (8.0, 4.5, 14.0, 8.0)))
+
+
+def _through_the_corridor(tmp_path: Path, humans: str, goals: dict[str, float]) -> Simulation:
+    """`humans` walking through CORRIDOR to x = 17 and their own `goals`' y."""
+    save_map(CORRIDOR, tmp_path / "corridor.yaml")
+    steps = "\n".join(f"{name} move_to (17.0, {y})" for name, y in goals.items())
+    text = (f'scenario "mouth"\nmap "{tmp_path / "corridor.yaml"}"\ntime_limit 90 s\n'
+            f"{humans}activity {{ parallel {{\n{steps}\n}} }}\n")
+    return Simulation(compile_source(text, "mouth.hub"))
+
+
+def _ends(sim: Simulation) -> list[tuple[str, TaskStatus, float]]:
+    from hubero_dsl.sim.loop import run_program
+
+    return sorted((e.human, e.status, e.time) for e in run_program(sim).events
+                  if e.status.is_final)
+
+
+@pytest.mark.parametrize("spacing", [0.35, 0.7])
+def test_three_abreast_all_get_through_a_corridors_mouth(tmp_path: Path, spacing: float
+                                                         ) -> None:
+    # the middle one walks in; the two beside it, pushed off their paths as they set out,
+    # stood as each other's mirror image at the jambs until both were given up as stuck
+    humans = "".join(f"human {name} at (3.0, {4.0 + k * spacing})\n"
+                     for name, k in (("a", -1), ("b", 0), ("c", 1)))
+    ends = _ends(_through_the_corridor(tmp_path, humans, {"a": 3.0, "b": 4.0, "c": 5.0}))
+    assert [status for _, status, _ in ends] == [TaskStatus.SUCCEEDED] * 3
+    assert max(time for _, _, time in ends) < 30.0
+
+
+def test_two_mirror_images_at_a_corridors_mouth_take_turns(tmp_path: Path) -> None:
+    humans = "human a at (7.0, 3.6)\nhuman c at (7.0, 4.4)\n"
+    ends = _ends(_through_the_corridor(tmp_path, humans, {"a": 3.0, "c": 5.0}))
+    assert [status for _, status, _ in ends] == [TaskStatus.SUCCEEDED] * 2
+    assert max(time for _, _, time in ends) < 30.0
