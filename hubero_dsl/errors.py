@@ -74,3 +74,22 @@ class LogError(InputError):
 class Terminated(KeyboardInterrupt):
     """SIGTERM (what `timeout` and process managers send): stopped like Ctrl-C, so a run's
     temporary log is removed and a sweep stops its workers, but reported as terminated."""
+
+
+class Stopped(BaseException):
+    """A run stopped from outside by one of hubero's signal handlers (a sweep's worker told to
+    end its run): like KeyboardInterrupt, never the failure of the user code it interrupts."""
+
+
+# What user code may be interrupted by without having failed: everything else it raises,
+# whatever its class (asyncio.CancelledError, GeneratorExit, SystemExit, ...), is its failure.
+OUTSIDE_STOPS = (KeyboardInterrupt, Stopped)
+
+
+def failure_of(exc: BaseException) -> str:
+    """`Type: message` of an exception user code raised; its message may itself fail."""
+    try:
+        text = str(exc)
+    except Exception:  # a __str__ of the user's that raises
+        text = "(its message cannot be shown)"
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__

@@ -33,6 +33,10 @@ FORCE_A, FORCE_B = 2.1, 0.3                    # m/s^2, m (Helbing & Molnar 1995
 # either side of it (1e-16 m); counting only gaps below 0 would count such a contact or not
 # by the rounding.
 CONTACT = 1e-9
+# m/s: two bodies closing more slowly than this are not on a collision course. Velocities come
+# from differences of positions, and a log keeps positions to 0.1 mm: two standing bodies
+# "close" at rounding speeds, which gave times to contact of 10^14 s.
+CLOSING = 0.01
 
 
 @dataclass(frozen=True, slots=True)
@@ -325,7 +329,7 @@ def _min_time_to_collision(subject: Track, people: Sequence[Track], others: Floa
     b = 2 * (relative * closing).sum(axis=2)
     c = (relative ** 2).sum(axis=2) - reach ** 2
     disc = b * b - 4 * a * c
-    hit = (b < 0) & (disc >= 0) & (a > 0)
+    hit = (b < 0) & (disc >= 0) & (a > CLOSING ** 2)
     root = np.divide(-b - np.sqrt(np.maximum(disc, 0.0)), 2 * a, out=np.full(a.shape, math.inf),
                      where=hit)
     in_contact = c < (reach + CONTACT) ** 2 - reach ** 2   # a gap below CONTACT

@@ -11,7 +11,7 @@ from functools import cache
 from importlib.metadata import EntryPoint, entry_points
 from typing import TYPE_CHECKING
 
-from hubero_dsl.errors import InputError
+from hubero_dsl.errors import OUTSIDE_STOPS, InputError, failure_of
 
 if TYPE_CHECKING:
     from hubero_dsl.controllers.base import ControllerParams
@@ -39,8 +39,11 @@ def controller_class(name: str) -> type:
                          f"{', '.join(controller_names()) or 'none'})")
     try:
         loaded = entry.load()
-    except (Exception, SystemExit) as exc:  # a broken plugin must not take hubero down
-        raise InputError(f"robot controller plugin '{name}' cannot be loaded: {exc}") from None
+    except OUTSIDE_STOPS:
+        raise
+    except BaseException as exc:  # a broken plugin must not take hubero down
+        raise InputError(f"robot controller plugin '{name}' cannot be loaded: "
+                         f"{failure_of(exc)}") from None
     return _checked(loaded, f"robot controller plugin '{name}'")
 
 
@@ -60,9 +63,11 @@ def import_controller(target: str) -> type:
         raise InputError(f"'{target}' is not of the form MODULE:CLASS")
     try:
         loaded = getattr(importlib.import_module(module_name), class_name)
-    except (Exception, SystemExit) as exc:  # user code: a bad-input error, not a crash
+    except OUTSIDE_STOPS:
+        raise
+    except BaseException as exc:  # user code: a bad-input error, not a crash
         raise InputError(f"controller '{target}' cannot be imported: "
-                         f"{type(exc).__name__}: {exc}") from None
+                         f"{failure_of(exc)}") from None
     return _checked(loaded, f"controller '{target}'")
 
 

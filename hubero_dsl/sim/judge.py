@@ -26,6 +26,7 @@ if TYPE_CHECKING:
     from hubero_dsl.sim.simulation import Simulation
 
 PlanQuery = tuple[tuple[float, float], tuple[float, float], float]
+METRIC_DECIMALS = 9
 
 COMPARE: dict[str, Callable[[float, float], bool]] = {
     "<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
@@ -187,8 +188,12 @@ class Judge:
             if isinstance(condition, MetricCompare) and self.tracks is not None:
                 value = self.tracks.metrics(sim, condition.subject, condition.other).get(
                     condition.metric, math.nan)
+                # a metric at a limit the run enforces (max_speed of a robot capped at 1 m/s)
+                # comes out a few units in the last place over it: compared at 1e-9
+                value = round(value, METRIC_DECIMALS) if math.isfinite(value) else value
                 verdict.value = value
-                verdict.held = COMPARE[condition.operator](value, condition.threshold)
+                verdict.held = COMPARE[condition.operator](
+                    value, round(condition.threshold, METRIC_DECIMALS))
                 verdict.decided_at = sim.time
             verdict.finish(sim.time)
         return self.verdicts

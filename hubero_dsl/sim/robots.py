@@ -20,12 +20,12 @@ import math
 import numbers
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeGuard
 
 import numpy as np
 
 from hubero_dsl.controllers.base import Neighbour, Observation, RobotBody, RobotController
-from hubero_dsl.errors import SimulationError
+from hubero_dsl.errors import OUTSIDE_STOPS, SimulationError, failure_of
 from hubero_dsl.model.tasks import Target, Task
 from hubero_dsl.sim import physics
 from hubero_dsl.sim.arrays import BoolArray, FloatArray, HumanArrays, IntArray
@@ -213,10 +213,12 @@ class Robots:
         controller = self.controllers[i]
         try:
             command = controller.command(observation)
-        except (Exception, SystemExit) as exc:  # user code: its failure is the user's error
+        except OUTSIDE_STOPS:
+            raise
+        except BaseException as exc:  # user code: its failure is the user's error
             raise ControllerError(
                 f"robot '{self.names[i]}' at t = {time:g} s: its controller "
-                f"{type(controller).__name__} raised {type(exc).__name__}: {exc}") from None
+                f"{type(controller).__name__} raised {failure_of(exc)}") from None
         return _velocity_command(command, self.names[i], type(controller).__name__, time)
 
     # A robot's command is two numbers: shaped with math on floats, which costs a fraction of
@@ -391,10 +393,12 @@ def _override(table: dict[int, tuple[float, float]], index: int,
 
 def _velocity_command(command: Any, robot: str, controller: str,
                       time: float) -> tuple[float, float]:
-    """Two finite real numbers (a pair, a list, an array of two), or the controller's error."""
+    """Two finite real numbers (a pair, a list, an array of two), or the controller's error:
+    not a mapping (its keys are no velocity), an iterator or a pair of truth values."""
     try:
-        first, second = command
-        if isinstance(first, numbers.Real) and isinstance(second, numbers.Real):
+        first, second = command if isinstance(command, Sequence | np.ndarray) \
+            and not isinstance(command, str | bytes) else (None, None)
+        if _a_number(first) and _a_number(second):
             vx, vy = float(first), float(second)
             if math.isfinite(vx) and math.isfinite(vy):
                 return (vx, vy)
@@ -402,6 +406,10 @@ def _velocity_command(command: Any, robot: str, controller: str,
         pass
     raise ControllerError(f"robot '{robot}' at t = {time:g} s: its controller {controller} "
                           f"returned {_shown(command)}, not a velocity (two finite numbers)")
+
+
+def _a_number(value: object) -> TypeGuard[numbers.Real]:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
 
 
 def _shown(value: Any) -> str:

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from hubero_dsl.errors import SimulationError
+from hubero_dsl.errors import OUTSIDE_STOPS, SimulationError, failure_of
 from hubero_dsl.model.params import HUMAN_PARAMS, REACTIONS, ParamKind
 from hubero_dsl.model.program import Distribution, ParamValue, Pose, Program
 from hubero_dsl.planners.base import GlobalPlanner, LocalPlanner, PlannerParams
@@ -348,9 +348,11 @@ def build_controllers(program: Program, given: Mapping[str, type | RobotControll
                   if chosen is None or params_model is not ControllerParams else {})
         try:
             built[spec.name] = cls(body, params_model.model_validate(dict(values)))
-        except (Exception, SystemExit) as exc:  # user code: its failure is the user's error
+        except OUTSIDE_STOPS:
+            raise
+        except BaseException as exc:  # user code: its failure is the user's error
             raise SimulationError(f"robot '{spec.name}': controller {cls.__name__} cannot be "
-                                  f"built: {type(exc).__name__}: {exc}") from None
+                                  f"built: {failure_of(exc)}") from None
     return built
 
 

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
-from hubero_dsl.errors import HuberoError
+from hubero_dsl.errors import HuberoError, Stopped
 
 if TYPE_CHECKING:
     from hubero_dsl.log.reader import LoggedRun
@@ -169,7 +169,7 @@ def compiled(path: str, source: str) -> Program:
 # ---- signals in worker processes ---------------------------------------------------------------
 
 
-class WorkerTerminated(BaseException):
+class WorkerTerminated(Stopped):
     """Raised in a worker process's run by SIGTERM: the sweep was stopped."""
 
 

@@ -3,6 +3,7 @@ surface to surface, and whatever user code answers or raises is the controller's
 
 from __future__ import annotations
 
+import asyncio
 import math
 import sys
 from pathlib import Path
@@ -68,6 +69,15 @@ class Answering:
         return self.ANSWER
 
 
+class _UntoldError(Exception):
+    def __str__(self) -> str:
+        raise RuntimeError("no message either")
+
+
+class _OwnBase(BaseException):
+    """Raised by user code that derives from BaseException: still the controller's failure."""
+
+
 class _Unreadable:
     def __iter__(self) -> object:
         raise RuntimeError("cannot be read")
@@ -82,6 +92,13 @@ class _Unreadable:
     ("12", "returned '12', not a velocity"),
     (_Unreadable(), "returned a _Unreadable, not a velocity"),
     ((1.0, complex(1, 1)), "not a velocity"),
+    (asyncio.CancelledError("planner task cancelled"), "raised CancelledError: planner task"),
+    (GeneratorExit(), "raised GeneratorExit"),
+    (_OwnBase("custom"), "raised _OwnBase: custom"),
+    (_UntoldError(), r"raised _UntoldError: \(its message cannot be shown\)"),
+    ({0: 0.1, 1: 0.0}, r"returned \{0: 0.1, 1: 0.0\}, not a velocity"),   # its keys: no velocity
+    ((True, False), r"returned \(True, False\), not a velocity"),
+    (iter([0.1, 0.0]), "not a velocity"),
 ])
 def test_whatever_a_controller_answers_or_raises_is_its_error(
         scenario: ScenarioFactory, answer: object, message: str) -> None:

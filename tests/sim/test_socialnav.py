@@ -93,6 +93,27 @@ def _scenario(room_map: Path, expectations: str) -> str:
             "activity { bob stand for 1 s }\nactivity { cart move_to (8, 2) }\n" + expectations)
 
 
+@pytest.mark.parametrize("creep", [4.4e-16, 1e-4])
+def test_two_bodies_standing_still_are_on_no_collision_course(creep: float) -> None:
+    # a float's last place, or a log's 0.1 mm, per sample: rounding, no approach (the first
+    # gave a time to contact of 10^14 s)
+    subject = _track([(0.0, 0.0)] * 3, dt=0.1)
+    person = _track([(2.0 - k * creep, 0.0) for k in range(3)], dt=0.1)
+    assert social_metrics(subject, [person])["min_time_to_collision"] == math.inf
+
+
+def test_a_robot_at_its_own_limits_meets_expectations_of_them(room_map: Path) -> None:
+    # the navigator drives at its top speed and accelerates at its limit: the metrics come out
+    # a few units in the last place over them, which an expectation of the limit must forgive
+    program = compile_source(_scenario(room_map, """
+    expect max_speed(cart) <= 1 m/s
+    """).replace("speed 1 m/s }", "speed 1 m/s; max_speed 1 m/s; max_acceleration 0.5 }"),
+        "t.hub")
+    result = run_program(Simulation(program))
+    assert [(v.text, v.held) for v in result.expectations] == [
+        ("max_speed(cart) <= 1 m/s", True)]
+
+
 def test_metrics_in_expectations(room_map: Path) -> None:
     program = compile_source(_scenario(room_map, """
     expect min_distance(cart) >= 1 m
