@@ -47,7 +47,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import gymnasium
 import numpy as np
@@ -147,10 +147,10 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
                           if render_mode is not None else None)
         self.robot_name = robot
         self.metrics = metrics
-        self.variant = variant
+        self.variant = known_variant(self.program, variant)
         self.max_people = max_people
         self.map_patch = map_patch
-        self.reward_function = reward or Reward()
+        self.reward_function = checked_reward(reward)
         self.log_path = Path(log) if log is not None else None
         self.action_box = action_space(self.robot_spec)
         self.action_space = self.action_box
@@ -195,11 +195,7 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
             raise InputError(f"reset() takes the option 'variant', not {', '.join(unknown)}")
         if options is None or "variant" not in options:
             return self.variant
-        variant = options["variant"]
-        if variant is not None and variant not in self.program.variants:
-            known = ", ".join(self.program.variants) or "none"
-            raise InputError(f"unknown variant {variant!r} (the scenario's: {known})")
-        return variant
+        return known_variant(self.program, options["variant"])
 
     def step(self, action: npt.NDArray[np.float32]) -> Outcome:
         self._act(action)
@@ -310,6 +306,27 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
 def _warn_not_rendered() -> None:
     gymnasium.logger.warn("render() needs render_mode='rgb_array' when the environment is "
                           "made; it draws nothing")
+
+
+def known_variant(program: Program, variant: object) -> str | None:
+    """`variant` when the scenario has it (or None, the scenario as written); else InputError."""
+    if variant is not None and (not isinstance(variant, str) or variant not in program.variants):
+        known = ", ".join(program.variants) or "none"
+        raise InputError(f"unknown variant {variant!r} (the scenario's: {known})")
+    return variant
+
+
+def checked_reward(reward: object) -> Reward:
+    """The reward an env computes: `reward` when it is one (an object called with the step's
+    facts, like `Reward()`), else InputError; `Reward()` for None."""
+    if reward is None:
+        return Reward()
+    if isinstance(reward, type):
+        raise InputError(f"reward is the class {reward.__name__}: give an instance of it, "
+                         f"reward={reward.__name__}()")
+    if not callable(reward):
+        raise InputError(f"reward must be a callable object like Reward(), not {reward!r:.60}")
+    return cast(Reward, reward)
 
 
 def whole_number(name: str, value: object, low: int, high: int) -> None:

@@ -370,3 +370,16 @@ def test_an_episode_can_run_a_variant_of_the_scenario(tmp_path: Path) -> None:
                               robot="cart")
     envs.reset(seed=0, options={"variant": "brisk"})
     assert all((copy._sim.engine.humans.speed == 1.7).all() for copy in envs.unwrapped.envs)
+    # an env made with an unknown variant is refused when made, not at its first reset
+    with pytest.raises(InputError, match="unknown variant 'slow'"):
+        gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(file), robot="cart", variant="slow")
+
+
+@pytest.mark.parametrize(("reward", "message"), [
+    (hubero_dsl.gym.Reward, r"the class Reward: give an instance of it, reward=Reward\(\)"),
+    ("foo", r"reward must be a callable object like Reward\(\), not 'foo'")])
+def test_a_reward_that_cannot_be_called_is_refused_when_the_env_is_made(
+        tmp_path: Path, reward: object, message: str) -> None:
+    with pytest.raises(InputError, match=message):
+        gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(_scenario(tmp_path)), robot="cart",
+                       reward=reward)
