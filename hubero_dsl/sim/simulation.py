@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
+from pydantic import ValidationError
 
 from hubero_dsl.errors import OUTSIDE_STOPS, SimulationError, failure_of
 from hubero_dsl.model.params import HUMAN_PARAMS, REACTIONS, ParamKind
@@ -347,13 +348,33 @@ def build_controllers(program: Program, given: Mapping[str, type | RobotControll
         values = (spec.controller_params
                   if chosen is None or params_model is not ControllerParams else {})
         try:
-            built[spec.name] = cls(body, params_model.model_validate(dict(values)))
+            params = params_model.model_validate(dict(values))
+        except ValidationError as exc:
+            raise SimulationError(f"robot '{spec.name}': controller {cls.__name__} "
+                                  f"{_refused_params(exc, spec.controller, cls.__name__)}"
+                                  ) from None
+        try:
+            built[spec.name] = cls(body, params)
         except OUTSIDE_STOPS:
             raise
         except BaseException as exc:  # user code: its failure is the user's error
             raise SimulationError(f"robot '{spec.name}': controller {cls.__name__} cannot be "
                                   f"built: {failure_of(exc)}") from None
     return built
+
+
+def _refused_params(error: ValidationError, written_as: str, cls: str) -> str:
+    """What a controller's parameter model said of the scenario's parameters, as the file
+    names them (`navigator.safety_margin`), without pydantic's wording."""
+    problems = []
+    for item in error.errors():
+        name = ".".join(str(part) for part in item["loc"])
+        if item["type"] == "extra_forbidden":
+            problems.append(f"does not take the scenario's `{written_as}.{name}` (declare "
+                            f"{name} in {cls}.Params, or leave it out)")
+        else:
+            problems.append(f"refuses `{written_as}.{name}`: {item['msg']}")
+    return "; ".join(problems)
 
 
 def _planner_values(values: dict[str, ParamValue], planner: str) -> dict[str, float]:

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from hubero_dsl.controllers.base import ControllerParams, Observation
+from hubero_dsl.errors import SimulationError
 from hubero_dsl.sim.robots import ControllerError
 from hubero_dsl.sim.simulation import Simulation
 from tests.sim.conftest import ScenarioFactory
@@ -195,3 +196,14 @@ def test_a_robot_given_two_classes_is_refused(tmp_path: Path) -> None:
 
 if sys.platform == "win32":  # pragma: no cover - the subprocess tests name POSIX paths
     pytestmark = pytest.mark.skip
+
+
+def test_a_class_handed_over_without_a_parameter_the_scenario_gives_is_told_which(
+        scenario: ScenarioFactory) -> None:
+    program = scenario("robot r at (2, 4) { controller navigator; navigator.safety_margin 0.25 m "
+                       "}\n")
+    with pytest.raises(SimulationError, match=(
+            r"^robot 'r': controller Tuned does not take the scenario's "
+            r"`navigator.safety_margin` \(declare safety_margin in Tuned.Params, or leave it "
+            r"out\)$")):
+        Simulation(program, activities=False, controllers={"r": Tuned})
