@@ -7,9 +7,12 @@ occupied cells; a point in an obstacle is reported with the distance to the near
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
+
+import numpy as np
 
 from hubero_dsl.diagnostics import Diagnostic, Related, Span, error, warning
 from hubero_dsl.errors import MapError
@@ -81,8 +84,9 @@ def check_bodies(grid: OccupancyGrid,
 
 def check_robot_paths(grid: OccupancyGrid, robots: Sequence[RobotSpec],
                       diagnostics: list[Diagnostic]) -> None:
-    """W503: a scripted route that crosses an obstacle (the robot would stop at it: no body is
-    moved through a wall)."""
+    """W503: a scripted route along which the robot's body meets an obstacle (the robot would
+    stop at it: no body is moved through a wall): its centre line crosses one, or passes
+    closer to one than the robot's radius."""
     for robot in robots:
         if not robot.path:
             continue
@@ -90,12 +94,24 @@ def check_robot_paths(grid: OccupancyGrid, robots: Sequence[RobotSpec],
         crossed = grid.crosses_obstacle(stops[:-1], stops[1:])
         for (a, b), blocked in zip(itertools.pairwise(stops), crossed,
                                    strict=True):
-            if blocked:
+            room = _narrowest(grid, a, b)
+            if blocked or room < robot.radius:
+                between = f"between ({a[0]:g}, {a[1]:g}) and ({b[0]:g}, {b[1]:g})"
+                what = ("crosses an obstacle" if blocked else
+                        f"passes {room:.2f} m from an obstacle, less than its radius "
+                        f"{robot.radius:g} m,")
                 diagnostics.append(warning(
-                    "W503", f"the path of robot '{robot.name}' crosses an obstacle between "
-                    f"({a[0]:g}, {a[1]:g}) and ({b[0]:g}, {b[1]:g})", robot.span,
-                    "the robot stops at the obstacle: add a waypoint around it"))
+                    "W503", f"the path of robot '{robot.name}' {what} {between}", robot.span,
+                    "the robot stops at the obstacle: add a waypoint around it" if blocked
+                    else "its body meets the obstacle there: move the path away from it"))
                 break
+
+
+def _narrowest(grid: OccupancyGrid, a: tuple[float, float], b: tuple[float, float]) -> float:
+    """The least clearance along the segment from `a` to `b`, sampled every half a cell, as
+    the engine measures whether a body fits (`OccupancyGrid.clearance_at`)."""
+    samples = max(2, math.ceil(2 * math.dist(a, b) / grid.resolution) + 1)
+    return float(grid.clearance_at(np.linspace(a, b, samples)).min())
 
 
 def place_crowd(grid: OccupancyGrid, name: str, count: int, area: Polygon, radius: float,

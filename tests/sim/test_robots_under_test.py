@@ -346,6 +346,23 @@ def test_a_scripted_path_through_a_wall_is_warned_about(room_map: Path, tmp_path
     assert "between (2, 2) and (8, 2)" in warning.message
 
 
+@pytest.mark.parametrize(("y", "warned"), [(5.2, True), (5.4, False)])
+def test_a_scripted_path_its_body_grazes_a_wall_along_is_warned_about(
+        tmp_path: Path, y: float, warned: bool) -> None:
+    from hubero_dsl.world.mapfile import save_map
+
+    # a wall up to y = 5 and a robot of 0.3 m in radius driven along it at y
+    save_map(room_grid(walls=((0.0, 4.0, 10.0, 5.0),)), tmp_path / "walled.yaml")
+    text = ('scenario "t"\nmap "walled.yaml"\n'
+            f"robot r at (2, 6.5) {{ radius 0.3 m; path (2, {y}) -> (8, {y}) }}\n")
+    result = check_source(text, str(tmp_path / "t.hub"))
+    assert result.program is not None
+    found = [w.message for w in result.warnings if w.code == "W503"]
+    assert bool(found) == warned, found
+    if warned:
+        assert f"less than its radius 0.3 m, between (2, 6.5) and (2, {y:g})" in found[0]
+
+
 @pytest.mark.slow
 def test_a_plugin_controller_installed_with_pip_in_a_venv(tmp_path: Path) -> None:
     """The whole way a user goes: a package declaring `[hubero.controllers]`, installed with
