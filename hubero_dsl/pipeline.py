@@ -24,6 +24,7 @@ from hubero_dsl.lang.lower import Lowering, named_areas
 from hubero_dsl.lang.parse import parse_source, read_source
 from hubero_dsl.lang.placement import (
     check_bodies,
+    check_overlapping_starts,
     check_positions,
     check_robot_paths,
     load_scenario_map,
@@ -154,6 +155,7 @@ def _check_module(module: ast.Module, diagnostics: list[Diagnostic]) -> Program 
         if grid is not None:
             check_positions(grid, facts.positions, diagnostics, facts.bodies)
             check_bodies(grid, facts.bodies, diagnostics)
+            check_overlapping_starts(facts.bodies, diagnostics)
             check_robot_paths(grid, facts.robots, diagnostics)
     areas = named_areas(module, facts.places)
     lowering = Lowering(module.source, facts.places, areas,

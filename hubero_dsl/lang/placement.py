@@ -56,6 +56,9 @@ def load_scenario_map(source: ast.SourceFile, written: ast.String,
         return None
 
 
+OVERLAP_SLACK = 0.01  # m: bodies written a centimetre too close to each other only touch
+
+
 def check_bodies(grid: OccupancyGrid,
                  bodies: list[tuple[str, tuple[float, float], float, Span]],
                  diagnostics: list[Diagnostic]) -> None:
@@ -80,6 +83,27 @@ def check_bodies(grid: OccupancyGrid,
                 f"of radius {radius:g} m does not fit", span,
                 f"the nearest point where it fits is {distance:.2f} m away, at "
                 f"({fx:.2f}, {fy:.2f})"))
+
+
+def check_overlapping_starts(bodies: list[tuple[str, tuple[float, float], float, Span]],
+                             diagnostics: list[Diagnostic]) -> None:
+    """W504: two humans or robots placed so that their bodies overlap (by more than
+    OVERLAP_SLACK): the run's first tick pushes them apart, and a metric counts a collision at
+    t = 0 that the scenario wrote, not the people did."""
+    from scipy.spatial import cKDTree
+
+    starts = [body for body in bodies if body[0].startswith("the start of")]
+    if len(starts) < 2:
+        return
+    reach = 2 * max(radius for _, _, radius, _ in starts)
+    tree = cKDTree(np.array([xy for _, xy, _, _ in starts]))
+    for i, j in sorted(tree.query_pairs(reach)):
+        (first, a, ra, _), (second, b, rb, span) = starts[i], starts[j]
+        apart = math.dist(a, b)
+        if apart < ra + rb - OVERLAP_SLACK:
+            diagnostics.append(warning(
+                "W504", f"{second} overlaps {first}: {apart:.2f} m apart, where their bodies "
+                f"need {ra + rb:.2f} m", span, "move one of them away from the other"))
 
 
 def check_robot_paths(grid: OccupancyGrid, robots: Sequence[RobotSpec],

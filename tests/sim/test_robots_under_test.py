@@ -402,3 +402,17 @@ def test_a_plugin_controller_installed_with_pip_in_a_venv(tmp_path: Path) -> Non
                           capture_output=True, text=True, timeout=120, check=False)
     assert done.returncode == 0, done.stdout + done.stderr
     assert "1 passed, 0 failed" in done.stdout
+
+
+@pytest.mark.parametrize(("robot_at", "warned"), [("(2.0, 2.0)", True), ("(2.45, 2.0)", True),
+                                                  ("(2.5, 2.0)", False)])
+def test_bodies_placed_on_each_other_are_warned_about(room_map: Path, robot_at: str,
+                                                      warned: bool) -> None:
+    text = (f'scenario "t"\nmap "{room_map}"\nhuman h at (2.0, 2.0)\n'
+            f"robot r at {robot_at} {{ radius 0.3 m }}\n")
+    result = check_source(text, "t.hub")
+    found = [w for w in result.warnings if w.code == "W504"]
+    assert bool(found) == warned
+    if warned:
+        assert found[0].message.startswith("the start of robot 'r' overlaps the start of 'h'")
+        assert found[0].span is not None and found[0].span.line == 4
