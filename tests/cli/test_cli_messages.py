@@ -55,10 +55,11 @@ def test_output_to_a_pipe_is_neither_wrapped_nor_cut(cli: Callable[..., Outcome]
 
 def test_hundreds_of_errors_are_cut_to_the_first_fifty(cli: Callable[..., Outcome],
                                                        tmp_path: Path) -> None:
+    # on one spot: besides the 456 errors, W504 names ten overlapping pairs and counts the rest
     body = "".join(f"human h{i} at (1, 1) {{ sped 1 m/s }}\n" for i in range(456))
     outcome = cli("check", _scenario(tmp_path, body))
     assert outcome.status == 1
-    assert outcome.out.count("unknown parameter 'sped'") == 50
+    assert outcome.out.count("unknown parameter 'sped'") + outcome.out.count("[W504]") == 50
     assert "... and " in outcome.out and "more in" in outcome.out
     listed = cli("check", "--format", "json", _scenario(tmp_path, body, "j.hub"))
     assert listed.out.count('"unknown parameter \'sped\'"') == 456
