@@ -50,6 +50,9 @@ def read_bounded(path: Path, limit: int, what: str, failure: Failure = InputErro
     return data
 
 
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"   # how every PNG file starts
+
+
 def refuse_other_kind(path: Path, magic: bytes, kind: str, advice: str) -> None:
     """Refuse (InputError) to write over a regular file at `path` that does not start as a
     file of `kind` does (its `magic` bytes): a log is written over a log, a picture over a

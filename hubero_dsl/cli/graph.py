@@ -58,24 +58,41 @@ def run(args: argparse.Namespace) -> int:
     from hubero_dsl.graph import render
 
     if args.output is not None:
-        from hubero_dsl.files import check_output
         from hubero_dsl.world.mapfile import map_files
 
-        check_output(Path(args.output), (Path(args.file), *map_files(program.map_path)))
-    if output_format == "png":
-        try:
-            from hubero_dsl.graph import picture
+        _check_out(Path(args.output), output_format,
+                   (Path(args.file), *map_files(program.map_path)))
+    from hubero_dsl.files import write_replacing
 
-            picture.to_png(graph, Path(args.output))
-        except OSError as exc:
-            raise InputError(f"{args.output}: cannot be written ({exc.strerror or exc})") from None
+    if output_format == "png":
+        from hubero_dsl.graph import picture
+
+        write_replacing(Path(args.output), lambda temp: picture.to_png(graph, temp))
         return 0
     text = render.to_dot(graph) if output_format == "dot" else render.to_mermaid(graph)
+    text = text if text.endswith("\n") else text + "\n"
     if args.output is None:
-        sys.stdout.write(text if text.endswith("\n") else text + "\n")
+        sys.stdout.write(text)
     else:
-        _write_text(Path(args.output), text)
+        write_replacing(Path(args.output), lambda temp: temp.write_text(text, encoding="utf-8"))
     return 0
+
+
+def _check_out(out: Path, output_format: str, reads: tuple[Path, ...]) -> None:
+    """OUT must be writable and not one of the inputs; a PNG's name ends in .png (the picture
+    is written to exactly the name given); and an existing file is written over only when it
+    is a graph of the same kind: a PNG, or text named as a graph (.mmd, .dot, ...)."""
+    from hubero_dsl.errors import InputError
+    from hubero_dsl.files import PNG_MAGIC, check_output, refuse_other_kind
+
+    check_output(out, reads)
+    if output_format == "png":
+        if out.suffix.lower() != ".png":
+            raise InputError(f"{out}: --format png writes a PNG: give -o a name ending in .png")
+        refuse_other_kind(out, PNG_MAGIC, "a PNG", "give another -o")
+    elif out.is_file() and out.suffix.lower() not in _FORMAT_OF_SUFFIX:
+        raise InputError(f"{out} exists and is not a graph (.mmd, .mermaid, .dot, .gv): not "
+                         "writing over it (give another -o)")
 
 
 def _checked_program(path: str) -> Any:
@@ -99,12 +116,3 @@ def _format_from_suffix(output: str | None) -> str:
     if output is None:
         return "mermaid"
     return _FORMAT_OF_SUFFIX.get(Path(output).suffix.lower(), "mermaid")
-
-
-def _write_text(path: Path, text: str) -> None:
-    from hubero_dsl.errors import InputError
-
-    try:
-        path.write_text(text if text.endswith("\n") else text + "\n", encoding="utf-8")
-    except OSError as exc:
-        raise InputError(f"{path}: cannot be written ({exc.strerror or exc})") from None

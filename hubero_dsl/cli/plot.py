@@ -72,12 +72,9 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
-
-
 def _beside_the_log(log: Path) -> Path:
     """RUN.png beside RUN.mcap; never over a file there that is not a PNG."""
-    from hubero_dsl.files import refuse_other_kind
+    from hubero_dsl.files import PNG_MAGIC, refuse_other_kind
 
     picture = log.with_suffix(".png")
     refuse_other_kind(picture, PNG_MAGIC, "a PNG", "give -o OUT.png")

@@ -72,7 +72,34 @@ def test_output_file_and_format_from_its_suffix(cli: Cli, stand_in: list[Any],
 def test_png_goes_to_the_output_file(cli: Cli, stand_in: list[Any], tmp_path: Path) -> None:
     target = tmp_path / "g.png"
     assert cli("graph", "x.hub", "-o", str(target)).status == 0
-    assert stand_in == [("png", target)]
+    # drawn beside it, then renamed into place: a failed drawing leaves nothing
+    assert [kind for kind, _ in stand_in] == ["png"]
+    assert target.read_bytes() == b"\x89PNG" and sorted(tmp_path.iterdir()) == [target]
+
+
+@pytest.mark.parametrize("name", ["m", "g.txt", "g.svg", "g.jpg", "s2.hub", ".png"])
+def test_a_png_is_written_to_a_name_ending_in_png_only(cli: Cli, stand_in: list[Any],
+                                                       tmp_path: Path, name: str) -> None:
+    # `-o m` wrote m.png: over a map's image named so
+    outcome = cli("graph", "x.hub", "--format", "png", "-o", str(tmp_path / name))
+    assert outcome.status == 2 and "give -o a name ending in .png" in outcome.err
+    assert stand_in == [] and list(tmp_path.iterdir()) == []
+
+
+def test_a_file_that_is_no_graph_is_not_written_over(cli: Cli, stand_in: list[Any],
+                                                     tmp_path: Path) -> None:
+    notes, picture = tmp_path / "notes.txt", tmp_path / "photo.png"
+    notes.write_text("mine\n", encoding="utf-8")
+    picture.write_bytes(b"GIF89a")
+    for target, message in ((notes, "is not a graph"), (picture, "is not a PNG")):
+        outcome = cli("graph", "x.hub", "-o", str(target))
+        assert outcome.status == 2 and message in outcome.err
+    assert notes.read_text(encoding="utf-8") == "mine\n"
+    assert picture.read_bytes() == b"GIF89a"
+    fresh = tmp_path / "graph.txt"       # a new file may have any name
+    assert cli("graph", "x.hub", "-o", str(fresh)).status == 0
+    assert cli("graph", "x.hub", "-o", str(tmp_path / "g.mmd")).status == 0
+    assert cli("graph", "x.hub", "-o", str(tmp_path / "g.mmd")).status == 0  # a graph again
 
 
 def test_png_needs_an_output_file(cli: Cli, stand_in: list[Any]) -> None:
