@@ -687,11 +687,31 @@ class OccupancyGrid:
         cell = self.world_to_cell(point)
         if self._inside(cell) and mask[self._clipped(cell)]:
             return (float(point[0]), float(point[1])), 0.0
-        rows, cols = np.nonzero(mask)
-        if rows.size == 0:
+        nearest = self._nearest_free_cells(body_radius)
+        if nearest is None:
             raise MapError(f"no place on map {self.source} fits a body of radius "
                            f"{body_radius:g} m")
-        centres = self.cell_to_world(np.stack((rows, cols), axis=-1))
+        # the free cell nearest to the point's (clipped) cell bounds the search: every free
+        # cell centre nearer to the point lies in the box of that reach around it
+        row, col = (int(i) for i in self._clipped(cell))
+        guess = self.cell_to_world(nearest[:, row, col])
+        reach = float(np.hypot(*(guess - point))) + self.resolution
+        low = self.world_to_cell(point - reach)
+        high = self.world_to_cell(point + reach)
+        r0, c0 = max(int(low[0]), 0), max(int(low[1]), 0)
+        rows, cols = np.nonzero(mask[r0:max(int(high[0]) + 1, r0), c0:max(int(high[1]) + 1, c0)])
+        centres = self.cell_to_world(np.stack((rows + r0, cols + c0), axis=-1))
         distances = np.hypot(centres[:, 0] - point[0], centres[:, 1] - point[1])
         best = int(np.argmin(distances))
         return (float(centres[best, 0]), float(centres[best, 1])), float(distances[best])
+
+    def _nearest_free_cells(self, body_radius: float) -> IntArray | None:
+        """(2, rows, cols): for each cell the (row, col) of the nearest cell where a body of
+        this radius fits (scipy's distance transform, once per radius); None: it fits
+        nowhere."""
+        radius = _check_radius(body_radius)
+        mask = self.free_mask(radius)
+        if not mask.any():
+            return None
+        return self._cached(("nearest free", radius), lambda: _ndimage().distance_transform_edt(
+            ~mask, return_distances=False, return_indices=True))

@@ -212,6 +212,25 @@ def test_nearest_free_outside_the_map() -> None:
     assert distance == pytest.approx(1.05)
 
 
+@pytest.mark.parametrize("radius", [0.0, 0.1, 0.15])
+def test_nearest_free_is_the_nearest_of_every_cell_that_fits(radius: float) -> None:
+    # the search goes by the distance transform's nearest cell; it must find what comparing
+    # with every cell that fits finds, ties to the lowest (row, col) included
+    rng = np.random.default_rng(7)
+    occupied = rng.random((60, 80)) < 0.1
+    grid = OccupancyGrid(occupied, 0.1, (-2.0, 1.0), "random")
+    rows, cols = np.nonzero(grid.free_mask(radius))
+    centres = grid.cell_to_world(np.stack((rows, cols), axis=-1))
+    for x, y in rng.uniform((-4.0, -1.0), (8.0, 9.0), size=(300, 2)):
+        (fx, fy), distance = grid.nearest_free((float(x), float(y)), radius)
+        if distance == 0.0:
+            continue
+        every = np.hypot(centres[:, 0] - x, centres[:, 1] - y)
+        best = int(np.argmin(every))
+        assert ((fx, fy), distance) == ((float(centres[best, 0]), float(centres[best, 1])),
+                                        float(every[best]))
+
+
 def test_nearest_free_fails_when_the_body_fits_nowhere() -> None:
     grid = room(rows=10, cols=10)
     with pytest.raises(MapError, match="radius 2 m"):
