@@ -32,7 +32,9 @@ MAX_RUNS = 100_000  # a typo like 1..10000000 should fail at once, not after fil
 MAX_NAME_LENGTH = 80  # characters of a variant's folder name before it is cut and hashed
 DEFAULT_FOLDER = "default"  # the folder of the scenario as written (no variants)
 
-_SEED_ITEM = re.compile(r"^\s*(\d+)\s*(?:\.\.\s*(\d+)\s*)?$")
+# a seed of at most 18 digits: any longer is no seed anyone means (and int() of thousands of
+# digits raises)
+_SEED_ITEM = re.compile(r"^\s*(\d{1,18})\s*(?:\.\.\s*(\d{1,18})\s*)?$")
 _UNSAFE = re.compile(r"[^A-Za-z0-9._,=+-]")
 _RESERVED = frozenset({"CON", "PRN", "AUX", "NUL", *(f"COM{i}" for i in range(1, 10)),
                        *(f"LPT{i}" for i in range(1, 10))})
@@ -71,8 +73,10 @@ def parse_seeds(text: str) -> tuple[int, ...]:
     for item in text.split(","):
         match = _SEED_ITEM.match(item)
         if match is None:
-            raise InputError(f"--seeds: '{item.strip()}' is not a seed or a range; give seeds "
-                             "like 1..20, 3 or 1,2,5 (whole numbers from 0)")
+            shown = item.strip() if len(item.strip()) <= 40 else item.strip()[:37] + "..."
+            raise InputError(f"--seeds: '{shown}' is not a seed or a range; give seeds "
+                             "like 1..20, 3 or 1,2,5 (whole numbers from 0, of at most 18 "
+                             "digits)")
         first = int(match[1])
         last = int(match[2]) if match[2] is not None else first
         if last < first:

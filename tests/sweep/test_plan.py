@@ -34,6 +34,9 @@ def test_seeds_are_ranges_and_lists_sorted_once(text: str, seeds: tuple[int, ...
     ("", "empty"), ("1-5", "'1-5' is not a seed"), ("a", "'a' is not a seed"),
     ("-1", "not a seed"), ("1,,2", "'' is not a seed"), ("5..1", "write it upwards (1..5)"),
     ("1...3", "not a seed"), ("1.5", "not a seed"), (f"0..{MAX_RUNS}", "at most"),
+    # thousands of digits: int() itself refuses them (an internal error before)
+    ("1," + "9" * 4400, "'9999999999999999999999999999999999999...' is not a seed"),
+    ("9" * 19, "of at most 18 digits"),
 ])
 def test_bad_seeds_say_what_is_wrong(text: str, says: str) -> None:
     with pytest.raises(InputError, match="--seeds") as caught:
