@@ -20,6 +20,7 @@ from __future__ import annotations
 import contextlib
 import multiprocessing
 import os
+import signal
 import threading
 from collections.abc import Callable, Iterator
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
@@ -76,6 +77,41 @@ class SerialExecutor(Executor):
         self.shutdown()
 
 
+def _start_fork_server() -> None:
+    """Start the fork server now, deaf to Ctrl-C: it imports the simulator before it ignores
+    SIGINT itself, and a Ctrl-C (sent to the whole process group) in the first second of a
+    sweep printed a traceback from it. An ignored signal stays ignored over fork and exec
+    (a blocked one does not: the child's mask is reset); the parent hears it again at once."""
+    from multiprocessing import forkserver
+
+    handler = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        forkserver.ensure_running()
+    finally:
+        signal.signal(signal.SIGINT, handler)
+
+
+@contextlib.contextmanager
+def _signals_after() -> Iterator[None]:
+    """Ctrl-C and SIGTERM held back until the block is done: a submission may start a worker
+    process, and one interrupted between its fork and its being recorded by the pool was left
+    behind, to print a traceback when it found the pool gone. Main thread only (where Python
+    runs signal handlers); elsewhere the block runs as it is."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held: list[int] = []
+    previous = {number: signal.signal(number, lambda received, frame: held.append(received))
+                for number in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+        if held:
+            signal.raise_signal(held[0])  # now, to the handler it was meant for
+
+
 class ProcessExecutor(Executor):
     """A process pool whose workers ignore Ctrl-C and can be stopped at once, and which can
     be renewed when a worker died (which breaks a `ProcessPoolExecutor` for good)."""
@@ -93,13 +129,15 @@ class ProcessExecutor(Executor):
             # Import the simulator once in the fork server; every worker forked from it then
             # starts at once instead of importing numpy, scipy and shapely again.
             context.set_forkserver_preload(list(WORKER_MODULES))
+            _start_fork_server()
         else:
             context = multiprocessing.get_context("spawn")
         return ProcessPoolExecutor(max_workers=self.slots, mp_context=context,
                                    initializer=install_worker_signals, initargs=(os.getpid(),))
 
     def submit(self, fn: Callable[P, T], /, *args: P.args, **kwargs: P.kwargs) -> Future[T]:
-        return self._pool.submit(fn, *args, **kwargs)
+        with _signals_after():
+            return self._pool.submit(fn, *args, **kwargs)
 
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
         self._pool.shutdown(wait=wait, cancel_futures=cancel_futures)

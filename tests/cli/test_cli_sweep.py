@@ -186,6 +186,26 @@ def test_ctrl_c_stops_the_sweep_and_writes_the_finished_runs(tmp_path: Path) -> 
     assert logs == sorted(Path(r["log"]).name for r in written["runs"])  # no .part files left
 
 
+def test_ctrl_c_to_the_process_group_as_the_sweep_starts_leaves_an_index_and_no_traceback(
+        tmp_path: Path) -> None:
+    # a terminal's Ctrl-C reaches the fork server and the workers too: as they start, the
+    # fork server printed the traceback of its imports, a worker forked as the pool went
+    # away printed its own, and with no run under way no index was written
+    for wait in (0.9, 1.3, 1.8):
+        out = tmp_path / f"out-{wait}"
+        process = subprocess.Popen(
+            [sys.executable, "-m", "hubero_dsl", "sweep", scenario(tmp_path, LONG), "--seeds",
+             "1..8", "--jobs", "2", "--out-dir", str(out)], stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE, text=True, start_new_session=True)
+        time.sleep(wait)
+        os.killpg(process.pid, signal.SIGINT)
+        _, stderr = process.communicate(timeout=60)
+        assert "Traceback" not in stderr, stderr
+        assert process.returncode == 130, stderr
+        if out.exists():  # interrupted before its folder was made: nothing to index
+            assert index(out)["complete"] is False
+
+
 def test_sigterm_stops_the_sweep_as_terminated(tmp_path: Path) -> None:
     out = tmp_path / "out"
     process = _long_sweep(tmp_path, out, jobs=1)
