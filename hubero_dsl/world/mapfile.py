@@ -309,7 +309,12 @@ def _read_image(path: Path, document: _Document) -> tuple[UInt8Array, bool]:
                 return _channels(image, path, document)
     except MapError:
         raise
-    except (OSError, ValueError, SyntaxError, EOFError, Image.DecompressionBombError) as exc:
+    except Image.DecompressionBombError:  # Pillow refuses to open it: beyond any limit of ours
+        raise document.error(
+            "image", f"is far more than a map's {MAX_MAP_CELLS:,} cells (for example 4000 x "
+            f"4000): {path}", hint="use a coarser resolution or crop the map to the part the "
+            "scenario uses") from None
+    except (OSError, ValueError, SyntaxError, EOFError) as exc:
         raise document.error("image", f"cannot be read: {path}: {exc}") from None
 
 

@@ -311,3 +311,21 @@ def test_numbers_written_as_ros_reads_them(tmp_path: Path) -> None:
                                      encoding="utf-8")
     grid = load_map(tmp_path / "m.yaml")
     assert grid.resolution == 0.05 and grid.origin == (-6.5, 1.0)
+
+
+def test_an_image_too_large_for_pillow_to_open_says_what_a_map_may_be(tmp_path: Path) -> None:
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return (struct.pack(">I", len(data)) + kind + data
+                + struct.pack(">I", zlib.crc32(kind + data)))
+
+    # a header claiming 30,000 x 30,000 pixels: Pillow refuses it as a decompression bomb
+    header = struct.pack(">IIBBBBB", 30000, 30000, 8, 0, 0, 0, 0)
+    (tmp_path / "huge.png").write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header)
+                                        + chunk(b"IEND", b""))
+    yaml_path = tmp_path / "huge.yaml"
+    yaml_path.write_text(yaml_text({"image": "huge.png", **FIELDS}))
+    with pytest.raises(MapError, match="is far more than a map's 16,000,000 cells"):
+        load_map(yaml_path)
