@@ -13,6 +13,7 @@ values differ between the runs.
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 from collections.abc import Callable, Sequence
@@ -174,11 +175,30 @@ def _check_same_humans(a: LoggedRun, b: LoggedRun) -> None:
 def _notes(a: LoggedRun, b: LoggedRun) -> tuple[str, ...]:
     notes = []
     if a.metadata.source_sha256 != b.metadata.source_sha256:
-        notes.append(f"the scenario texts differ ('{a.metadata.title}' in A, "
-                     f"'{b.metadata.title}' in B)")
+        notes.append(f"the scenario texts differ ({_first_difference(a, b)})")
     if a.grid.shape != b.grid.shape or not np.array_equal(a.grid.occupied, b.grid.occupied):
         notes.append("the maps differ")
     return tuple(notes)
+
+
+def _first_difference(a: LoggedRun, b: LoggedRun) -> str:
+    """Where two runs' scenario texts first part: the titles when those differ, else the
+    first line that does (as the logs carry them)."""
+    if a.metadata.title != b.metadata.title:
+        return f"'{a.metadata.title}' in A, '{b.metadata.title}' in B"
+    lines_a, lines_b = a.metadata.source.splitlines(), b.metadata.source.splitlines()
+    for number, (line_a, line_b) in enumerate(itertools.zip_longest(lines_a, lines_b), 1):
+        if line_a != line_b:
+            return (f"first at line {number}: {_quoted_line(line_a)} in A, "
+                    f"{_quoted_line(line_b)} in B")
+    return "in their line endings"
+
+
+def _quoted_line(line: str | None) -> str:
+    if line is None:
+        return "nothing"
+    text = line.strip()
+    return f"'{text[:57]}...'" if len(text) > 60 else f"'{text}'"
 
 
 # ---- the pieces ---------------------------------------------------------------------------

@@ -122,6 +122,11 @@ def test_other_scenario_text_is_noted(build_run: Factory, track: Factory) -> Non
     humans = [track("alice", [0.0], [(0, 0)])]
     diff = diff_runs(build_run(humans, source="a"), build_run(humans, source="b"))
     assert any("scenario texts differ" in note for note in diff.notes)
+    # the same title: the note says where the texts part (it quoted the title twice)
+    diff = diff_runs(build_run(humans, source="x\nspeed 1 m/s\n"),
+                     build_run(humans, source="x\nspeed 2 m/s\n"))
+    assert "the scenario texts differ (first at line 2: 'speed 1 m/s' in A, 'speed 2 m/s' "\
+           "in B)" in diff.notes
 
 
 @pytest.mark.parametrize("epsilon", [0.0, -1.0, float("nan"), float("inf")])
