@@ -387,6 +387,13 @@ class Checker:
                                             positive=True)
         if flow.until is not None:
             self._condition(flow.until)
+            if (own := _requires_all_of(flow.until, flow.name.name)) is not None:
+                self.diagnostics.append(error(
+                    "E313", f"the `until` of {what} waits for `all {flow.name.name} reach "
+                    "...`, which can only hold once the flow has stopped bringing people: it "
+                    "would never stop", own.span,
+                    f"stop it with `any {flow.name.name} reaches ...`, "
+                    f"`count({flow.name.name} in AREA) >= N`, a time, or `for Q`"))
         layer = self._layer(flow.params, per_human_allowed=False)
         self.facts.flows.append(FlowFacts(flow.name.name, flow.area, target, rate, duration,
                                           flow.until, layer, flow.span))
@@ -979,3 +986,15 @@ def _source_text(text: str, span: Span) -> str:
 
 
 __all__ = ["Checker", "Distribution", "Facts"]
+
+
+def _requires_all_of(condition: ast.Condition, flow: str) -> ast.AllReach | None:
+    """`all FLOW reach T` where `condition` cannot hold without it (itself, or a part of an
+    `and`)."""
+    if isinstance(condition, ast.AllReach):
+        return condition if condition.group.name == flow else None
+    if isinstance(condition, ast.AllOf):
+        for operand in condition.operands:
+            if (found := _requires_all_of(operand, flow)) is not None:
+                return found
+    return None

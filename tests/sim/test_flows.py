@@ -175,6 +175,17 @@ def test_a_walker_who_stopped_short_did_not_reach(room_map: Path) -> None:
     assert [e.held for e in result.expectations] == [False, False]
 
 
+def test_a_flow_that_would_stop_once_all_its_people_arrived_never_stops(room_map: Path
+                                                                       ) -> None:
+    base = "flow f from rect((0.5, 0.5), (2.5, 7.5)) to (9.0, 4.0) rate 1 /s until "
+    result = check_source(_text(room_map, base + "all f reach (9.0, 4.0)\n"), "t.hub")
+    (found,) = result.errors
+    assert found.code == "E313" and "would never stop" in found.message
+    assert found.span is not None and found.span.line == 4
+    for fine in ("all f reach (9.0, 4.0) or time > 20 s", "any f reaches (9.0, 4.0)"):
+        assert not check_source(_text(room_map, base + fine + "\n"), "t.hub").errors
+
+
 def test_a_variant_sets_the_parameters_of_a_whole_flow(room_map: Path) -> None:
     program = compile_source(_text(room_map, """
     flow f from rect((0.5, 0.5), (2.5, 7.5)) to (9.0, 4.0) rate 1 /s for 5 s { speed 1.1 m/s }
