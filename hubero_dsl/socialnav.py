@@ -33,6 +33,9 @@ FORCE_A, FORCE_B = 2.1, 0.3                    # m/s^2, m (Helbing & Molnar 1995
 # either side of it (1e-16 m); counting only gaps below 0 would count such a contact or not
 # by the rounding.
 CONTACT = 1e-9
+# m: a body this far beyond its goal tolerance has reached the goal all the same (a float's
+# rounding of an approach that ends exactly at the tolerance); `NAME reaches P` counts it too
+GOAL_SLACK = 1e-9
 # m/s: two bodies closing more slowly than this are not on a collision course. Velocities come
 # from differences of positions, and a log keeps positions to 0.1 mm: two standing bodies
 # "close" at rounding speeds, which gave times to contact of 10^14 s.
@@ -168,7 +171,7 @@ def _arrival(time: FloatArray, position: FloatArray, goal: tuple[float, float] |
              tolerance: float) -> float | None:
     if goal is None or not len(time):
         return None
-    near = np.hypot(position[:, 0] - goal[0], position[:, 1] - goal[1]) <= tolerance + 1e-9
+    near = np.hypot(position[:, 0] - goal[0], position[:, 1] - goal[1]) <= tolerance + GOAL_SLACK
     return float(time[int(np.argmax(near))]) if near.any() else None
 
 

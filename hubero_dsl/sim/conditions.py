@@ -18,6 +18,7 @@ import shapely
 
 from hubero_dsl.model import conditions as c
 from hubero_dsl.model.tasks import Target
+from hubero_dsl.socialnav import GOAL_SLACK
 
 if TYPE_CHECKING:
     from hubero_dsl.sim.engine import Engine
@@ -76,7 +77,7 @@ class Conditions:
                 return lambda: name in book
             case c.Reaches(subject=subject, target=target):
                 return self._within(subject, target, operator.le,
-                                    self.engine.goal_tolerance_of(subject))
+                                    self.engine.goal_tolerance_of(subject) + GOAL_SLACK)
             case c.FlowReaches(flow=flow, target=target, every=every):
                 return self._flow_reaches(flow, target, every)
             case c.DistanceTo(subject=subject, target=target, operator=op, threshold=threshold):
@@ -129,7 +130,8 @@ class Conditions:
             at = there()
             if at is None or not len(rows) or (every and more):
                 return False
-            within = np.hypot(where[:, 0] - at[0], where[:, 1] - at[1]) <= tolerance[rows]
+            within = (np.hypot(where[:, 0] - at[0], where[:, 1] - at[1])
+                      <= tolerance[rows] + GOAL_SLACK)
             return bool(within.all() if every else within.any())
         return holds
 

@@ -150,3 +150,29 @@ def test_efficiency_is_not_a_number_when_the_goal_was_never_reached() -> None:
     assert short["time_to_goal"] == math.inf
     reached = social_metrics(straight, [], goal=(4.5, 0.0))
     assert reached["path_efficiency"] == pytest.approx(1.0)
+
+
+class _Straight:
+    """Drives east at 1 m/s: 4.3 m to the goal with a tolerance of 0.2 m, 4.1 s exactly."""
+
+    def __init__(self, body: object, params: object) -> None:
+        pass
+
+    def command(self, observation: object) -> tuple[float, float]:
+        return (1.0, 0.0)
+
+
+def test_reaching_the_goal_is_one_instant_for_the_condition_and_the_metric(
+        room_map: Path) -> None:
+    # the approach ends at the tolerance, give or take a float's rounding: the metric counted
+    # it as reached and the condition a tick later
+    text = (f'scenario "t"\nmap "{room_map}"\ntime_limit 20 s\n'
+            "robot cart at (1.0, 2.0) { controller external; goal (5.3, 2.0); "
+            "goal_tolerance 0.2 m; max_acceleration 100 }\n"
+            "human h at (1, 6)\nactivity { h stand for 8 s }\n"
+            "expect cart reaches (5.3, 2.0) within 8 s\n")
+    result = run_program(Simulation(compile_source(text, "t.hub"),
+                                    controllers={"cart": _Straight}))
+    (reached,) = result.expectations
+    assert reached.held and reached.decided_at == pytest.approx(4.1)
+    assert result.robot_metrics["cart"]["time_to_goal"] == pytest.approx(4.1)
