@@ -832,11 +832,22 @@ class Checker:
         """E109: tasks given to a robot that drives a scripted path (known once every robot
         has been read, wherever it is declared)."""
         controllers = {robot.name: robot.controller for robot in self.facts.robots}
+        unsaid = {decl.name.name for decl in self.module.of_type(ast.RobotDecl)
+                  if decl.controller is None and decl.path is None}
+        warned: set[str] = set()
         for ref, step in self.robot_steps:
             if controllers.get(ref.name) == "path":
                 self.report("E109", f"robot '{ref.name}' drives its `path` and takes no tasks",
                             step.task.kind_span, "give it `controller navigator` (or "
                             "`external`) and a task, or drop the task")
+            elif ref.name in unsaid and ref.name not in warned:
+                warned.add(ref.name)  # once per robot: its first task
+                self.diagnostics.append(warning(
+                    "W505", f"robot '{ref.name}' names no controller, so nothing moves it but "
+                    "a program driving it from Python (`controller external`): its tasks wait "
+                    "for that", step.task.kind_span, "give it `controller navigator` to run it "
+                    "from the command line, or write `controller external` when a program "
+                    "drives it"))
 
     def _unknown_task(self, task: ast.Task) -> None:
         self.report("E108", f"unknown task '{task.kind}'", task.kind_span,

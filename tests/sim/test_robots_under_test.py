@@ -416,3 +416,15 @@ def test_bodies_placed_on_each_other_are_warned_about(room_map: Path, robot_at: 
     if warned:
         assert found[0].message.startswith("the start of robot 'r' overlaps the start of 'h'")
         assert found[0].span is not None and found[0].span.line == 4
+
+
+@pytest.mark.parametrize(("declared", "warned"), [("", True), (" { controller external }", False),
+                                                  (" { controller navigator }", False)])
+def test_tasks_for_a_robot_that_names_no_controller_are_warned_about(
+        room_map: Path, declared: str, warned: bool) -> None:
+    text = (f'scenario "t"\nmap "{room_map}"\nrobot cart at (2, 2){declared}\n'
+            "activity { cart move_to (6, 2) within 30 s; cart stand for 2 s }\n")
+    found = [w for w in check_source(text, "t.hub").warnings if w.code == "W505"]
+    assert len(found) == int(warned)   # once per robot, at its first task
+    if warned:
+        assert found[0].span is not None and found[0].span.line == 4
