@@ -20,6 +20,7 @@ allocated. Errors name the file, line and column of the entry at fault.
 
 from __future__ import annotations
 
+import difflib
 import math
 import shutil
 import tempfile
@@ -42,6 +43,8 @@ from hubero_dsl.world.mapfile import save_map, unsafe_yaml
 
 SHAPES_SUFFIX = ".shapes.yaml"
 MAX_SHAPES_BYTES = 4 << 20  # a description is a page or two of YAML
+DRAWING_KEYS = ("description", "resolution", "origin", "size", "obstacles", "marks", "interior")
+SHAPE_KEYS = ("rect", "circle", "radius", "polygon")
 
 
 @dataclass(frozen=True)
@@ -100,9 +103,16 @@ class _Reader:
                     end.column + 1)
 
     def node(self, key: str) -> yaml.Node | None:
+        """The value of a top-level key."""
         assert isinstance(self.root, yaml.MappingNode)
         return next((value for name, value in self.root.value
                      if isinstance(name, yaml.ScalarNode) and name.value == key), None)
+
+    def key_node(self, key: object) -> yaml.Node | None:
+        """A top-level key itself."""
+        assert isinstance(self.root, yaml.MappingNode)
+        return next((name for name, _ in self.root.value
+                     if isinstance(name, yaml.ScalarNode) and name.value == str(key)), None)
 
     def fail(self, where: str, message: str, node: yaml.Node | None) -> MapError:
         """An error at `node` (the message then shows its file, line, column and line)."""
@@ -127,6 +137,8 @@ def _geometry(reader: _Reader, entry: Any, where: str, node: yaml.Node | None) -
     """One shape: `rect`, `circle` (+ `radius`) or `polygon`."""
     if not isinstance(entry, dict):
         raise reader.fail(where, "expected a mapping with rect, circle or polygon", node)
+    if where == "interior":
+        _known_keys(reader, entry, SHAPE_KEYS, where, node)
     kinds = [kind for kind in ("rect", "circle", "polygon") if kind in entry]
     if len(kinds) != 1:
         raise reader.fail(where, "give exactly one of rect, circle, polygon", node)
@@ -151,6 +163,18 @@ def _geometry(reader: _Reader, entry: Any, where: str, node: yaml.Node | None) -
     if geometry.is_empty or not geometry.is_valid or geometry.area <= 0.0:
         raise reader.fail(where, "shape is empty or self-intersecting", node)
     return geometry
+
+
+def _known_keys(reader: _Reader, mapping: dict[Any, Any], known: tuple[str, ...], where: str,
+                node: yaml.Node | None) -> None:
+    """A key the format does not have is an error: a misspelt `obstacels:` drew a map with no
+    obstacles at all."""
+    for key in mapping:
+        if key not in known:
+            close = difflib.get_close_matches(str(key), known, n=1, cutoff=0.6)
+            hint = f"did you mean `{close[0]}`?" if close else f"the keys are {', '.join(known)}"
+            raise reader.fail(where, f"unknown key `{str(key)[:60]}` ({hint})",
+                              node if node is not None else reader.key_node(key))
 
 
 def _cells(reader: _Reader, size: tuple[float, float], resolution: float) -> tuple[int, int]:
@@ -181,6 +205,7 @@ def load_drawing(path: str | Path) -> MapDrawing:
     if min(size) <= 0:
         raise reader.fail("size", "width and height must be positive", reader.node("size"))
     cells = _cells(reader, size, float(resolution))
+    _known_keys(reader, spec, DRAWING_KEYS, "a shape description", None)
     obstacles_node = reader.node("obstacles")
     entries = spec.get("obstacles") or []
     if not isinstance(entries, list):
@@ -191,6 +216,8 @@ def load_drawing(path: str | Path) -> MapDrawing:
         node = nodes[index] if index < len(nodes) else obstacles_node
         if not isinstance(entry, dict) or not isinstance(entry.get("name"), str):
             raise reader.fail(f"obstacle {index + 1}", "expected a mapping with a `name`", node)
+        _known_keys(reader, entry, ("name", *SHAPE_KEYS), f"obstacle '{entry['name'][:60]}'",
+                    node)
         obstacles.append(Obstacle(entry["name"], _geometry(
             reader, entry, f"obstacle '{entry['name'][:60]}'", node)))
     marks_value = spec.get("marks") or {}

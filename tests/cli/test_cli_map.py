@@ -68,7 +68,13 @@ def test_show_draws_any_map_next_to_it(tmp_path: Path, cli: Any) -> None:
     ("resolution: 0.05\norigin: [0, 0]\nsize: [1, 1]\nobstacles:\n"
      "  - {name: x, circle: [0, 0], radius: -1}\n", "radius", 5),
     ("resolution: 0.05\norigin: [0, 0]\nsize: [1, 1]\nobstacles:\n"
-     "  - {name: x, hexagon: [0, 0]}\n", "exactly one of", 5),
+     "  - {name: x, hexagon: [0, 0]}\n", "unknown key `hexagon`", 5),
+    ("resolution: 0.05\norigin: [0, 0]\nsize: [1, 1]\nobstacles:\n"
+     "  - {name: x}\n", "exactly one of", 5),
+    # a misspelt key drew a map with no obstacles at all
+    ("resolution: 0.05\norigin: [0, 0]\nsize: [1, 1]\nobstacels:\n"
+     "  - {name: x, rect: [[0, 0], [1, 1]]}\n", "unknown key `obstacels` (did you mean "
+     "`obstacles`?)", 4),
     ("resolution: 0.001\norigin: [0, 0]\nsize: [100, 100]\n", "the most a map may have", 3),
     ("resolution: 0.05\norigin: &o [0, 0]\nsize: *o\n", "anchors and aliases", 2),
 ])
