@@ -186,6 +186,8 @@ def _empty_blocks(context: _Context) -> Iterator[Diagnostic]:
     for fork in nodes_of_kind(context.graph, NodeKind.FORK, NodeKind.RACE_FORK):
         step: m.ParallelStep | m.RaceStep = context.graph.nodes[fork]["step"]
         word = "race" if isinstance(step, m.RaceStep) else "parallel"
+        if isinstance(step, m.ParallelStep) and step.crowd is not None:
+            continue  # a task given to a crowd: it has members unless its statement is wrong
         if not step.branches:
             yield warning("E311", f"this `{word}` has no branches and does nothing", step.span,
                           "remove it, or add branches")

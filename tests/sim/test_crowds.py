@@ -121,6 +121,14 @@ def test_crowd_mistakes_are_reported(room_map: Path, body: str, code: str) -> No
     assert code in {d.code for d in check_source(_text(room_map, body), "t.hub").errors}
 
 
+def test_a_crowd_whose_statement_is_wrong_brings_no_warning_about_its_task(
+        room_map: Path) -> None:
+    # no members: its task was "a `parallel` with no branches", a step nobody wrote
+    result = check_source(_text(room_map, "crowd c 10001 in rect((1, 1), (3, 3))\n"
+                                          "activity { c stand for 1 s }"), "t.hub")
+    assert [d.code for d in result.diagnostics] == ["E203"]
+
+
 def test_a_crowd_may_wander_forever_at_the_end_of_an_activity(room_map: Path) -> None:
     program = compile_source(_text(room_map, """
     crowd v 5 in rect((1, 1), (9, 7))
