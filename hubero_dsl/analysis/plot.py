@@ -11,8 +11,9 @@ succeeded; one whose navigation never succeeded (cut off by the time limit, abor
 only stood) gets a diamond where it ended instead, so that no star claims a goal not reached.
 The members of a crowd or flow share their crowd's colour and one legend entry, with thin paths
 and no personal spaces, so that a picture of a thousand people stays readable. Robots' paths
-are dotted, each robot in a dark colour of its own. The view is the region the actors used,
-with a margin, unless `whole_map` is asked for.
+are dotted, each robot in a dark colour of its own, a cross at its declared goal. The view is
+the region the actors used (and the robots' goals), with a margin, unless `whole_map` is asked
+for.
 """
 
 from __future__ import annotations
@@ -106,7 +107,14 @@ def legend_inches(labels: Sequence[str]) -> float:
 
 def _positions(run: LoggedRun) -> list[FloatArray]:
     return ([track.position for track in run.humans.values()]
-            + [track.position for track in run.robots.values()])
+            + [track.position for track in run.robots.values()]
+            + [np.array([goal]) for goal in _robot_goals(run).values()])
+
+
+def _robot_goals(run: LoggedRun) -> dict[str, tuple[float, float]]:
+    """Each robot's declared goal, by name (robots without one left out)."""
+    goals = {name: run.metadata.robot_goal(name)[0] for name in run.robots}
+    return {name: goal for name, goal in goals.items() if goal is not None}
 
 
 def draw_map(axes: Axes, grid: OccupancyGrid) -> None:
@@ -193,6 +201,9 @@ def draw_robots(axes: Axes, run: LoggedRun, dashed: bool = False) -> None:
                       linestyle=":" if not dashed else (0, (1, 3)), linewidth=1.4, zorder=3)
             axes.plot(*robot.position[0], marker="s", markersize=7, color=palette[name],
                       zorder=5)
+    for name, goal in _robot_goals(run).items():
+        axes.plot(*goal, marker="X", markersize=10, color=palette[name],
+                  markeredgecolor="black", zorder=5)
 
 
 def draw_member(axes: Axes, run: LoggedRun, name: str, colour: Any,
@@ -258,8 +269,12 @@ def short_shape(shape: Shape) -> str:
 
 def _robot_handles(run: LoggedRun) -> list[Line2D]:
     palette = robot_colours(list(run.robots))
-    return [Line2D([], [], color=palette[name], linestyle=":", marker="s", markersize=6,
-                   label=f"robot {name}") for name in sorted(run.robots)]
+    handles = [Line2D([], [], color=palette[name], linestyle=":", marker="s", markersize=6,
+                      label=f"robot {name}") for name in sorted(run.robots)]
+    if _robot_goals(run):
+        handles.append(Line2D([], [], linestyle="none", marker="X", color="white",
+                              markeredgecolor="black", markersize=9, label="robot's goal"))
+    return handles
 
 
 def _set_handles(run: LoggedRun, palette: dict[str, Any]) -> list[Line2D]:
