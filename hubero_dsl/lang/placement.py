@@ -101,8 +101,8 @@ def check_overlapping_starts(bodies: list[tuple[str, tuple[float, float], float,
     if len(starts) < 2:
         return
     radii = np.array([radius for _, _, radius, _ in starts])
-    apart, nearest = cKDTree(np.array([xy for _, xy, _, _ in starts])).query(
-        np.array([xy for _, xy, _, _ in starts]), k=2)
+    centres = np.array([xy for _, xy, _, _ in starts])
+    apart, nearest = cKDTree(centres).query(centres, k=2)
     # the nearest other: a body sharing its spot with another may come second to it
     own = nearest[:, 0] == np.arange(len(starts))
     apart, other = apart[:, 1], np.where(own, nearest[:, 1], nearest[:, 0])
