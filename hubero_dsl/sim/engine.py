@@ -17,7 +17,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from hubero_dsl.errors import SimulationError
 from hubero_dsl.planners.base import Crowd, Drive, NoPath
@@ -27,6 +26,7 @@ from hubero_dsl.sim.behaviours import GROUP_SPACING, Behaviour
 from hubero_dsl.sim.reactions import Reactions
 from hubero_dsl.sim.robots import Robots
 from hubero_dsl.sim.status import Posture, TaskEvent, TaskHandle, TaskStatus
+from hubero_dsl.sim.ways_round import WaysRound
 from hubero_dsl.world.grid import REACH_MARGIN
 from hubero_dsl.world.shapes import ShapeArrays, lateral_extent
 
@@ -39,20 +39,6 @@ if TYPE_CHECKING:
 
 NEVER = np.iinfo(np.int64).max
 LOOKAHEAD = 0.6         # m: a waypoint this close counts as passed
-# A walker pushed back round a wall's end after passing the corner, who has made no progress
-# for STALLED s near a wall and is not in a crowd (at most CROWDED others within ALONE m: in a
-# crowd, the crowd carries people through an opening), looks every LOOK_AGAIN s whether it
-# still sees its target, and if not walks back to the corner, when that is within REACH m
-# (with no such corner it plans anew from where it stands). Two such walkers within MAKE_WAY m
-# of each other hold each other up at a narrow way: one steps aside, towards a point STEP_ASIDE
-# m away (passed, like any waypoint, LOOKAHEAD m before it: about 0.6 m aside).
-STALLED = 3.0
-CROWDED = 2
-ALONE = 1.0
-LOOK_AGAIN = 0.25
-REACH = 1.5
-MAKE_WAY = 1.2
-STEP_ASIDE = 1.2
 GROUP_PULL = 3.0        # 1/s: m/s towards the group's centre per metre too far from it
 # Members walking on their group's task keep abreast (`Engine._walk_abreast`)
 ABREAST_LANE = 0.6      # m across the group's way at least: a companion in the next lane
@@ -121,13 +107,8 @@ class Engine:
         self.events: list[TaskEvent] = []
         self.listeners: list[Callable[[TaskEvent], None]] = []
         self._goal_cells: dict[tuple[int, bytes], IntArray] = {}
-        # when each was last given a way round (`_plan_again`, `_step_aside`): it has STALLED s
-        # to get on before it is given another
-        self.rerouted_tick = np.full(count, -self.ticks(STALLED), dtype=np.int64)
-        # group members stepping aside, out of their group until they have: row -> the start
-        # of that path in `paths`
-        self._stepping_aside: dict[int, int] = {}
         self.removed: set[str] = set()
+        self.ways_round = WaysRound(self, LOOKAHEAD)  # for walkers held up near walls
         self._row_of = {name: row for row, name in enumerate(humans.names)}
 
     # ---- time ----------------------------------------------------------------------------
@@ -194,7 +175,7 @@ class Engine:
                 *, abort: bool = True, with_group: bool = False) -> str | None:
         """Plan and start walking; on failure abort the task (or just return the reason)."""
         humans = self.humans
-        reason = self._plan(index, goal)
+        reason = self.plan_path(index, goal)
         if reason is not None:
             if abort:
                 self.finish(index, TaskStatus.ABORTED, reason)
@@ -210,7 +191,7 @@ class Engine:
         self.anchor_tick[index] = self.tick
         return None
 
-    def _plan(self, index: int, goal: tuple[float, float],
+    def plan_path(self, index: int, goal: tuple[float, float],
               via: tuple[float, float] | None = None) -> str | None:
         """A new path for walker `index` from where it stands (by way of `via`) to `goal`
         (None), or why there is none."""
@@ -225,72 +206,6 @@ class Engine:
         self.paths.set_path(index, plan.waypoints if via is None
                             else np.concatenate([[here], plan.waypoints]))
         return None
-
-    def _plan_again(self, rows: IntArray) -> None:
-        """New paths from where they stand for walkers pressed against a wall their target
-        lies behind, with no corner of their path near to go back to: pushed off it (by
-        others as they set out, round a corridor's mouth), they would otherwise push towards
-        the target through the wall until given up as stuck. Progress is still measured from
-        where they were (`anchor`): a walker who cannot get on is given up all the same."""
-        goals = self.humans.goal
-        for index in rows.tolist():
-            if np.isfinite(goals[index]).all():
-                self._plan(index, (float(goals[index, 0]), float(goals[index, 1])))
-                self.rerouted_tick[index] = self.tick
-
-    def _make_way(self, stalled: IntArray) -> None:
-        """Of two walkers stalled near each other by walls (`_stalled_alone_by_walls`), the
-        one further from its goal steps aside. Side by side at a door or a corridor's mouth,
-        each pushes the other off the way in, and nothing in the model tells them apart when
-        they stand as each other's mirror image: they would wait for each other until given
-        up as stuck. Stepping away from the other, it lets the other through, then goes on."""
-        if len(stalled) < 2:
-            return
-        position = self.humans.position
-        for a, b in sorted(cKDTree(position[stalled]).query_pairs(MAKE_WAY)):
-            first, second = int(stalled[a]), int(stalled[b])
-            if self._further(first, second):
-                first, second = second, first
-            self._step_aside(second, position[first])
-
-    def _further(self, index: int, other: int) -> bool:
-        """Whether walker `index` has further to go than `other` (the lower row on a tie)."""
-        position = self.humans.position
-        mine = self.paths.remaining_length(index, position[index])
-        theirs = self.paths.remaining_length(other, position[other])
-        return mine > theirs or (mine == theirs and index > other)
-
-    def _step_aside(self, index: int, other: FloatArray) -> None:
-        """Walker `index` walks STEP_ASIDE m away from `other` (half as far where a wall is in
-        the way), then on to its goal; where neither fits, it stays."""
-        humans = self.humans
-        here, goal = humans.position[index], humans.goal[index]
-        away = here - other
-        span = math.hypot(away[0], away[1])
-        if span == 0.0 or not np.isfinite(goal).all():
-            return
-        for distance in (STEP_ASIDE, STEP_ASIDE / 2):
-            point = here + away * (distance / span)
-            aside = (float(point[0]), float(point[1]))
-            if self.fits(index, aside) and self.in_sight((float(here[0]), float(here[1])),
-                                                         aside) \
-                    and self._plan(index, (float(goal[0]), float(goal[1])), aside) is None:
-                self.rerouted_tick[index] = self.tick
-                if humans.with_group[index]:  # the group's pull would hold it where it was
-                    humans.with_group[index] = False
-                    self._stepping_aside[index] = int(self.paths.start[index])
-                return
-
-    def _rejoin_groups(self) -> None:
-        """Group members who have stepped aside walk with their group again (those whose
-        path has changed since are on another walk, which says whether they do)."""
-        paths = self.paths
-        for index, start in list(self._stepping_aside.items()):
-            if paths.start[index] != start:
-                del self._stepping_aside[index]
-            elif paths.cursor[index] > start + 1:  # past the point aside
-                self.humans.with_group[index] = True
-                del self._stepping_aside[index]
 
     def standing_at_goal(self, index: int) -> str | None:
         """`standing_at` for walker `index` and its goal (None when it has none)."""
@@ -489,13 +404,7 @@ class Engine:
         if not len(rows):
             return None
         self.paths.advance(humans.position, LOOKAHEAD, self.grid.crosses_obstacle)
-        if self.tick % max(1, self.ticks(LOOK_AGAIN)) == 0:
-            self._rejoin_groups()
-            stalled = self._stalled_alone_by_walls(rows)
-            stalled = stalled[self.tick - self.rerouted_tick[stalled] >= self.ticks(STALLED)]
-            self._plan_again(self.paths.retreat(stalled, humans.position,
-                                                self.grid.crosses_obstacle, REACH))
-            self._make_way(stalled)
+        self.ways_round.look(rows)
         if self._only_local is not None:
             parts = [(self._only_local, rows)]
         else:
@@ -503,19 +412,6 @@ class Engine:
                      for name, mask in self._local_mask.items()]
         return Steering(self.crowd() if crowd else None, [Part(name, steer, self._drive(steer))
                                        for name, steer in parts if len(steer)])
-
-    def _stalled_alone_by_walls(self, rows: IntArray) -> IntArray:
-        """The walkers among `rows` who have made no progress for `STALLED` s within
-        `LOOKAHEAD` of a wall (more, to within a cell), not in a crowd."""
-        humans = self.humans
-        stalled = rows[self.tick - self.anchor_tick[rows] >= self.ticks(STALLED)]
-        stalled = stalled[~self.grid.surely_clear(humans.position[stalled],
-                                                  humans.radius[stalled] + LOOKAHEAD)]
-        if not stalled.size:
-            return stalled
-        near = cKDTree(humans.position).query_ball_point(humans.position[stalled], ALONE,
-                                                          return_length=True)
-        return stalled[near - 1 <= CROWDED]  # less themselves
 
     def steer(self, steering: Steering | None) -> list[FloatArray]:
         """The local planners' velocities for each part of `steering`."""

@@ -1,0 +1,160 @@
+"""Walkers held up near walls, and the ways round that the social force alone does not find.
+
+The engine asks `WaysRound.look` every tick; every LOOK_AGAIN s it looks at the walkers who
+have made no progress for STALLED s near a wall and are not in a crowd (at most CROWDED others
+within ALONE m: in a crowd, the crowd carries people through an opening), and gives each one
+way round at most every STALLED s:
+
+* pushed back round a wall's end after passing its corner, so that the target is hidden, a
+  walker goes back to the corner when it sees it within REACH m (`PathPool.retreat`), and
+  passes it only once it sees past it;
+* with no such corner (pushed off its path by others as they set out, round a corridor's
+  mouth, its target now behind the wall), it plans anew from where it stands;
+* of two such walkers within MAKE_WAY m of each other (side by side at a door or a corridor's
+  mouth, each pushing the other off the way in, and nothing in the model telling them apart
+  when they stand as each other's mirror image), the one with further to go steps aside,
+  towards a point STEP_ASIDE m away from the other (passed, like any waypoint, the look-ahead
+  before it: about 0.6 m aside), then goes on to its goal. A group member leaves its group's
+  formation until it has stepped aside: the group's pull would hold it where it was.
+
+Progress is still measured from where each walker was (`Engine.anchor`): one who cannot get on
+is given up as stuck all the same.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Protocol
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+if TYPE_CHECKING:
+    from hubero_dsl.sim.arrays import FloatArray, HumanArrays, IntArray, PathPool
+    from hubero_dsl.world.grid import OccupancyGrid
+
+STALLED = 3.0       # s without progress
+CROWDED = 2         # others within ALONE m: more is a crowd
+ALONE = 1.0         # m
+LOOK_AGAIN = 0.25   # s between looks
+REACH = 1.5         # m to the corner gone back to
+MAKE_WAY = 1.2      # m between two who hold each other up
+STEP_ASIDE = 1.2    # m to the point aside
+
+
+class Walkers(Protocol):
+    """What a way round needs of the engine (`Engine` is one)."""
+
+    humans: HumanArrays
+    paths: PathPool
+    grid: OccupancyGrid
+    tick: int
+    anchor_tick: IntArray
+
+    def ticks(self, seconds: float) -> int: ...
+
+    def plan_path(self, index: int, goal: tuple[float, float],
+                  via: tuple[float, float] | None = None) -> str | None: ...
+
+    def fits(self, index: int, point: tuple[float, float]) -> bool: ...
+
+    def in_sight(self, a: tuple[float, float], b: tuple[float, float]) -> bool: ...
+
+
+class WaysRound:
+    """The ways round given to one engine's walkers."""
+
+    def __init__(self, engine: Walkers, lookahead: float) -> None:
+        self.engine = engine
+        self.lookahead = lookahead  # m: how near a waypoint counts as passed
+        # when each was last given a way round: it has STALLED s to get on before the next
+        self.rerouted_tick = np.full(engine.humans.count, -engine.ticks(STALLED),
+                                     dtype=np.int64)
+        # group members stepping aside: row -> the start of that path in `paths`
+        self._stepping_aside: dict[int, int] = {}
+
+    def look(self, rows: IntArray) -> None:
+        """Every LOOK_AGAIN s: the walkers among `rows` held up near walls get a way round."""
+        engine = self.engine
+        if engine.tick % max(1, engine.ticks(LOOK_AGAIN)):
+            return
+        self._rejoin_groups()
+        stalled = self._stalled_alone_by_walls(rows)
+        stalled = stalled[engine.tick - self.rerouted_tick[stalled] >= engine.ticks(STALLED)]
+        self._plan_again(engine.paths.retreat(stalled, engine.humans.position,
+                                              engine.grid.crosses_obstacle, REACH))
+        self._make_way(stalled)
+
+    def _stalled_alone_by_walls(self, rows: IntArray) -> IntArray:
+        """The walkers among `rows` who have made no progress for `STALLED` s within the
+        look-ahead of a wall (more, to within a cell), not in a crowd."""
+        engine, humans = self.engine, self.engine.humans
+        stalled = rows[engine.tick - engine.anchor_tick[rows] >= engine.ticks(STALLED)]
+        stalled = stalled[~engine.grid.surely_clear(humans.position[stalled],
+                                                    humans.radius[stalled] + self.lookahead)]
+        if not stalled.size:
+            return stalled
+        near = cKDTree(humans.position).query_ball_point(humans.position[stalled], ALONE,
+                                                          return_length=True)
+        return stalled[near - 1 <= CROWDED]  # less themselves
+
+    def _plan_again(self, rows: IntArray) -> None:
+        """New paths from where they stand for walkers whose target lies behind a wall, with
+        no corner of their path near to go back to."""
+        engine, goals = self.engine, self.engine.humans.goal
+        for index in rows.tolist():
+            if np.isfinite(goals[index]).all():
+                engine.plan_path(index, (float(goals[index, 0]), float(goals[index, 1])))
+                self.rerouted_tick[index] = engine.tick
+
+    def _make_way(self, stalled: IntArray) -> None:
+        """Of two stalled walkers near each other, the one further from its goal steps
+        aside."""
+        if len(stalled) < 2:
+            return
+        position = self.engine.humans.position
+        for a, b in sorted(cKDTree(position[stalled]).query_pairs(MAKE_WAY)):
+            first, second = int(stalled[a]), int(stalled[b])
+            if self._further(first, second):
+                first, second = second, first
+            self._step_aside(second, position[first])
+
+    def _further(self, index: int, other: int) -> bool:
+        """Whether walker `index` has further to go than `other` (the lower row on a tie)."""
+        paths, position = self.engine.paths, self.engine.humans.position
+        mine = paths.remaining_length(index, position[index])
+        theirs = paths.remaining_length(other, position[other])
+        return mine > theirs or (mine == theirs and index > other)
+
+    def _step_aside(self, index: int, other: FloatArray) -> None:
+        """Walker `index` walks STEP_ASIDE m away from `other` (half as far where a wall is in
+        the way), then on to its goal; where neither fits, it stays."""
+        engine, humans = self.engine, self.engine.humans
+        here, goal = humans.position[index], humans.goal[index]
+        away = here - other
+        span = math.hypot(away[0], away[1])
+        if span == 0.0 or not np.isfinite(goal).all():
+            return
+        for distance in (STEP_ASIDE, STEP_ASIDE / 2):
+            point = here + away * (distance / span)
+            aside = (float(point[0]), float(point[1]))
+            if engine.fits(index, aside) and engine.in_sight((float(here[0]), float(here[1])),
+                                                             aside) \
+                    and engine.plan_path(index, (float(goal[0]), float(goal[1])),
+                                         aside) is None:
+                self.rerouted_tick[index] = engine.tick
+                if humans.with_group[index]:  # the group's pull would hold it where it was
+                    humans.with_group[index] = False
+                    self._stepping_aside[index] = int(engine.paths.start[index])
+                return
+
+    def _rejoin_groups(self) -> None:
+        """Group members who have stepped aside walk with their group again (those whose
+        path has changed since are on another walk, which says whether they do)."""
+        paths = self.engine.paths
+        for index, start in list(self._stepping_aside.items()):
+            if paths.start[index] != start:
+                del self._stepping_aside[index]
+            elif paths.cursor[index] > start + 1:  # past the point aside
+                self.engine.humans.with_group[index] = True
+                del self._stepping_aside[index]
