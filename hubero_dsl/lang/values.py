@@ -137,6 +137,11 @@ class ValueReader:
         return None
 
     def integer(self, value: ast.Value, what: str, *, minimum: int = 0) -> int | None:
+        if isinstance(value, ast.Number) and value.text.isdigit() \
+                and not math.isfinite(value.value):  # hundreds of digits: whole, but no float
+            self.report("E203", f"{what} has {len(value.text)} digits: too large",
+                        value.span, "write a number of a few digits")
+            return None
         if not isinstance(value, ast.Number) or not value.is_integer:
             self.report("E207", f"{what} must be a whole number", value.span)
             return None

@@ -515,6 +515,13 @@ def test_a_seed_is_the_whole_number_written_however_large(check: Check) -> None:
     assert result.program is not None and result.program.seed == 9007199254740993
 
 
+def test_a_seed_of_hundreds_of_digits_is_too_large_not_fractional(check: Check) -> None:
+    # as a float it is infinite: it was "not a whole number"
+    (diagnostic,) = check("seed " + "9" * 309 + "\nactivity { actor1 stand for 1 s }\n"
+                          ).diagnostics
+    assert (diagnostic.code, diagnostic.message) == ("E203", "the seed has 309 digits: too large")
+
+
 def test_a_value_out_of_range_is_shown_in_the_unit_it_was_written_in(check: Check) -> None:
     (diagnostic,) = check("flow f from rect((1, 1), (3, 3)) to (5, 5) rate 1001 /s "
                           "for 2 s\n").diagnostics
