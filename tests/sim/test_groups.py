@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from hubero_dsl.pipeline import check_source, compile_source
-from hubero_dsl.sim.loop import run_program
+from hubero_dsl.sim.loop import RunResult, run_program
 from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.sim.status import TaskStatus
 from hubero_dsl.world.mapfile import save_map
@@ -26,6 +26,12 @@ human kid at (1.0, 4.4) { radius 0.15 m; speed 0.7 m/s }
 
 def _text(room_map: Path, body: str) -> str:
     return f'scenario "g"\nmap "{room_map}"\n' + body
+
+
+def _run(map_path: Path, body: str) -> tuple[Simulation, RunResult]:
+    """The scenario `body` on the map, run to its end: the simulation and its result."""
+    sim = Simulation(compile_source(_text(map_path, body), "t.hub"))
+    return sim, run_program(sim)
 
 
 def _spread(room_map: Path, grouped: bool) -> tuple[float, list[tuple[float, float]]]:
@@ -154,8 +160,7 @@ def test_a_group_in_a_line_steps_into_a_circle_to_talk(room_map: Path) -> None:
     line = ("human a at (3, 4)\nhuman b at (3.8, 4)\nhuman c at (4.6, 4)\n"
             "human d at (5.4, 4)\ngroup four of (a, b, c, d)\n"
             "activity { four talk for 6 s }\n")
-    sim = Simulation(compile_source(_text(room_map, line), "t.hub"))
-    result = run_program(sim)
+    sim, result = _run(room_map, line)
     names = ("a", "b", "c", "d")
     assert {e.status for e in result.events if e.human in names} >= {TaskStatus.SUCCEEDED}
     assert result.time == pytest.approx(6.0, abs=0.1)  # the talk's time runs from its start
@@ -174,8 +179,7 @@ def test_a_group_already_round_its_centre_keeps_its_places(room_map: Path) -> No
     # place them for a robot to join): they turn to the centre where they stand
     three = ("human a at (4.43, 4.57)\nhuman b at (5.57, 4.57)\nhuman c at (5.57, 3.43)\n"
              "group g of (a, b, c)\nactivity { g talk for 2 s }\n")
-    sim = Simulation(compile_source(_text(room_map, three), "t.hub"))
-    run_program(sim)
+    sim, _ = _run(room_map, three)
     assert sim.human("a").position == pytest.approx((4.43, 4.57), abs=1e-9)
     assert sim.human("c").position == pytest.approx((5.57, 3.43), abs=1e-9)
 
@@ -186,8 +190,7 @@ def test_a_member_whose_place_is_in_a_wall_talks_from_where_it_stands(
     # their centre, across the wall for one of them
     pair = ("human a at (3, 0.4)\nhuman b at (3, 1.2)\ngroup two of (a, b)\n"
             "activity { two talk for 2 s }\n")
-    sim = Simulation(compile_source(_text(room_map, pair), "t.hub"))
-    result = run_program(sim)
+    sim, result = _run(room_map, pair)
     assert all(e.status is not TaskStatus.ABORTED for e in result.events)
     assert sim.human("a").position[1] > 0.2  # never pushed into the wall
 
@@ -205,8 +208,7 @@ def test_members_on_errands_of_their_own_are_not_held_to_each_other(hall_map: Pa
     # a group's pull is for a walk together: sent opposite ways, each gets where it was sent
     couple = ("human mum at (15, 5)\nhuman dad at (15.7, 5)\ngroup family of (mum, dad)\n"
               "activity { parallel { mum move_to (5, 5); dad move_to (25, 5) } }\n")
-    sim = Simulation(compile_source(_text(hall_map, couple), "t.hub"))
-    result = run_program(sim)
+    sim, result = _run(hall_map, couple)
     assert all(e.status is not TaskStatus.ABORTED for e in result.events)
     assert sim.human("dad").position[0] > 24.5 and sim.human("mum").position[0] < 5.5
 
@@ -215,8 +217,7 @@ def test_a_group_sent_back_arrives_side_by_side_again(hall_map: Path) -> None:
     # each walk's places are drawn from where the members stand when it starts
     trio = ("human a at (9, 4.3)\nhuman b at (9, 5)\nhuman c at (9, 5.7)\ngroup g of (a, b, c)\n"
             "activity { g move_to (15, 5); g move_to (9, 5) }\n")
-    sim = Simulation(compile_source(_text(hall_map, trio), "t.hub"))
-    result = run_program(sim)
+    sim, result = _run(hall_map, trio)
     assert not [e for e in result.events if e.status is TaskStatus.ABORTED or e.reason]
     ends = sorted(sim.human(n).position[1] for n in "abc")
     assert np.allclose(np.diff(ends), 0.7, atol=0.15)
@@ -226,8 +227,7 @@ def test_a_group_of_a_crowds_members_walks_abreast_and_talks_in_a_circle(
         hall_map: Path) -> None:
     drawn = ("crowd c 3 in rect((8, 4), (10, 6))\ngroup g of (c_1, c_2, c_3)\n"
              "activity { g move_to (15, 5); g talk for 3 s }\n")
-    sim = Simulation(compile_source(_text(hall_map, drawn), "t.hub"))
-    run_program(sim)
+    sim, _ = _run(hall_map, drawn)
     names = ("c_1", "c_2", "c_3")
     places = [sim.human(name).position for name in names]
     assert min(math.dist(p, q) for p, q in itertools.combinations(places, 2)) > 0.5
@@ -239,8 +239,7 @@ def test_a_group_sent_into_a_door_goes_there_when_its_places_are_in_the_walls(
     # the point is in the corridor 1 m wide: the places beside it are in its walls
     pair = ("human a at (4, 4.7)\nhuman b at (4, 5.4)\ngroup g of (a, b)\n"
             "activity { g move_to (12, 5) }\n")
-    sim = Simulation(compile_source(_text(hall_corridor_map, pair), "t.hub"))
-    result = run_program(sim)
+    _, result = _run(hall_corridor_map, pair)
     assert [e.status for e in result.events if e.status is not TaskStatus.ACTIVE] == [
         TaskStatus.SUCCEEDED] * 2
 
