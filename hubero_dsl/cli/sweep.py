@@ -110,11 +110,10 @@ def _variant_names(args: argparse.Namespace) -> list[str] | None:
 
 def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
     from hubero_dsl.cli.console import make_console
-    from hubero_dsl.errors import Terminated
     from hubero_dsl.files import check_output
     from hubero_dsl.sweep.executors import available_cores, open_executor
     from hubero_dsl.sweep.index import INDEX_CSV, INDEX_JSON, write_index
-    from hubero_dsl.sweep.runner import SweepOutcome, prepare_out_dir, run_sweep
+    from hubero_dsl.sweep.runner import prepare_out_dir, run_sweep
     from hubero_dsl.sweep.worker import standard_metrics
 
     jobs = min(args.jobs or available_cores(), len(plan.runs))
@@ -126,13 +125,9 @@ def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
         folder = prepare_out_dir(plan, args.out_dir)  # after connecting: nothing for nothing
         for index in (INDEX_JSON, INDEX_CSV):  # before any run, not after them all
             check_output(folder / index)
-        try:
-            outcome = run_sweep(plan, args.out_dir, executor, log_rate=args.log_rate,
-                                metrics=None if args.no_metrics else standard_metrics,
-                                on_done=on_done)
-        except KeyboardInterrupt as interrupt:  # before its runs were under way: none finished
-            outcome = SweepOutcome((), complete=False,
-                                   terminated=isinstance(interrupt, Terminated))
+        outcome = run_sweep(plan, args.out_dir, executor, log_rate=args.log_rate,
+                            metrics=None if args.no_metrics else standard_metrics,
+                            on_done=on_done)
     elapsed = time.monotonic() - started
     json_path, csv_path = write_index(args.out_dir, plan, outcome)
     if not outcome.complete:

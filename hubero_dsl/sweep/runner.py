@@ -96,19 +96,20 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, executor: Executor, *,
               controllers: Mapping[str, type] | None = None) -> SweepOutcome:
     """Run every planned run on the executor; the records in plan order. `controllers` hands
     robots to the caller's own classes, as `hubero run --controller` does."""
-    tasks = build_tasks(plan, out_dir, log_rate=log_rate, metrics=metrics,
-                        controllers=controllers)
-    limit = window if window is not None else 2 * executor_slots(executor)
+    tasks: list[RunTask] = []
     records: dict[int, RunRecord] = {}
     pending: dict[Future[RunRecord], int] = {}
-    queue: Iterator[tuple[int, RunTask]] = iter(enumerate(tasks))
 
     def collect(index: int, record: RunRecord) -> None:
         records[index] = record
         if on_done is not None:
             on_done(record)
 
-    try:
+    try:  # from the start: stopped however early, the sweep still has an (empty) outcome
+        tasks = build_tasks(plan, out_dir, log_rate=log_rate, metrics=metrics,
+                            controllers=controllers)
+        limit = window if window is not None else 2 * executor_slots(executor)
+        queue: Iterator[tuple[int, RunTask]] = iter(enumerate(tasks))
         _submit(executor, queue, tasks, pending, collect, max(1, limit))
         while pending:
             finished, _ = wait(pending, return_when=FIRST_COMPLETED)
