@@ -155,7 +155,7 @@ def _check_module(module: ast.Module, diagnostics: list[Diagnostic]) -> Program 
         if grid is not None:
             check_positions(grid, facts.positions, diagnostics, facts.bodies)
             check_bodies(grid, facts.bodies, diagnostics)
-            check_overlapping_starts(facts.bodies, diagnostics)
+            check_overlapping_starts(list(facts.starts.values()), diagnostics)
             check_robot_paths(grid, facts.robots, diagnostics)
     areas = named_areas(module, facts.places)
     lowering = Lowering(module.source, facts.places, areas,

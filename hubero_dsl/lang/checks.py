@@ -91,6 +91,10 @@ class Facts:
     positions: list[tuple[str, tuple[float, float], Span]] = field(default_factory=list)
     # where bodies start or are sent, with the largest radius they may have there
     bodies: list[tuple[str, tuple[float, float], float, Span]] = field(default_factory=list)
+    # the humans' and robots' starts among `bodies`, by what they are (a name defined twice
+    # keeps its first; that is an error of its own)
+    starts: dict[str, tuple[str, tuple[float, float], float, Span]] = field(
+        default_factory=dict)
 
 
 class Checker:
@@ -784,12 +788,12 @@ class Checker:
             name = decl.name.name
             start = self.facts.human_starts.get(name)
             if start is not None:
-                self.facts.bodies.append((f"the start of '{name}'", start.xy, radius[name],
-                                          decl.start.span))
+                self._start((f"the start of '{name}'", start.xy, radius[name],
+                             decl.start.span))
         for robot_decl, robot in zip(self.module.of_type(ast.RobotDecl), self.facts.robots,
                                      strict=False):
-            self.facts.bodies.append((f"the start of robot '{robot.name}'", robot.start.xy,
-                                      robot.radius, robot_decl.start.span))
+            self._start((f"the start of robot '{robot.name}'", robot.start.xy, robot.radius,
+                         robot_decl.start.span))
         # the first position written at each span (a scenario of thousands of goals looked
         # each one up in the whole list)
         points: dict[Span, tuple[float, float]] = {}
@@ -800,6 +804,10 @@ class Checker:
             if where is not None and actor in radius:
                 self.facts.bodies.append((f"the goal of {actor}'s {kind}", where,
                                           radius[actor], target.span))
+
+    def _start(self, body: tuple[str, tuple[float, float], float, Span]) -> None:
+        self.facts.bodies.append(body)
+        self.facts.starts.setdefault(body[0], body)
 
     def _point_of(self, target: ast.PointValue, points: dict[Span, tuple[float, float]]
                   ) -> tuple[float, float] | None:

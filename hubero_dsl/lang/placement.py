@@ -86,7 +86,7 @@ def check_bodies(grid: OccupancyGrid,
                 f"({fx:.2f}, {fy:.2f})"))
 
 
-def check_overlapping_starts(bodies: list[tuple[str, tuple[float, float], float, Span]],
+def check_overlapping_starts(starts: list[tuple[str, tuple[float, float], float, Span]],
                              diagnostics: list[Diagnostic]) -> None:
     """W504: two humans or robots placed so that their bodies overlap (by more than
     OVERLAP_SLACK): the run's first tick pushes them apart, and a metric counts a collision at
@@ -95,9 +95,6 @@ def check_overlapping_starts(bodies: list[tuple[str, tuple[float, float], float,
     the first OVERLAP_REPORTS pairs are named, the rest counted."""
     from scipy.spatial import cKDTree
 
-    # one start per name: a name defined twice is an error of its own
-    starts = list({body[0]: body for body in reversed(bodies)
-                   if body[0].startswith("the start of")}.values())[::-1]
     if len(starts) < 2:
         return
     radii = np.array([radius for _, _, radius, _ in starts])
