@@ -133,12 +133,12 @@ def _point(reader: _Reader, value: Any, where: str, node: yaml.Node | None
     return float(value[0]), float(value[1])
 
 
-def _geometry(reader: _Reader, entry: Any, where: str, node: yaml.Node | None) -> BaseGeometry:
-    """One shape: `rect`, `circle` (+ `radius`) or `polygon`."""
+def _geometry(reader: _Reader, entry: Any, where: str, node: yaml.Node | None, *,
+              named: bool = False) -> BaseGeometry:
+    """One shape: `rect`, `circle` (+ `radius`) or `polygon` (and its `name`, when `named`)."""
     if not isinstance(entry, dict):
         raise reader.fail(where, "expected a mapping with rect, circle or polygon", node)
-    if where == "interior":
-        _known_keys(reader, entry, SHAPE_KEYS, where, node)
+    _known_keys(reader, entry, ("name", *SHAPE_KEYS) if named else SHAPE_KEYS, where, node)
     kinds = [kind for kind in ("rect", "circle", "polygon") if kind in entry]
     if len(kinds) != 1:
         raise reader.fail(where, "give exactly one of rect, circle, polygon", node)
@@ -216,10 +216,8 @@ def load_drawing(path: str | Path) -> MapDrawing:
         node = nodes[index] if index < len(nodes) else obstacles_node
         if not isinstance(entry, dict) or not isinstance(entry.get("name"), str):
             raise reader.fail(f"obstacle {index + 1}", "expected a mapping with a `name`", node)
-        _known_keys(reader, entry, ("name", *SHAPE_KEYS), f"obstacle '{entry['name'][:60]}'",
-                    node)
         obstacles.append(Obstacle(entry["name"], _geometry(
-            reader, entry, f"obstacle '{entry['name'][:60]}'", node)))
+            reader, entry, f"obstacle '{entry['name'][:60]}'", node, named=True)))
     marks_value = spec.get("marks") or {}
     if not isinstance(marks_value, dict):
         raise reader.fail("marks", "expected a mapping of names to points", reader.node("marks"))

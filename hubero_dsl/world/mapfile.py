@@ -286,6 +286,9 @@ def _image_path(document: _Document) -> Path:
 # --- the image ----------------------------------------------------------------------------
 
 
+_SMALLER_MAP = "use a coarser resolution or crop the map to the part the scenario uses"
+
+
 def _read_image(path: Path, document: _Document) -> tuple[UInt8Array, bool]:
     """(rows, cols, channels) uint8 pixels, and whether the last channel is alpha."""
     if not path.exists():
@@ -301,19 +304,16 @@ def _read_image(path: Path, document: _Document) -> tuple[UInt8Array, bool]:
             with Image.open(path) as image:
                 cols, rows = image.size
                 if rows * cols > MAX_MAP_CELLS:
-                    raise document.error(
-                        "image", f"is {cols} x {rows} cells; a map has at most "
-                        f"{MAX_MAP_CELLS:,} (for example 4000 x 4000)", hint="use a coarser "
-                        "resolution or crop the map to the part the scenario uses")
+                    raise document.error("image", f"is {cols} x {rows} cells; a map has at "
+                                         f"most {MAX_MAP_CELLS:,} (for example 4000 x 4000)",
+                                         hint=_SMALLER_MAP)
                 image.load()
                 return _channels(image, path, document)
     except MapError:
         raise
     except Image.DecompressionBombError:  # Pillow refuses to open it: beyond any limit of ours
-        raise document.error(
-            "image", f"is far more than a map's {MAX_MAP_CELLS:,} cells (for example 4000 x "
-            f"4000): {path}", hint="use a coarser resolution or crop the map to the part the "
-            "scenario uses") from None
+        raise document.error("image", f"is far more than a map's {MAX_MAP_CELLS:,} cells (for "
+                             f"example 4000 x 4000): {path}", hint=_SMALLER_MAP) from None
     except (OSError, ValueError, SyntaxError, EOFError) as exc:
         raise document.error("image", f"cannot be read: {path}: {exc}") from None
 
