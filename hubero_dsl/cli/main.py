@@ -26,7 +26,7 @@ import threading
 import traceback
 import warnings
 from collections.abc import Sequence
-from typing import TextIO
+from typing import Any, TextIO
 
 from hubero_dsl import __version__
 from hubero_dsl.errors import HuberoError, InputError, Terminated
@@ -78,6 +78,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     # read: hubero checks what they warn about itself (finite values, map sizes).
     warnings.simplefilter("ignore")
     _stop_cleanly_on_sigterm()
+    _lose_no_interrupt_in_callbacks()
+    try:
+        return _main(argv)
+    finally:
+        _forget_handled_interrupts()
+
+
+def _main(argv: Sequence[str] | None) -> int:
     try:
         status = _dispatch(argv)
         sys.stdout.flush()
@@ -118,6 +126,35 @@ def _dispatch(argv: Sequence[str] | None) -> int:
         return exc.code if isinstance(exc.code, int) else EXIT_USAGE if exc.code else EXIT_OK
     status: int = args.run(args)
     return status
+
+
+def _forget_handled_interrupts() -> None:
+    """Every interrupt has been answered by the time `main` returns. But CPython remembers a
+    Ctrl-C that passed through any `exec` of a string (numpy's imports run one), handled
+    later or not, and `python -m hubero_dsl` then ends by killing itself with SIGINT in place
+    of exiting with the status `main` returned. Each `exec` of a string starts by forgetting
+    it: an empty one does just that."""
+    exec("")  # a constant: nothing is run
+
+
+def _lose_no_interrupt_in_callbacks() -> None:
+    """Python runs a signal's handler wherever the main thread is, also inside a callback it
+    cannot raise from (a weak reference's, as an import finishes): the KeyboardInterrupt
+    was then printed as "Exception ignored" and the Ctrl-C lost. Send it again instead, to
+    be raised where the main thread goes on."""
+    if getattr(sys.unraisablehook, "resends_interrupts", False):
+        return  # `main` called again in the same process
+    previous = sys.unraisablehook
+
+    def resend_interrupts(unraisable: Any) -> None:
+        if isinstance(unraisable.exc_value, KeyboardInterrupt):
+            terminated = isinstance(unraisable.exc_value, Terminated)
+            signal.raise_signal(signal.SIGTERM if terminated else signal.SIGINT)
+        else:
+            previous(unraisable)
+
+    resend_interrupts.resends_interrupts = True  # type: ignore[attr-defined]
+    sys.unraisablehook = resend_interrupts
 
 
 def _on_sigterm(signum: int, frame: object) -> None:

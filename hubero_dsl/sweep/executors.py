@@ -80,15 +80,20 @@ class SerialExecutor(Executor):
 def _start_fork_server() -> None:
     """Start the fork server now, deaf to Ctrl-C: it imports the simulator before it ignores
     SIGINT itself, and a Ctrl-C (sent to the whole process group) in the first second of a
-    sweep printed a traceback from it. An ignored signal stays ignored over fork and exec
-    (a blocked one does not: the child's mask is reset); the parent hears it again at once."""
-    from multiprocessing import forkserver
+    sweep printed a traceback from it. A signal blocked by the thread that starts a process
+    stays blocked in it until it ignores the signal for good (as Python starts its resource
+    tracker, first: starting it unblocks SIGINT here). This process hears a Ctrl-C that came
+    meanwhile once the server is started; ignoring it instead, which a child would inherit
+    too, lost it when another thread of this process took it."""
+    from multiprocessing import forkserver, resource_tracker
 
-    handler = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        forkserver.ensure_running()
-    finally:
-        signal.signal(signal.SIGINT, handler)
+    resource_tracker.ensure_running()
+    with _signals_after():
+        held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            forkserver.ensure_running()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, held)
 
 
 @contextlib.contextmanager

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import subprocess
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -193,3 +195,16 @@ def test_compile_error_from_a_command_is_rendered(cli: Cli, monkeypatch: pytest.
     assert outcome.err.splitlines()[:5] == [
         "error[E104]: unknown unit 'kg'", f" --> {path}:1:9", "  |", "1 | speed 5 kg",
         "  |         ^^"]
+
+
+def test_an_interrupt_inside_an_imported_exec_still_exits_130(tmp_path: Path) -> None:
+    # numpy's imports `exec` a string: a Ctrl-C during them passes through it, and CPython
+    # then ended `python -m ...` by killing itself with SIGINT (-2) instead of exiting 130
+    (tmp_path / "interrupted_in_an_exec.py").write_text(
+        "from hubero_dsl.cli import main as cli\n"
+        "cli._dispatch = lambda argv: exec('raise KeyboardInterrupt')\n"
+        "raise SystemExit(cli.main(['check', 'a.hub']))\n", encoding="utf-8")
+    outcome = subprocess.run([sys.executable, "-m", "interrupted_in_an_exec"], cwd=tmp_path,
+                             capture_output=True, text=True, timeout=60)
+    assert outcome.returncode == 130, outcome.stderr
+    assert outcome.stderr == "hubero: interrupted\n"
