@@ -16,6 +16,7 @@ unless HUBERO_DEBUG=1 asks for one.
 
 from __future__ import annotations
 
+import _thread
 import argparse
 import contextlib
 import importlib
@@ -23,6 +24,7 @@ import os
 import signal
 import sys
 import threading
+import time
 import traceback
 import warnings
 from collections.abc import Sequence
@@ -140,8 +142,9 @@ def _forget_handled_interrupts() -> None:
 def _lose_no_interrupt_in_callbacks() -> None:
     """Python runs a signal's handler wherever the main thread is, also inside a callback it
     cannot raise from (a weak reference's, as an import finishes): the KeyboardInterrupt
-    was then printed as "Exception ignored" and the Ctrl-C lost. Send it again instead, to
-    be raised where the main thread goes on."""
+    was then printed as "Exception ignored" and the Ctrl-C lost. The signal is sent again
+    instead, a moment later, to be raised where the main thread has gone on (raised in the
+    hook itself, it would be lost there in turn)."""
     if getattr(sys.unraisablehook, "resends_interrupts", False):
         return  # `main` called again in the same process
     previous = sys.unraisablehook
@@ -149,12 +152,18 @@ def _lose_no_interrupt_in_callbacks() -> None:
     def resend_interrupts(unraisable: Any) -> None:
         if isinstance(unraisable.exc_value, KeyboardInterrupt):
             terminated = isinstance(unraisable.exc_value, Terminated)
-            signal.raise_signal(signal.SIGTERM if terminated else signal.SIGINT)
+            _thread.start_new_thread(_send_again, (signal.SIGTERM if terminated
+                                                   else signal.SIGINT,))
         else:
             previous(unraisable)
 
     resend_interrupts.resends_interrupts = True  # type: ignore[attr-defined]
     sys.unraisablehook = resend_interrupts
+
+
+def _send_again(signum: int) -> None:
+    time.sleep(0.01)  # the hook that started this thread has returned
+    os.kill(os.getpid(), signum)  # to the process: its main thread takes it
 
 
 def _on_sigterm(signum: int, frame: object) -> None:

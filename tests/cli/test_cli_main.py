@@ -208,3 +208,25 @@ def test_an_interrupt_inside_an_imported_exec_still_exits_130(tmp_path: Path) ->
                              capture_output=True, text=True, timeout=60)
     assert outcome.returncode == 130, outcome.stderr
     assert outcome.stderr == "hubero: interrupted\n"
+
+
+def test_an_interrupt_raised_in_a_callback_is_not_lost(tmp_path: Path) -> None:
+    # Python runs the Ctrl-C handler wherever the main thread is: in a weak reference's
+    # callback its KeyboardInterrupt was printed as "Exception ignored" and the command went on
+    (tmp_path / "interrupted_in_a_callback.py").write_text(
+        "import time, weakref\n"
+        "from hubero_dsl.cli import main as cli\n"
+        "class Held: pass\n"
+        "def interrupt(reference): raise KeyboardInterrupt\n"
+        "def dispatch(argv):\n"
+        "    held = Held()\n"
+        "    reference = weakref.ref(held, interrupt)\n"
+        "    del held\n"
+        "    time.sleep(30)\n"
+        "    return 0\n"
+        "cli._dispatch = dispatch\n"
+        "raise SystemExit(cli.main(['check', 'a.hub']))\n", encoding="utf-8")
+    outcome = subprocess.run([sys.executable, "-m", "interrupted_in_a_callback"], cwd=tmp_path,
+                             capture_output=True, text=True, timeout=60)
+    assert outcome.returncode == 130, outcome.stderr
+    assert outcome.stderr == "hubero: interrupted\n"
