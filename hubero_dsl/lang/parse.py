@@ -208,7 +208,14 @@ def _syntax_diagnostic(exc: UnexpectedInput, source: ast.SourceFile) -> Diagnost
     if isinstance(exc, UnexpectedCharacters):
         char = source.line(line)[column - 1: column] or "?"
         span = Span(source.path, line, column, line, column + 1)
+        escape = _unknown_escape(source.line(line), column) if char == '"' else None
+        if escape is not None:
+            return error("E002", f"unknown escape '{escape[1]}' in a string",
+                         Span(source.path, line, escape[0], line, escape[0] + 2),
+                         'a string knows only \\" (a quote) and \\\\ (a backslash); write '
+                         "a backslash as \\\\, or a path with /")
         hint = {"'": "strings use double quotes",
+                '"': 'a string ends with a " on the line it starts on',
                 "/": "a rate is written per second, minute or hour: /s, /min, /h"}.get(char)
         return error("E002", f"unexpected character {char!r}", span, hint)
     if isinstance(exc, UnexpectedEOF):
@@ -217,6 +224,15 @@ def _syntax_diagnostic(exc: UnexpectedInput, source: ast.SourceFile) -> Diagnost
                                                              column + 1), "a block is not closed",
                      _unclosed_note(source))
     return error("E001", str(exc), Span(source.path, line, column, line, column + 1))
+
+
+def _unknown_escape(text: str, quote: int) -> tuple[int, str] | None:
+    """The column and text of the first backslash escape other than \\" and \\\\ in the
+    string that opens at column `quote` (the reason it did not lex), if any."""
+    escape = re.compile(r'(?:[^"\\]|\\["\\])*(\\[^"\\])').match(text, quote)
+    if escape is None:
+        return None
+    return escape.start(1) + 1, escape.group(1)
 
 
 _CLOSING = {"(": ")", "[": "]", "{": "}"}

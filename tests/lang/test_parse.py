@@ -118,6 +118,27 @@ def test_single_quotes_hint_at_double_quotes() -> None:
     assert diagnostic.hint == "strings use double quotes"
 
 
+def test_an_unknown_escape_in_a_string_is_pointed_at() -> None:
+    # a Windows path: the backslashes were dropped (`C:mapsx.yaml`), and the map not found
+    diagnostic = syntax_error('scenario "x"\nmap "C:\\maps\\x.yaml"\n')
+    assert (diagnostic.code, where(diagnostic)) == ("E002", (2, 8, 2, 10))
+    assert diagnostic.message == "unknown escape '\\m' in a string"
+    assert diagnostic.hint is not None and "a path with /" in diagnostic.hint
+
+
+def test_the_two_escapes_a_string_knows() -> None:
+    (title,) = parse_source('scenario "a \\"quote\\" and a \\\\ backslash"\n',
+                            "case.hub").statements
+    assert isinstance(title, ast.ScenarioDecl)
+    assert title.title.value == 'a "quote" and a \\ backslash'
+
+
+def test_a_string_left_open_at_the_end_of_its_line() -> None:
+    diagnostic = syntax_error('scenario "x\\\nmap "m.yaml"\n')
+    assert (diagnostic.code, where(diagnostic)) == ("E002", (1, 10, 1, 11))
+    assert diagnostic.hint == 'a string ends with a " on the line it starts on'
+
+
 def test_columns_count_characters_not_bytes_or_cells() -> None:
     diagnostic = syntax_error(HEADER + "\tplace\t食卓 (1, 1)\n")
     assert (diagnostic.code, where(diagnostic)) == ("E002", (2, 8, 2, 9))
