@@ -149,6 +149,9 @@ def _check_module(module: ast.Module, diagnostics: list[Diagnostic]) -> Program 
     checker = Checker(module)
     facts = checker.run()
     diagnostics.extend(checker.diagnostics)
+    # the file's names and values hold together: every check on the map can run, and one
+    # place that does not fit hides no other (a person's start no crowd's area)
+    coherent = not any(d.is_error for d in checker.diagnostics)
     grid = None
     if facts.map is not None:
         grid = load_scenario_map(module.source, facts.map, diagnostics)
@@ -167,7 +170,7 @@ def _check_module(module: ast.Module, diagnostics: list[Diagnostic]) -> Program 
     activities = lowering.activities(module.of_type(ast.ActivityDecl))
     graph = build_activity_graph(activities)
     diagnostics.extend(verify_activities(activities, graph, label_names=False))
-    if grid is None or facts.map is None or any(d.is_error for d in diagnostics):
+    if grid is None or facts.map is None or not coherent:
         return None
     crowds = _crowd_members(facts, grid, lowering, diagnostics)
     flows, arrivals = _flows(facts, grid, lowering, diagnostics)

@@ -167,3 +167,12 @@ def test_a_flow_whose_variant_makes_it_too_wide_for_its_area_is_e407(room_map: P
                         "t.hub").program is not None
     (error,) = check_source(_text(room_map, body, 1), "t.hub").errors
     assert error.code == "E407" and "radius 0.55 m" in error.message
+
+
+def test_a_start_in_a_wall_hides_neither_a_crowd_too_large_nor_a_flow_without_room(
+        room_map: Path) -> None:
+    body = ("human a at (20, 20)\ncrowd c 500 in rect((1, 1), (3, 3))\n"
+            "flow f from rect((0.1, 0.1), (0.5, 0.5)) to (8, 4) rate 6 /min for 10 s "
+            "{ radius 0.55 m }\nactivity { a stand for 1 s; c stand for 1 s }\n")
+    codes = [d.code for d in check_source(_text(room_map, body), "t.hub").errors]
+    assert codes[0] in {"E402", "E403"} and codes[1:] == ["E406", "E407"]
