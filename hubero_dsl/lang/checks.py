@@ -617,6 +617,12 @@ class Checker:
                             "members take their parameters from the flow", param.name_span,
                             f"give it in the flow's block: `flow {flow} ... {{ {name} ... }}`")
                 return None
+            if self.symbols.kind_of(planner) is NameKind.ROBOT:
+                self.report("E105", f"'{planner}' is a robot: parameters here are humans' and "
+                            "planners'", param.name_span,
+                            f"give a robot's in its block: `robot {planner} ... {{ {name} ... }}`"
+                            " (a variant cannot change it)")
+                return None
             hint = did_you_mean(planner, [*self.planners, *self.symbols.names_of(NameKind.HUMAN)])
             self.report("E105", f"'{planner}' is neither a planner nor a human", param.name_span,
                         hint or "planners: " + ", ".join(self.planners))

@@ -42,6 +42,8 @@ SINGLE = {
     "keyword as a name": ("place wait (5.5, 1.0)", ("E104", 5, 7, 11)),
     "unknown parameter": ("defaults { sped 1 m/s }", ("E105", 5, 12, 16)),
     "per-human outside a variant": ("defaults { actor1.speed 1 m/s }", ("E105", 5, 12, 24)),
+    "a robot's parameter in a variant": ("robot r at (5.5, 1.0)\nvariant v { r.speed 1 m/s }",
+                                         ("E105", 6, 13, 20)),
     "duplicate parameter": ("defaults { speed 1 m/s; speed 2 m/s }", ("E106", 5, 25, 30)),
     "unknown planner parameter": ("defaults { social_force.AA 1 }", ("E105", 5, 12, 27)),
     "option not taken": ("activity { actor1 move_to (5.5, 1.0) for 5 s }", ("E107", 5, 38, 45)),
