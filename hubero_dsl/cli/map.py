@@ -46,6 +46,7 @@ def run(args: argparse.Namespace) -> int:
         image = args.output.with_suffix(".pgm")
         for out in (args.output, image):
             check_output(out, (args.shapes,))
+        _refuse_to_overwrite_other_files(args.output, image)
         written = draw_map(args.shapes, args.output,
                            comment=f"drawn by hubero map draw from {args.shapes.name}")
         print(f"wrote {written} and {image.name}")
@@ -63,3 +64,16 @@ def run(args: argparse.Namespace) -> int:
     show_map(args.map, output, program=program)
     print(f"wrote {output}")
     return 0
+
+
+def _refuse_to_overwrite_other_files(yaml_path: Path, image: Path) -> None:
+    """A map is drawn again over a map, never over a user's other files."""
+    from hubero_dsl.errors import InputError
+    from hubero_dsl.files import refuse_other_kind
+    from hubero_dsl.world.mapfile import PGM_MAGIC, is_map_file
+
+    advice = "remove it, or give another -o NAME.yaml"
+    if yaml_path.is_file() and not is_map_file(yaml_path):
+        raise InputError(f"{yaml_path} exists and is not a map file: not writing over it "
+                         f"({advice})")
+    refuse_other_kind(image, PGM_MAGIC, "a map's image (a binary PGM)", advice)

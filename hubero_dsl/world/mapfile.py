@@ -39,6 +39,7 @@ REQUIRED_FIELDS = ("image", "resolution", "origin", "negate", "occupied_thresh",
 EXAMPLE = ("image: map.pgm\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
            "occupied_thresh: 0.65\nfree_thresh: 0.196")
 
+PGM_MAGIC = b"P5"  # how a binary PGM, the image a map is saved as, starts
 MAX_YAML_BYTES = 1 << 20          # a map YAML file is a few lines
 MAX_RESOLUTION = 100.0            # m a cell: coarser is no floor plan a person walks on
 MAX_YAML_DEPTH = 32               # levels of nesting: a map or shape file needs a handful
@@ -109,6 +110,16 @@ def map_files(path: str | Path) -> tuple[Path, ...]:
         return (yaml_path, _check_fields(_read_document(yaml_path)).image)
     except MapError:
         return (yaml_path,)
+
+
+def is_map_file(path: str | Path) -> bool:
+    """Whether `path` reads as a map YAML (a mapping of fields with an `image`), its fields
+    right or not: what `hubero map draw` may write over."""
+    try:
+        _read_document(Path(path))
+    except MapError:
+        return False
+    return True
 
 
 # --- the YAML file ------------------------------------------------------------------------
@@ -385,7 +396,8 @@ def save_map(grid: OccupancyGrid, yaml_path: str | Path, *, comment: str | None 
     if grid.unknown is not None:
         pixels[grid.unknown] = SAVED_UNKNOWN
     rows, cols = grid.shape
-    header = f"P5\n# CREATOR: hubero {grid.resolution:.3f} m/pix\n{cols} {rows}\n255\n"
+    header = (f"{PGM_MAGIC.decode()}\n# CREATOR: hubero {grid.resolution:.3f} m/pix\n"
+              f"{cols} {rows}\n255\n")
     lines = [f"# {line}".rstrip() for line in (comment or "").splitlines()]
     lines += [f"image: {image_path.name}",
               f"resolution: {grid.resolution!r}",

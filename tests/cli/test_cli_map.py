@@ -89,6 +89,24 @@ def test_bad_descriptions_are_errors_at_their_line(tmp_path: Path, cli: Any, tex
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.shapes.yaml"]
 
 
+def test_draw_writes_over_a_map_but_never_over_other_files(tmp_path: Path, cli: Any) -> None:
+    shapes = tmp_path / "room.shapes.yaml"
+    shapes.write_text("resolution: 0.1\norigin: [0, 0]\nsize: [2, 2]\n", encoding="utf-8")
+    drawn = tmp_path / "room.yaml"
+    assert cli("map", "draw", str(shapes), "-o", str(drawn)).status == 0
+    assert cli("map", "draw", str(shapes), "-o", str(drawn)).status == 0  # drawn again
+    notes = tmp_path / "notes.yaml"
+    notes.write_text("todo: buy milk\n", encoding="utf-8")
+    refused = cli("map", "draw", str(shapes), "-o", str(notes))
+    assert refused.status == 2 and "exists and is not a map file" in refused.err
+    assert notes.read_text() == "todo: buy milk\n" and not (tmp_path / "notes.pgm").exists()
+    picture = tmp_path / "photo.pgm"
+    picture.write_bytes(b"P2\n1 1\n255\n0\n")  # another PGM: text, not what a map draws
+    refused = cli("map", "draw", str(shapes), "-o", str(tmp_path / "photo.yaml"))
+    assert refused.status == 2 and "photo.pgm exists and is not a map's image" in refused.err
+    assert not (tmp_path / "photo.yaml").exists()
+
+
 def test_draw_refuses_to_write_over_its_input_or_into_nowhere(tmp_path: Path, cli: Any) -> None:
     shapes = tmp_path / "room.yaml"
     shapes.write_text("resolution: 0.1\norigin: [0, 0]\nsize: [2, 2]\n", encoding="utf-8")
