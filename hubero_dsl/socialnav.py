@@ -45,7 +45,7 @@ CLOSING = 0.01
 @dataclass(frozen=True, slots=True)
 class MetricSpec:
     name: str
-    dimension: str    # length, time, speed, ratio, count, number (turning, jerk, work)
+    dimension: str    # length, time, speed, acceleration, ratio, count, number (turning, jerk)
     unit: str
     summary: str
 
@@ -72,12 +72,13 @@ METRICS: dict[str, MetricSpec] = {spec.name: spec for spec in (
                "largest centre distance to the nearest person"),
     MetricSpec("avg_speed", "speed", "m/s", "path length over the time"),
     MetricSpec("max_speed", "speed", "m/s", "the fastest move between samples"),
-    MetricSpec("avg_acceleration", "number", "m/s^2", "mean magnitude of the acceleration"),
-    MetricSpec("max_acceleration", "number", "m/s^2", "largest magnitude of the acceleration"),
+    MetricSpec("avg_acceleration", "acceleration", "m/s^2", "mean magnitude of the acceleration"),
+    MetricSpec("max_acceleration", "acceleration", "m/s^2",
+               "largest magnitude of the acceleration"),
     MetricSpec("motion_energy", "number", "m^2/s", "integral of the squared speed"),
     MetricSpec("min_time_to_collision", "time", "s",
                "soonest contact with a person, both keeping their velocity"),
-    MetricSpec("social_force", "number", "m/s^2", "mean social force the people exert on it"),
+    MetricSpec("social_force", "acceleration", "m/s^2", "mean social force the people exert on it"),
     MetricSpec("group_intrusions", "ratio", "%", "time share inside a group's space"),
     MetricSpec("obstacle_collisions", "count", "", "contact episodes with obstacles"),
 )}

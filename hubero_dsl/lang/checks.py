@@ -312,7 +312,8 @@ class Checker:
         if spec is None:
             return
         dimension = {"length": Dimension.LENGTH, "time": Dimension.TIME, "speed": Dimension.SPEED,
-                     "ratio": Dimension.RATIO}.get(spec.dimension, Dimension.NUMBER)
+                     "ratio": Dimension.RATIO, "acceleration": Dimension.ACCELERATION,
+                     }.get(spec.dimension, Dimension.NUMBER)
         self.values.quantity(compare.threshold, dimension, f"{spec.name}", non_negative=True)
 
     def _setting(self, setting: ast.SettingDecl) -> None:

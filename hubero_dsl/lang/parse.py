@@ -198,7 +198,7 @@ def _syntax_diagnostic(exc: UnexpectedInput, source: ast.SourceFile) -> Diagnost
         hint = _expected_hint(expected)
         if token.type == "NAME" and _follows_number(exc):
             hint = (f"'{token.value}' is not a unit; units are m cm mm, s ms min h, m/s km/h, "
-                    "deg rad")
+                    "m/s^2, deg rad, rad/s deg/s")
         elif token.type in ("ALWAYS", "EVENTUALLY", "WITHIN") and _expects_a_metric(
                 source.line(line)):
             hint = ("a metric's expectation is judged once, when the run ends: it takes no "

@@ -15,7 +15,14 @@ from hubero_dsl.diagnostics import Diagnostic, Span, error
 from hubero_dsl.lang import ast
 from hubero_dsl.model.params import ParamKind, ParamSpec
 from hubero_dsl.model.program import Distribution, ParamValue
-from hubero_dsl.model.units import EXAMPLE_UNIT, LARGEST, UNITS, Dimension, describe
+from hubero_dsl.model.units import (
+    BARE_IS_SI,
+    EXAMPLE_UNIT,
+    LARGEST,
+    UNITS,
+    Dimension,
+    describe,
+)
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, Shape
 
 SHAPE_ARGS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
@@ -128,7 +135,7 @@ class ValueReader:
                 return None
             return value.si
         if isinstance(value, ast.Number):
-            if dimension is Dimension.NUMBER:
+            if dimension is Dimension.NUMBER or dimension in BARE_IS_SI:
                 return value.value
             self.report("E204", f"{what} needs a unit: {describe(dimension)}", value.span,
                         _unit_hint(value, dimension))

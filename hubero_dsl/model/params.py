@@ -73,10 +73,10 @@ ROBOT_PARAMS: dict[str, ParamSpec] = {spec.name: spec for spec in (
        "navigator's desired speed"),
     _q("max_speed", Dimension.SPEED, math.inf, "speed never exceeded, whatever the controller "
        "asks (unlimited unless set)"),
-    _q("max_acceleration", Dimension.NUMBER, math.inf, "m/s^2, written as a bare number: how "
-       "fast the speed may change (unlimited unless set)"),
-    _q("max_angular_speed", Dimension.NUMBER, math.inf, "rad/s, written as a bare number: how "
-       "fast a unicycle robot may turn (unlimited unless set)"),
+    _q("max_acceleration", Dimension.ACCELERATION, math.inf, "how fast the speed may change "
+       "(unlimited unless set; a bare number is in m/s^2)"),
+    _q("max_angular_speed", Dimension.ANGULAR_SPEED, math.inf, "how fast a unicycle robot may "
+       "turn (unlimited unless set; a bare number is in rad/s)"),
     _q("goal_tolerance", Dimension.LENGTH, 0.2, "how close counts as arrived for move_to"),
     _q("sensor_range", Dimension.LENGTH, 5.0, "people and robots further away are not seen by "
        "the controller"),

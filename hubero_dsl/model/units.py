@@ -1,4 +1,5 @@
-"""Units and dimensions of the language. Every quantity is stored in SI: m, s, m/s, rad, /s."""
+"""Units and dimensions of the language. Every quantity is stored in SI: m, s, m/s, m/s^2,
+rad, rad/s, /s."""
 
 from __future__ import annotations
 
@@ -10,7 +11,9 @@ class Dimension(StrEnum):
     LENGTH = "length"
     TIME = "time"
     SPEED = "speed"
+    ACCELERATION = "acceleration"
     ANGLE = "angle"
+    ANGULAR_SPEED = "angular speed"
     RATIO = "ratio"      # a share: `10 %` is 0.1
     RATE = "rate"        # events per second: `30 /min` is 0.5
     NUMBER = "number"
@@ -32,20 +35,29 @@ UNITS: dict[str, tuple[Dimension, float]] = {
     "h": (Dimension.TIME, 3600.0),
     "m/s": (Dimension.SPEED, 1.0),
     "km/h": (Dimension.SPEED, 1000.0 / 3600.0),
+    "m/s^2": (Dimension.ACCELERATION, 1.0),
     "deg": (Dimension.ANGLE, math.pi / 180.0),
     "rad": (Dimension.ANGLE, 1.0),
+    "rad/s": (Dimension.ANGULAR_SPEED, 1.0),
+    "deg/s": (Dimension.ANGULAR_SPEED, math.pi / 180.0),
     "%": (Dimension.RATIO, 0.01),
     "/s": (Dimension.RATE, 1.0),
     "/min": (Dimension.RATE, 1.0 / 60.0),
     "/h": (Dimension.RATE, 1.0 / 3600.0),
 }
 
+# Dimensions whose values were written as bare numbers before they had units (a robot's limits,
+# the metrics of acceleration): a bare number still reads as SI, m/s^2 or rad/s.
+BARE_IS_SI = frozenset({Dimension.ACCELERATION, Dimension.ANGULAR_SPEED})
+
 # How each dimension reads in a message, with a unit to suggest.
 EXAMPLE_UNIT: dict[Dimension, str] = {
     Dimension.LENGTH: "m",
     Dimension.TIME: "s",
     Dimension.SPEED: "m/s",
+    Dimension.ACCELERATION: "m/s^2",
     Dimension.ANGLE: "deg",
+    Dimension.ANGULAR_SPEED: "deg/s",
     Dimension.RATIO: "%",
     Dimension.RATE: "/min",
     Dimension.NUMBER: "",
@@ -60,5 +72,5 @@ def describe(dimension: Dimension) -> str:
     """'a length (m, cm, mm)' — for messages that say what was expected."""
     if dimension is Dimension.NUMBER:
         return "a plain number"
-    article = "an" if dimension is Dimension.ANGLE else "a"
+    article = "an" if dimension.value[0] in "aeiou" else "a"
     return f"{article} {dimension.value} ({', '.join(units_of(dimension))})"

@@ -98,6 +98,7 @@ _CIRCLE = int(ShapeKind.CIRCLE)  # a plain int compares with arrays faster than 
 # The dimension of a parameter, for tools that show or convert values.
 _LENGTH: dict[str, JsonValue] = {"dimension": "length"}
 _TIME: dict[str, JsonValue] = {"dimension": "time"}
+_ACCELERATION: dict[str, JsonValue] = {"dimension": "acceleration"}
 
 
 class SocialForceParams(PlannerParams):
@@ -105,12 +106,12 @@ class SocialForceParams(PlannerParams):
 
     model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
 
-    A: float = Field(default=2.1, ge=0.0, description=(
+    A: float = Field(default=2.1, ge=0.0, json_schema_extra=_ACCELERATION, description=(
         "Push from a person at the edge of one's personal space, m/s^2 (Helbing & Molnar "
         "1995: V0 = 2.1)."))
     B: float = Field(default=0.3, gt=0.0, json_schema_extra=_LENGTH, description=(
         "Decay length of the push from people, m (Helbing & Molnar 1995: sigma = 0.3 m)."))
-    A_wall: float = Field(default=10.0, ge=0.0, description=(
+    A_wall: float = Field(default=10.0, ge=0.0, json_schema_extra=_ACCELERATION, description=(
         "Push from a wall touching the body, m/s^2 (Helbing & Molnar 1995: U0 = 10)."))
     B_wall: float = Field(default=0.2, gt=0.0, json_schema_extra=_LENGTH, description=(
         "Decay length of the push from walls, m (Helbing & Molnar 1995: R = 0.2 m)."))

@@ -34,6 +34,29 @@ def spans(result: CheckResult) -> list[tuple[str, int, int, int]]:
     return found
 
 
+def test_a_robots_limits_take_units_or_bare_numbers_in_si(check: Check) -> None:
+    limits = {"max_acceleration 2 m/s^2; max_angular_speed 90 deg/s": (2.0, math.pi / 2),
+              "max_acceleration 2; max_angular_speed 1.5": (2.0, 1.5)}
+    for written, expected in limits.items():
+        result = check(f"robot r at (5.5, 1.0) {{ kinematics unicycle; {written} }}\n"
+                       "activity { actor1 stand for 1 s }")
+        assert result.program is not None, result.diagnostics
+        (robot,) = result.program.robots
+        assert (robot.max_acceleration, robot.max_angular_speed) == pytest.approx(expected)
+    wrong = check("robot r at (5.5, 1.0) { max_angular_speed 1 m/s }")
+    assert [(d.code, d.message) for d in wrong.errors] == [
+        ("E201", "'max_angular_speed' takes an angular speed (rad/s, deg/s), but 'm/s' is a "
+                 "unit of speed")]
+
+
+def test_metrics_of_acceleration_compare_with_accelerations(check: Check) -> None:
+    body = ("robot r at (5.5, 1.0) { path (5.5, 1.0) -> (6, 1) }\n"
+            "activity { actor1 stand for 1 s }\n")
+    assert not check(body + "expect max_acceleration(r) <= 3 m/s^2\n"
+                            "expect social_force(r) <= 1\n").errors
+    assert codes(check(body + "expect avg_acceleration(r) <= 3 m/s\n")) == ["E201"]
+
+
 # ---- one diagnostic, pinned to its span ---------------------------------------------------
 
 SINGLE = {

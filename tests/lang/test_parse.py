@@ -206,6 +206,10 @@ def test_windows_line_endings_keep_columns(case_path: str) -> None:
     ("9 km/h", 9.0, "km/h", 2.5),
     ("30 cm", 30.0, "cm", 0.3),
     ("1.5 rad", 1.5, "rad", 1.5),
+    ("2 m/s^2", 2.0, "m/s^2", 2.0),
+    ("0.5m/s^2", 0.5, "m/s^2", 0.5),
+    ("1.5 rad/s", 1.5, "rad/s", 1.5),
+    ("90 deg/s", 90.0, "deg/s", math.pi / 2),
 ])
 def test_quantities(written: str, magnitude: float, unit: str, si: float) -> None:
     (setting,) = statements(f"time_limit {written}\n")
