@@ -357,6 +357,12 @@ class Checker:
     def _group(self, group: ast.GroupDecl) -> None:
         members: list[str] = []
         for ref in group.members:
+            flow = self._flow_of_member(ref.name)
+            if flow is not None and self.symbols.kind_of(ref.name) is None:
+                self.report("E103", f"'{ref.name}' is one of the people flow '{flow}' brings, "
+                            "who come and go: a group is of humans and crowd members", ref.span,
+                            "a flow's people walk alone")
+                continue
             if self.symbols.resolve(ref, NameKind.HUMAN, role=f"a member of group "
                                     f"'{group.name.name}'") is None:
                 continue
@@ -576,7 +582,7 @@ class Checker:
                 if not per_human_allowed:
                     self.report("E105", f"'{param.dotted}': per-human settings belong in a "
                                 "variant", param.name_span,
-                                f"set it in human {path[0]}'s own block as `{'.'.join(path[1:])}`")
+                                self._where_to_set(path[0], ".".join(path[1:])))
                     continue
                 self.symbols.used.add(path[0])
                 target = per_human.setdefault(path[0], {})
@@ -895,6 +901,19 @@ class Checker:
         elif target.name in self._members_of(subject):
             self.report("E203", f"{target.name} is one of {subject}: it cannot {words}",
                         target.span, f"give the task to the others of {subject} one by one")
+
+    def _where_to_set(self, name: str, param: str) -> str:
+        """Where a parameter of one human, crowd or flow is given outside a variant."""
+        member = _MEMBER_NAME.fullmatch(name)
+        owner = member.group(1) if member is not None else None
+        if self.symbols.kind_of(owner or "") not in (NameKind.CROWD, NameKind.FLOW):
+            owner = None if self.symbols.kind_of(name) is NameKind.HUMAN else name
+        if owner is None:
+            return f"set it in human {name}'s own block as `{param}`"
+        kind = self.symbols.kind_of(owner)
+        alone = f", or for {name} alone in a variant" if owner != name else ""
+        return (f"set it for all of {kind.value if kind else 'it'} '{owner}' in its block as "
+                f"`{param}`{alone}")
 
     def _flow_of_member(self, name: str) -> str | None:
         """The flow whose member `name` would be (`NAME_N`), or None."""

@@ -57,6 +57,27 @@ def test_metrics_of_acceleration_compare_with_accelerations(check: Check) -> Non
     assert codes(check(body + "expect avg_acceleration(r) <= 3 m/s\n")) == ["E201"]
 
 
+def test_a_member_of_a_crowd_is_set_for_the_crowd_or_in_a_variant(check: Check) -> None:
+    result = check("crowd u 3 in rect((5, 0.5), (6, 1.5)) { u_1.speed 1 m/s }")
+    (error,) = result.errors
+    assert (error.code, error.hint) == ("E105", "set it for all of crowd 'u' in its block as "
+                                        "`speed`, or for u_1 alone in a variant")
+
+
+def test_a_flows_people_are_in_no_group(check: Check) -> None:
+    result = check("flow f from rect((5, 0.5), (6, 1.5)) to (6.3, 2.5) rate 1 /s for 3 s\n"
+                   "group g of (f_1, actor1)")
+    (error,) = result.errors
+    assert error.code == "E103"
+    assert error.message.startswith("'f_1' is one of the people flow 'f' brings")
+
+
+def test_all_and_any_take_reach_and_reaches_alike(check: Check) -> None:
+    body = ("crowd u 3 in rect((5, 0.5), (6, 1.5))\nactivity { u stand for 1 s }\n"
+            "expect all u reaches (5.5, 1) eventually\nexpect any u reach (5.5, 1) eventually\n")
+    assert not check(body).errors
+
+
 # ---- one diagnostic, pinned to its span ---------------------------------------------------
 
 SINGLE = {
