@@ -76,7 +76,8 @@ def check_source(text: str, path: str = "<string>") -> CheckResult:
         return CheckResult(source, tuple(sorted(exc.diagnostics, key=Diagnostic.sort_key)), None)
     diagnostics: list[Diagnostic] = []
     program = _check_module(module, diagnostics)
-    ordered = tuple(sorted(diagnostics, key=Diagnostic.sort_key))
+    # a step given to a crowd or group is checked once per member: said once
+    ordered = tuple(sorted(dict.fromkeys(diagnostics), key=Diagnostic.sort_key))
     has_errors = any(d.is_error for d in ordered)
     return CheckResult(source, ordered, None if has_errors else program)
 
@@ -243,8 +244,11 @@ def _flows(facts: Facts, grid: OccupancyGrid, lowering: Lowering,
         if flow.target is None or flow.rate is None:
             continue
         area, radius = lowering.area(flow.area), _radius(flow.layer, facts, flow.name)
+        before = len(diagnostics)
         check_bodies(grid, [(f"the target of flow '{flow.name}'", flow.target, radius,
-                             flow.span)], diagnostics)
+                             flow.target_span)], diagnostics)
+        if len(diagnostics) > before or not _target_free(grid, flow.target):
+            continue  # no way leads to a target where nobody fits: that is the error
         if not len(grid.entry_places(area, flow.target, radius)):
             diagnostics.append(error(
                 "E407", f"nowhere in the area of flow '{flow.name}' can a body of radius "
@@ -258,6 +262,11 @@ def _flows(facts: Facts, grid: OccupancyGrid, lowering: Lowering,
         members += [HumanSpec(member, Pose(*flow.target), flow.layer, flow.span, flow.name)
                     for member in flow.members]
     return tuple(flows), tuple(members)
+
+
+def _target_free(grid: OccupancyGrid, target: tuple[float, float]) -> bool:
+    """Whether a flow's target lies on the map's free space (else E402/E403 said so)."""
+    return bool(grid.contains(target)) and bool(grid.is_free(target))
 
 
 def _radius(layer: ParamLayer | None, facts: Facts, name: str) -> float:

@@ -67,6 +67,7 @@ class FlowFacts:
     until: ast.Condition | None
     layer: ParamLayer
     span: Span
+    target_span: Span
     members: tuple[str, ...] = ()
 
 
@@ -407,7 +408,7 @@ class Checker:
                     f"`count({flow.name.name} in AREA) >= N`, a time, or `for Q`"))
         layer = self._layer(flow.params, per_human_allowed=False)
         self.facts.flows.append(FlowFacts(flow.name.name, flow.area, target, rate, duration,
-                                          flow.until, layer, flow.span))
+                                          flow.until, layer, flow.span, flow.target.span))
 
     def _flow_members(self) -> None:
         """Each flow's members, as many as it may bring before it stops spawning (its
@@ -629,6 +630,13 @@ class Checker:
                             "planners'", param.name_span,
                             f"give a robot's in its block: `robot {planner} ... {{ {name} ... }}`"
                             " (a variant cannot change it)")
+                return None
+            if self.symbols.kind_of(planner) is NameKind.GROUP:
+                members = ", ".join(f"{member}.{name}" for member in
+                                    self.facts.groups.get(planner, ())[:3])
+                self.report("E105", f"'{planner}' is a group: parameters are set for humans, "
+                            "crowds and flows", param.name_span,
+                            f"set it for each member: {members}" if members else None)
                 return None
             hint = did_you_mean(planner, [*self.planners, *self.symbols.names_of(NameKind.HUMAN)])
             self.report("E105", f"'{planner}' is neither a planner nor a human", param.name_span,

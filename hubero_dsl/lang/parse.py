@@ -216,6 +216,9 @@ def _syntax_diagnostic(exc: UnexpectedInput, source: ast.SourceFile) -> Diagnost
                          "a backslash as \\\\, or a path with /")
         hint = {"'": "strings use double quotes",
                 '"': 'a string ends with a " on the line it starts on',
+                "=": "a comparison is <, <=, > or >= (`count(c in hall) >= 3`); a value "
+                     "follows its keyword with no `=`",
+                "!": "a comparison is <, <=, > or >=; `not` negates a condition",
                 "/": "a rate is written per second, minute or hour: /s, /min, /h"}.get(char)
         return error("E002", f"unexpected character {char!r}", span, hint)
     if isinstance(exc, UnexpectedEOF):

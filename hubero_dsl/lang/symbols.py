@@ -90,7 +90,10 @@ class SymbolTable:
         symbol = self.symbols.get(ref.name)
         wanted = " or ".join(k.value for k in kinds)
         if symbol is None:
-            hint = did_you_mean(ref.name, self.names_of(*kinds))
+            # a crowd's name is closer to a slip of it than any of its members' (`shopers`)
+            sets = (NameKind.CROWD, NameKind.GROUP, NameKind.FLOW) if NameKind.HUMAN in kinds \
+                else ()
+            hint = did_you_mean(ref.name, self.names_of(*kinds, *sets))
             if hint is None and (names := self.names_of(*kinds)):
                 hint = "defined: " + ", ".join(names[:8]) + (", ..." if len(names) > 8 else "")
             self.diagnostics.append(error("E101", f"unknown {wanted} '{ref.name}' ({role})",

@@ -78,6 +78,39 @@ def test_all_and_any_take_reach_and_reaches_alike(check: Check) -> None:
     assert not check(body).errors
 
 
+def test_a_flow_whose_target_is_wrong_is_told_so_at_the_target_alone(check: Check) -> None:
+    for target, code in (("(5.5, 0.0)", "E403"), ("(5.5, 0.38)", "E405")):
+        flow = f"flow f from rect((2, 1), (3, 2)) to {target} rate 6 /min for 10 s"
+        (error,) = check(flow).errors
+        assert error.code == code and error.span is not None
+        assert (error.span.line, error.span.column) == (5, flow.index(target) + 1)
+
+
+def test_a_step_given_to_a_crowd_is_reported_once_not_per_member(check: Check) -> None:
+    result = check("crowd c 5 in rect((2, 1), (3, 2))\n"
+                   "activity { c move_around in rect((2, 1), (3, 2)) }")
+    assert codes(result) == ["E306"]
+
+
+def test_a_slip_of_a_crowds_name_suggests_the_crowd(check: Check) -> None:
+    (error,) = check("crowd shoppers 3 in rect((2, 1), (3, 2))\n"
+                     "activity { shopers stand for 1 s }").errors
+    assert (error.code, error.hint) == ("E101", "did you mean 'shoppers'?")
+
+
+def test_a_groups_parameter_in_a_variant_is_set_for_its_members(check: Check) -> None:
+    (error,) = check("group g of (actor1, actor2)\nvariant v { g.speed 1 m/s }").errors
+    assert error.code == "E105" and error.message.startswith("'g' is a group")
+    assert error.hint == "set it for each member: actor1.speed, actor2.speed"
+
+
+def test_an_equals_sign_is_told_which_comparisons_there_are(check: Check) -> None:
+    (error,) = check("activity { wait until count(actor1 in rect((2, 1), (3, 2))) == 1 }"
+                     ).errors
+    assert error.code == "E002" and error.hint is not None
+    assert error.hint.startswith("a comparison is <, <=, > or >=")
+
+
 # ---- one diagnostic, pinned to its span ---------------------------------------------------
 
 SINGLE = {
