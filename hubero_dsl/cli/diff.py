@@ -67,7 +67,9 @@ def run(args: argparse.Namespace) -> int:
     if not args.epsilon > 0:
         raise InputError(f"--epsilon must be a positive distance in metres, got {args.epsilon}")
     if args.plot is not None:
-        check_writable(args.plot, tuple(Path(p) for p in (args.first, args.second) if p))
+        from hubero_dsl.cli.outputs import check_picture
+
+        check_picture(args.plot, tuple(Path(p) for p in (args.first, args.second) if p))
     if Path(args.first).is_dir():
         return _sweep(args)
     if args.second is None:
@@ -76,13 +78,6 @@ def run(args: argparse.Namespace) -> int:
     if args.baseline is not None:
         raise InputError("--baseline goes with a sweep folder, not with two logs")
     return _pair(args)
-
-
-def check_writable(path: Path, reads: tuple[Path, ...] = ()) -> None:
-    """Fail before any work when OUT cannot be written: see `hubero_dsl.files.check_output`."""
-    from hubero_dsl.files import check_output
-
-    check_output(Path(path), reads)
 
 
 def _pair(args: argparse.Namespace) -> int:

@@ -52,10 +52,11 @@ def run(args: argparse.Namespace) -> int:
         print(f"wrote {written} and {image.name}")
         return 0
     from hubero_dsl.analysis.mapview import show_map
+    from hubero_dsl.cli.outputs import check_picture
     from hubero_dsl.world.mapfile import map_files
 
     output = args.output or args.map.with_suffix(".png")
-    check_output(output, (*map_files(args.map), *([args.scenario] if args.scenario else [])))
+    check_picture(output, (*map_files(args.map), *([args.scenario] if args.scenario else [])))
     program = None
     if args.scenario is not None:
         from hubero_dsl.pipeline import compile_file

@@ -23,3 +23,15 @@ def output_file(*suffixes: str) -> Callable[[str], Path]:
 PNG = output_file(".png")
 GIF = output_file(".gif")
 YAML = output_file(".yaml", ".yml")
+
+
+def check_picture(path: Path, reads: tuple[Path, ...] = ()) -> None:
+    """Fail before any work when a picture cannot be written at `path` (see
+    `hubero_dsl.files.check_output`), or when a file there is not a picture of its kind: a
+    PNG or GIF is written over one, never over a user's other file."""
+    from hubero_dsl.files import GIF_MAGIC, PNG_MAGIC, check_output, refuse_other_kind
+
+    check_output(path, reads)
+    gif = path.suffix.lower() == ".gif"
+    refuse_other_kind(path, GIF_MAGIC if gif else PNG_MAGIC, "a GIF" if gif else "a PNG",
+                      "give another name")

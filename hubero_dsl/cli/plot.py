@@ -41,19 +41,19 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hubero_dsl.cli.diff import check_writable
+    from hubero_dsl.cli.outputs import check_picture
     from hubero_dsl.errors import InputError
 
     defaulted = args.output is None and args.animate is None
     if defaulted:
-        args.output = _beside_the_log(Path(args.log))
+        args.output = Path(args.log).with_suffix(".png")  # RUN.png beside RUN.mcap
     if not args.spacing > 0:
         raise InputError(f"--spacing must be a positive distance in metres, got {args.spacing}")
     if args.frames < 1 or args.fps < 1:
         raise InputError("--frames and --fps must be at least 1")
     for out in (args.output, args.animate):
         if out is not None:
-            check_writable(out, (Path(args.log),))
+            check_picture(out, (Path(args.log),))
 
     from hubero_dsl.log.reader import load_run
 
@@ -70,12 +70,3 @@ def run(args: argparse.Namespace) -> int:
         animate_run(logged, args.animate, max_frames=args.frames, fps=args.fps,
                     whole_map=args.whole_map)
     return 0
-
-
-def _beside_the_log(log: Path) -> Path:
-    """RUN.png beside RUN.mcap; never over a file there that is not a PNG."""
-    from hubero_dsl.files import PNG_MAGIC, refuse_other_kind
-
-    picture = log.with_suffix(".png")
-    refuse_other_kind(picture, PNG_MAGIC, "a PNG", "give -o OUT.png")
-    return picture

@@ -112,10 +112,11 @@ def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
     from hubero_dsl.cli.console import make_console
     from hubero_dsl.files import check_output
     from hubero_dsl.sweep.executors import available_cores, open_executor
-    from hubero_dsl.sweep.index import INDEX_CSV, INDEX_JSON, write_index
+    from hubero_dsl.sweep.index import INDEX_CSV, INDEX_JSON, refuse_other_indexes, write_index
     from hubero_dsl.sweep.runner import prepare_out_dir, run_sweep
     from hubero_dsl.sweep.worker import standard_metrics
 
+    refuse_other_indexes(args.out_dir)  # before any earlier log there is cleared away
     jobs = min(args.jobs or available_cores(), len(plan.runs))
     errors = make_console(stderr=True)
     started = time.monotonic()  # wall time for the terminal only, never for the index

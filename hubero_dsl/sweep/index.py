@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from hubero_dsl.errors import LogError
+from hubero_dsl.files import refuse_other_kind
 from hubero_dsl.sweep.plan import SweepPlan
 from hubero_dsl.sweep.runner import SweepOutcome
 from hubero_dsl.sweep.worker import RunRecord
@@ -37,6 +38,16 @@ INDEX_CSV = "index.csv"
 CSV_FIRST_COLUMNS = ("variant", "seed", "status", "reason", "duration", "succeeded",
                      "failed_expectations", "log")
 PARAM_PREFIX = "param:"  # a colon never appears in a name, so no metric column can clash
+# How an index begins (`index_json`'s first key, the CSV's first columns): what tells an
+# earlier sweep's index, written over, from a user's file of the same name, never touched.
+_BEGINNINGS = {INDEX_JSON: b'{\n  "version": ', INDEX_CSV: ",".join(CSV_FIRST_COLUMNS).encode()}
+
+
+def refuse_other_indexes(out_dir: str | Path) -> None:
+    """InputError when `out_dir` holds an index.json or index.csv that is not a sweep's."""
+    for name, beginning in _BEGINNINGS.items():
+        refuse_other_kind(Path(out_dir) / name, beginning, "a sweep's index",
+                          "give another --out-dir")
 
 
 def build_index(plan: SweepPlan, outcome: SweepOutcome) -> dict[str, Any]:

@@ -81,6 +81,23 @@ def test_without_an_output_the_picture_goes_beside_the_log(cli: Cli, log: Path,
     assert picture.read_text() == "my notes"
 
 
+@pytest.mark.parametrize(("command", "name", "kind"), [
+    (("plot", "{log}", "-o"), "notes.png", "a PNG"),
+    (("plot", "{log}", "--animate"), "notes.gif", "a GIF"),
+    (("diff", "{log}", "{log}", "--plot"), "notes.png", "a PNG"),
+    (("map", "show", "{map}", "-o"), "notes.png", "a PNG"),
+])
+def test_no_picture_is_written_over_a_users_other_file(cli: Cli, log: Path, tmp_path: Path,
+                                                       command: tuple[str, ...], name: str,
+                                                       kind: str) -> None:
+    notes = tmp_path / name
+    notes.write_text("my notes", encoding="utf-8")
+    argv = [part.format(log=log, map=REPO_ROOT / "maps" / "living_room.yaml") for part in command]
+    refused = cli(*argv, str(notes))
+    assert refused.status == 2 and f"is not {kind}" in refused.err, refused.err
+    assert notes.read_text(encoding="utf-8") == "my notes"
+
+
 @pytest.mark.parametrize(("argv", "message"), [
     (("-o", "{tmp}/missing/x.png"), "cannot be written"),
     (("-o", "{tmp}"), "give a name ending in .png"),

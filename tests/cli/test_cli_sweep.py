@@ -237,6 +237,22 @@ def test_a_users_file_at_a_log_path_or_an_index_that_cannot_be_written_is_refuse
     assert not list(out.glob("runs/*/*.mcap"))  # refused before any run
 
 
+def test_a_sweep_writes_over_its_own_index_but_not_over_a_users_file(cli: Run,
+                                                                     tmp_path: Path) -> None:
+    out = tmp_path / "o"
+    text = scenario(tmp_path, SWEPT)
+    assert cli("sweep", text, "--out-dir", str(out), "-q").status == 0
+    assert cli("sweep", text, "--out-dir", str(out), "-q").status == 0  # its own, again
+    for name in ("index.json", "index.csv"):
+        kept = out / name
+        earlier = kept.read_bytes()
+        kept.write_text("my notes", encoding="utf-8")
+        outcome = cli("sweep", text, "--out-dir", str(out), "-q")
+        assert outcome.status == 2 and f"{kept} exists and is not a sweep's index" in outcome.err
+        assert kept.read_text(encoding="utf-8") == "my notes"
+        kept.write_bytes(earlier)
+
+
 def test_workers_end_with_a_killed_sweep(tmp_path: Path) -> None:
     """SIGKILL cannot be passed on: the workers notice their sweep is gone and stop."""
     psutil = pytest.importorskip("psutil")
