@@ -60,7 +60,7 @@ class NavfnParams(PlannerParams):
                     "1 in open space; it falls smoothly to 0 at the comfort radius. 0 ignores "
                     "personal space when planning")
     lethal_margin: float = Field(
-        default=0.0, ge=0.0, le=2.0, allow_inf_nan=False,
+        default=0.0, ge=0.0, le=2.0, allow_inf_nan=False, json_schema_extra={"dimension": "length"},
         description="metres added to the body radius when deciding where the body fits")
     smooth: bool = Field(
         default=True,
