@@ -7,15 +7,17 @@ and at most a given number of bytes; `check_output` refuses to write over anythi
 regular file, and over the files a command reads; `refuse_other_kind` over a file of
 another kind than the one written (a user's CSV named as a log); `write_replacing` writes an
 output beside its name and renames it into place, so that a failure never leaves a partial file
-there.
+there; `scratch_folder_beside` does so for outputs of several files (a map, a bag).
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import stat
-from collections.abc import Callable, Sequence
+import tempfile
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 from hubero_dsl.errors import InputError
@@ -124,3 +126,19 @@ def write_replacing(path: Path, write: Callable[[Path], object],
             temp.unlink()
     return path
 
+
+@contextlib.contextmanager
+def scratch_folder_beside(target: Path, shown: Path | None = None) -> Iterator[Path]:
+    """A temporary folder beside `target`, to write an output of several files in before they
+    are renamed into place; removed after. An OS error (a read-only folder, a full disk) is an
+    InputError naming the output asked for (`shown`, else `target`), not the folder."""
+    try:
+        work = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
+    except OSError as exc:
+        raise InputError(f"{shown or target}: cannot be written ({exc.strerror or exc})") from None
+    try:
+        yield work
+    except OSError as exc:
+        raise InputError(f"{shown or target}: cannot be written ({exc.strerror or exc})") from None
+    finally:
+        shutil.rmtree(work, ignore_errors=True)

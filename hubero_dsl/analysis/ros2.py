@@ -26,8 +26,6 @@ an export that fails leaves nothing under the name.
 from __future__ import annotations
 
 import math
-import shutil
-import tempfile
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,6 +35,7 @@ import numpy as np
 import numpy.typing as npt
 
 from hubero_dsl.errors import InputError
+from hubero_dsl.files import scratch_folder_beside
 from hubero_dsl.log import schemas as s
 from hubero_dsl.log.reader import LoggedRun, load_run
 from hubero_dsl.world.personal_space import outline
@@ -100,17 +99,15 @@ def export_ros2(log: str | Path, folder: str | Path) -> Path:
     target = named.resolve()   # a link to an empty folder: the bag goes where it leads
     parent = target.parent
     if not parent.is_dir():
-        raise InputError(f"cannot write {named}: {parent} is not a folder")
-    work = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=parent))
-    try:
+        what = "is not a folder" if parent.exists() else "does not exist"
+        raise InputError(f"cannot write {named}: {parent} {what}")
+    with scratch_folder_beside(target, shown=named) as work:
         bag = work / "bag"
         with Writer(bag, version=8, storage_plugin=StoragePlugin.MCAP) as writer:
             _write(writer, run, _typestore())
         if target.exists():
             target.rmdir()
         bag.rename(target)
-    finally:
-        shutil.rmtree(work, ignore_errors=True)
     return named
 
 

@@ -22,8 +22,6 @@ from __future__ import annotations
 
 import difflib
 import math
-import shutil
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -37,7 +35,7 @@ from shapely.geometry.base import BaseGeometry
 
 from hubero_dsl.diagnostics import Span
 from hubero_dsl.errors import MapError
-from hubero_dsl.files import read_bounded
+from hubero_dsl.files import read_bounded, scratch_folder_beside
 from hubero_dsl.world.grid import MAX_MAP_CELLS, OccupancyGrid
 from hubero_dsl.world.mapfile import save_map, unsafe_yaml
 
@@ -292,11 +290,8 @@ def draw_map(shapes_path: str | Path, yaml_path: str | Path, *, comment: str) ->
     drawing = load_drawing(shapes_path)
     grid = rasterise(drawing)
     target = Path(yaml_path)
-    work = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.resolve().parent))
-    try:
+    with scratch_folder_beside(target.resolve(), shown=target) as work:
         image = save_map(grid, work / target.name, comment=comment)
         image.replace(target.with_suffix(".pgm"))
         (work / target.name).replace(target)
-    finally:
-        shutil.rmtree(work, ignore_errors=True)
     return target

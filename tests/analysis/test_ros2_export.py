@@ -119,8 +119,8 @@ def test_a_failed_export_leaves_nothing(tmp_path: Path, monkeypatch: pytest.Monk
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(ros2, "_write", broken)
-    with pytest.raises(OSError):
-        ros2.export_ros2(log, tmp_path / "bag")
+    with pytest.raises(InputError, match=r"/bag: cannot be written \(No space left on device\)"):
+        ros2.export_ros2(log, tmp_path / "bag")  # the bag asked for, not a scratch folder
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run.mcap"]
     with pytest.raises(LogError):
         ros2.export_ros2(tmp_path / "missing.mcap", tmp_path / "bag")
