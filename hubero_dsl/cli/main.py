@@ -69,7 +69,7 @@ def build_parser() -> argparse.ArgumentParser:
     for name in COMMANDS:
         module = importlib.import_module(f"hubero_dsl.cli.{name}")
         command_parser = module.add_parser(subparsers)
-        command_parser.set_defaults(run=module.run)
+        command_parser.set_defaults(run=module.run, command_parser=command_parser)
     return parser
 
 
@@ -123,7 +123,9 @@ def _main(argv: Sequence[str] | None) -> int:
 def _dispatch(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     try:
-        args = parser.parse_args(argv)
+        args, unknown = parser.parse_known_args(argv)
+        if unknown:  # told with the command's usage, not the list of commands
+            args.command_parser.error(f"unrecognized arguments: {' '.join(unknown)}")
     except SystemExit as exc:  # --help, --version and usage errors: argparse has printed already
         return exc.code if isinstance(exc.code, int) else EXIT_USAGE if exc.code else EXIT_OK
     status: int = args.run(args)

@@ -56,9 +56,11 @@ def run(args: argparse.Namespace) -> int:
             programs.append((file, compile_file(file)))
         except HuberoError as exc:  # this file's mistakes are said; the other files still run
             report_error(exc)
-            console.print(f"[red]ERROR[/] {escape(file)}: does not compile")
+            unreadable = isinstance(exc, InputError)
+            console.print(f"[red]ERROR[/] {escape(file)}: "
+                          f"{'cannot be read' if unreadable else 'does not compile'}")
             runs, failures = runs + 1, failures + 1
-            bad_input = bad_input or isinstance(exc, InputError)
+            bad_input = bad_input or unreadable
     # the options are checked against every file before anything runs
     planned = [(file, program, _variants(file, program, args)) for file, program in programs]
     robots = {robot.name for _, program, _ in planned for robot in program.robots}

@@ -116,6 +116,7 @@ def test_hubero_test_reports_a_file_that_does_not_compile_and_runs_the_others(
     assert outcome.out.rstrip().endswith("2 passed, 1 failed")
     missing = cli("test", str(tmp_path / "missing.hub"), LIVING_ROOM)
     assert missing.status == 2 and "2 passed, 1 failed" in missing.out
+    assert f"ERROR {tmp_path / 'missing.hub'}: cannot be read" in missing.out
 
 
 def test_hubero_test_judges_every_variant(cli: Callable[..., Outcome], tmp_path: Path) -> None:
