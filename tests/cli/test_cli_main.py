@@ -230,3 +230,10 @@ def test_an_interrupt_raised_in_a_callback_is_not_lost(tmp_path: Path) -> None:
                              capture_output=True, text=True, timeout=60)
     assert outcome.returncode == 130, outcome.stderr
     assert outcome.stderr == "hubero: interrupted\n"
+
+
+def test_an_unknown_option_is_told_with_its_commands_usage(cli: Cli) -> None:
+    outcome = cli("check", "a.hub", "--bogus")
+    assert outcome.status == 2
+    assert "usage: hubero check" in outcome.err
+    assert "hubero check: error: unrecognized arguments: --bogus" in outcome.err
