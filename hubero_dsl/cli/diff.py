@@ -365,12 +365,17 @@ def _print_sweep(sweep: SweepDiff, humans: set[str], console: Console) -> None:
 def _variant_changes(sweep: SweepDiff) -> dict[str, str]:
     """Each compared variant -> the parameters that differ from the baseline, in words."""
     changes: dict[str, dict[str, str]] = {}
+    compared: set[str] = set()
     for comparison in sweep.comparisons:
         listed = changes.setdefault(str(comparison.variant), {})
-        for human in (comparison.diff.humans.values() if comparison.diff else ()):
+        if comparison.diff is None:
+            continue
+        compared.add(str(comparison.variant))
+        for human in comparison.diff.humans.values():
             for name, (left, right) in human.parameters.items():
                 listed.setdefault(name, f"{name} {left} → {right}")
-    return {variant: "; ".join(texts.values()) for variant, texts in changes.items()}
+    return {variant: "; ".join(texts.values()) if variant in compared
+            else "no run compared" for variant, texts in changes.items()}
 
 
 def _sweep_rows(diff: RunDiff, humans: set[str]) -> list[tuple[str, list[str]]]:

@@ -194,6 +194,15 @@ def test_sweep_table(cli: Cli, logs: dict[str, Path], tmp_path: Path) -> None:
     assert [(c["variant"], c["seed"]) for c in data["comparisons"]] == [("far", 1), ("far", 2)]
 
 
+def test_a_variant_whose_runs_could_not_be_compared_is_not_said_to_differ_in_nothing(
+        cli: Cli, logs: dict[str, Path], tmp_path: Path) -> None:
+    folder = sweep_folder(tmp_path / "out", logs, [("near", 1), ("far", 1)])
+    (folder / "runs" / "far-1.mcap").write_bytes(b"\x89MCAP0\r\n truncated")
+    outcome = cli("diff", str(folder), "--baseline", "near")
+    assert "far: no run compared" in outcome.out
+    assert "no parameter differs" not in outcome.out
+
+
 @pytest.mark.parametrize(("index", "argv", "message"), [
     (None, ("--baseline", "near"), "has no index.json"),
     ('{"version": 1, "runs": []}', ("--baseline", "near"), "lists no runs"),
