@@ -235,7 +235,7 @@ class Checker:
                 self.symbols.define(statement.name, NameKind.CROWD)
                 for member in statement.members:  # NAME_1 ... NAME_N, at the crowd's name
                     self.symbols.define(ast.NameRef(member, statement.name.span),
-                                        NameKind.HUMAN)
+                                        NameKind.HUMAN, crowd=statement.name.name)
             elif isinstance(statement, ast.ActivityDecl):
                 if statement.name is not None:
                     self.symbols.define(statement.name, NameKind.ACTIVITY)
@@ -368,9 +368,13 @@ class Checker:
                                     f"'{group.name.name}'") is None:
                 continue
             other = next((g for g, held in self.facts.groups.items() if ref.name in held), None)
-            if ref.name in members or other is not None:
-                self.report("E113", f"'{ref.name}' is in group '{other or group.name.name}' "
-                            "already; a human belongs to one group", ref.span)
+            if ref.name in members:
+                self.report("E113", f"'{ref.name}' is named twice in group "
+                            f"'{group.name.name}'", ref.span)
+                continue
+            if other is not None:
+                self.report("E113", f"'{ref.name}' is in group '{other}' already; a human "
+                            "belongs to one group", ref.span)
                 continue
             members.append(ref.name)
         if len(group.members) < 2:

@@ -37,6 +37,7 @@ class Symbol:
     name: str
     kind: NameKind
     span: Span
+    crowd: str | None = None  # the crowd a member is one of (defined at the crowd's name)
 
 
 @cache
@@ -63,7 +64,7 @@ class SymbolTable:
         self.symbols: dict[str, Symbol] = {}
         self.used: set[str] = set()
 
-    def define(self, ref: ast.NameRef, kind: NameKind) -> None:
+    def define(self, ref: ast.NameRef, kind: NameKind, crowd: str | None = None) -> None:
         if ref.name in reserved_words():
             self.diagnostics.append(error(
                 "E104", f"'{ref.name}' is a keyword and cannot name {_a(kind.value)}", ref.span,
@@ -74,9 +75,11 @@ class SymbolTable:
             self.diagnostics.append(error(
                 "E102", f"'{ref.name}' is defined twice", ref.span,
                 "every name (place, area, human, robot, variant, activity, label) is defined once",
-                (Related(f"first defined here as {_a(previous.kind.value)}", previous.span),)))
+                (Related(f"first defined here as {_a(previous.kind.value)}" if previous.crowd
+                         is None else f"first defined here as a member of crowd "
+                         f"'{previous.crowd}'", previous.span),)))
             return
-        self.symbols[ref.name] = Symbol(ref.name, kind, ref.span)
+        self.symbols[ref.name] = Symbol(ref.name, kind, ref.span, crowd)
 
     def names_of(self, *kinds: NameKind) -> list[str]:
         return sorted(s.name for s in self.symbols.values() if s.kind in kinds)

@@ -176,3 +176,11 @@ def test_a_start_in_a_wall_hides_neither_a_crowd_too_large_nor_a_flow_without_ro
             "{ radius 0.55 m }\nactivity { a stand for 1 s; c stand for 1 s }\n")
     codes = [d.code for d in check_source(_text(room_map, body), "t.hub").errors]
     assert codes[0] in {"E402", "E403"} and codes[1:] == ["E406", "E407"]
+
+
+def test_a_name_taken_by_a_crowds_member_says_whose_member(room_map: Path) -> None:
+    (error,) = check_source(_text(room_map, "crowd c 3 in rect((1, 1), (3, 3))\n"
+                                            "human c_2 at (5, 5)"), "t.hub").errors
+    assert error.code == "E102"
+    assert [note.message for note in error.related] == [
+        "first defined here as a member of crowd 'c'"]

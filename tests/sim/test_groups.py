@@ -204,6 +204,11 @@ def test_group_mistakes_are_reported(room_map: Path, body: str, code: str) -> No
     assert code in {d.code for d in check_source(_text(room_map, body), "t.hub").errors}
 
 
+def test_a_member_named_twice_is_told_so(room_map: Path) -> None:
+    (error,) = check_source(_text(room_map, FAMILY + "group a of (mum, mum)\n"), "t.hub").errors
+    assert (error.code, error.message) == ("E113", "'mum' is named twice in group 'a'")
+
+
 def test_members_on_errands_of_their_own_are_not_held_to_each_other(hall_map: Path) -> None:
     # a group's pull is for a walk together: sent opposite ways, each gets where it was sent
     couple = ("human mum at (15, 5)\nhuman dad at (15.7, 5)\ngroup family of (mum, dad)\n"
