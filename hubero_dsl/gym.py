@@ -58,7 +58,7 @@ from gymnasium.vector.utils import batch_space, concatenate, create_empty_array
 
 from hubero_dsl.analysis.frame import FrameRenderer
 from hubero_dsl.errors import InputError
-from hubero_dsl.model.program import Program, RobotSpec
+from hubero_dsl.model.program import Program, RobotSpec, unknown_variants
 from hubero_dsl.sim.arrays import FloatArray, IntArray
 from hubero_dsl.sim.joint import JointSteering
 from hubero_dsl.sim.judge import Judge, PlanQuery
@@ -311,8 +311,7 @@ def _warn_not_rendered() -> None:
 def known_variant(program: Program, variant: object) -> str | None:
     """`variant` when the scenario has it (or None, the scenario as written); else InputError."""
     if variant is not None and (not isinstance(variant, str) or variant not in program.variants):
-        known = ", ".join(program.variants) or "none"
-        raise InputError(f"unknown variant {variant!r} (the scenario's: {known})")
+        raise InputError(unknown_variants([variant], program.variants))
     return variant
 
 

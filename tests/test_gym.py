@@ -361,7 +361,7 @@ def test_an_episode_can_run_a_variant_of_the_scenario(tmp_path: Path) -> None:
     assert (env.unwrapped._sim.engine.humans.speed == 1.7).all()
     _, info = env.reset(seed=3)                       # the next episode: the env's own
     assert info["variant"] is None and (env.unwrapped._sim.engine.humans.speed != 1.7).all()
-    with pytest.raises(InputError, match="unknown variant 'slow' \\(the scenario's: brisk\\)"):
+    with pytest.raises(InputError, match="unknown variant 'slow' \\(variants: brisk\\)"):
         env.reset(options={"variant": "slow"})
     with pytest.raises(InputError, match="takes the option 'variant', not crowd"):
         env.reset(options={"crowd": 3})

@@ -115,12 +115,12 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
 
 def variants_to_run(program: Program, args: argparse.Namespace) -> list[str | None]:
     from hubero_dsl.errors import InputError
+    from hubero_dsl.model.program import unknown_variants
 
     if args.all_variants:
         return list(program.variants) or [None]
     if args.variant is not None and args.variant not in program.variants:
-        known = ", ".join(program.variants) or "none"
-        raise InputError(f"unknown variant '{args.variant}' (variants: {known})")
+        raise InputError(unknown_variants([args.variant], program.variants))
     return [args.variant]
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
@@ -226,6 +226,14 @@ class Program:
                 values.update(layer.per_human.get(human.name, {}))
             resolved[human.name] = values
         return resolved
+
+
+def unknown_variants(names: Sequence[object], variants: Iterable[str]) -> str:
+    """The words for variants a scenario does not have, listing those it has: `; ` between
+    them, since a swept variant's name holds commas (`x=1,y=2`)."""
+    known = "; ".join(variants) or "none (this scenario has no variants)"
+    quoted = ", ".join(f"'{name}'" for name in names)
+    return f"unknown variant {quoted} (variants: {known})"
 
 
 def sweep_products(sweeps: list[tuple[str, list[tuple[str, ParamLayer]]]]

@@ -26,7 +26,7 @@ from pydantic import ValidationError
 
 from hubero_dsl.errors import OUTSIDE_STOPS, SimulationError, failure_of
 from hubero_dsl.model.params import HUMAN_PARAMS, REACTIONS, ParamKind
-from hubero_dsl.model.program import Distribution, ParamValue, Pose, Program
+from hubero_dsl.model.program import Distribution, ParamValue, Pose, Program, unknown_variants
 from hubero_dsl.planners.base import GlobalPlanner, LocalPlanner, PlannerParams
 from hubero_dsl.planners.registry import global_planner, local_planner
 from hubero_dsl.sim.arrays import FloatArray, HumanArrays
@@ -119,8 +119,7 @@ class Simulation:
                  controllers: Mapping[str, type | RobotController] | None = None,
                  planners: GlobalPlanners | None = None) -> None:
         if variant is not None and variant not in program.variants:
-            known = ", ".join(program.variants) or "none"
-            raise SimulationError(f"unknown variant '{variant}' (variants: {known})")
+            raise SimulationError(unknown_variants([variant], program.variants))
         self.seed = program.seed if seed is None else seed
         self.program = program = crowds_placed(program, self.seed)
         self.variant = variant

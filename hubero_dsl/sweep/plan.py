@@ -106,9 +106,9 @@ def select_variants(available: Sequence[str], names: Sequence[str] | None
         raise InputError("no variant selected: name at least one, or use --variants all")
     unknown = [name for name in names if name not in available]
     if unknown:
-        known = "; ".join(available) or "none (this scenario has no variants)"
-        quoted = ", ".join(f"'{name}'" for name in unknown)
-        raise InputError(f"unknown variant {quoted} (variants: {known})")
+        from hubero_dsl.model.program import unknown_variants
+
+        raise InputError(unknown_variants(unknown, available))
     wanted = set(names)
     return [name for name in available if name in wanted]
 

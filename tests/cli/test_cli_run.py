@@ -168,7 +168,8 @@ def test_hubero_test_checks_its_options_against_every_file_before_running_any(
     plain = scenario(tmp_path, "activity { a stand for 1 s }\n")
     variant = cli("test", LIVING_ROOM, plain, "--variant", "circle")
     assert variant.status == 2
-    assert f"{plain}: unknown variant 'circle' (variants: none)" in variant.err
+    assert (f"{plain}: unknown variant 'circle' (variants: none (this scenario has no "
+            "variants))") in variant.err
     assert "PASS" not in variant.out
     robot = cli("test", LIVING_ROOM, "--controller",
                 "robot9=tests.sweep.bench_controllers:Raising")
