@@ -356,6 +356,15 @@ def never_came(diff: RunDiff) -> set[str]:
             and not any(_came(diff.humans[member], side) for side in ("a", "b"))}
 
 
+def came_in_one_run(diff: RunDiff) -> dict[str, str]:
+    """The flows' members who came in one run only, and the run ("A" or "B") they did not
+    come in: their numbers there are those of someone who never walked."""
+    return {member: "B" if _came(diff.humans[member], "a") else "A"
+            for kind, members in diff.sets.values() if kind == "flow"
+            for member in members if member in diff.humans
+            and _came(diff.humans[member], "a") != _came(diff.humans[member], "b")}
+
+
 def _came(human: HumanDiff, side: str) -> bool:
     """Whether a flow's member came in the run of `side` (it had a task: flows give their
     people theirs when they come)."""

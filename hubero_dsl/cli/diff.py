@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 from hubero_dsl.cli.outputs import PNG
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Mapping
 
     from rich.console import Console
 
@@ -86,7 +86,7 @@ def _pair(args: argparse.Namespace) -> int:
 
     a, b = load_run(args.first), load_run(args.second)
     diff = diff_runs(a, b, epsilon=args.epsilon)
-    humans = _chosen(_expanded(args.human, a.metadata.members), sorted(diff.humans))
+    humans = _chosen(_expanded(args.human, a.metadata.members), sorted(diff.humans), diff.sets)
     if args.plot is not None:
         from hubero_dsl.analysis.plot import plot_overlay
 
@@ -111,15 +111,22 @@ def _expanded(wanted: list[str] | None, members: Callable[[str], tuple[str, ...]
     return None if not wanted else [m for name in wanted for m in members(name)]
 
 
-def _chosen(wanted: list[str] | None, known: list[str]) -> list[str]:
+def _chosen(wanted: list[str] | None, known: list[str],
+            sets: Mapping[str, tuple[str, tuple[str, ...]]]) -> list[str]:
+    """The humans `wanted` names (all when none), checked against those the runs have;
+    `sets` are the runs' crowds, flows and groups: kind and members by name."""
     from hubero_dsl.errors import InputError
 
     if not wanted:
         return known
     unknown = sorted(set(wanted) - set(known))
     if unknown:
+        # a crowd's or flow's members go by its name; a group's have names of their own
+        members = {member for kind, held in sets.values() if kind != "group" for member in held}
+        listed = [*(name for name in known if name not in members),
+                  *(f"{kind} {name}" for name, (kind, _) in sorted(sets.items()))]
         raise InputError(f"no human {', '.join(unknown)} in these runs "
-                         f"(humans: {', '.join(known)})")
+                         f"(humans: {', '.join(listed)})")
     return sorted(set(wanted))
 
 
@@ -149,9 +156,10 @@ def _sweep_humans(wanted: list[str] | None, sweep: SweepDiff) -> set[str]:
     diffs = [c.diff for c in sweep.comparisons if c.diff is not None]
     if not wanted or not diffs:
         return set(wanted or ())
-    sets = {name: members for diff in diffs for name, (_, members) in diff.sets.items()}
+    sets = {name: kind_members for diff in diffs for name, kind_members in diff.sets.items()}
     known = sorted({human for diff in diffs for human in diff.humans})
-    return set(_chosen(_expanded(wanted, lambda name: sets.get(name, (name,))), known))
+    return set(_chosen(_expanded(wanted, lambda name: sets.get(name, ("", (name,)))[1]), known,
+                       sets))
 
 
 # ---- rendering ----------------------------------------------------------------------------
@@ -208,14 +216,17 @@ def _print_pair(diff: RunDiff, humans: list[str], sets: list[SetDiff],
                 set_of: Callable[[str], str | None], console: Console) -> None:
     from rich.markup import escape
 
+    from hubero_dsl.analysis.diff import came_in_one_run
     from hubero_dsl.cli.diagnostic_formats import printable
 
     console.print(_side("A", diff.a))
     console.print(_side("B", diff.b))
     for note in diff.notes:
         console.print(f"[yellow]note:[/] {escape(printable(note))}")
+    absent = came_in_one_run(diff)
     for name in humans:
-        console.print(_human_table(diff.humans[name], diff.epsilon, set_of))
+        console.print(_human_table(diff.humans[name], diff.epsilon, set_of,
+                                   absent_from=absent.get(name)))
     for crowd in sets:
         console.print(_set_table(crowd, diff.epsilon))
     for robot in diff.robots.values():
@@ -233,13 +244,17 @@ def _metric_table(title: str) -> Any:
 
 
 def _human_table(human: HumanDiff, epsilon: float, set_of: Callable[[str], str | None],
-                 kind: str = "") -> Any:
+                 kind: str = "", absent_from: str | None = None) -> Any:
+    """A human's (or robot's) metrics side by side; `absent_from`: the run a flow's member
+    did not come in, said in the title."""
     from rich.markup import escape
 
     from hubero_dsl.analysis.diff import collapse_closest
 
     changed = "; ".join(f"{name} {a} → {b}" for name, (a, b) in human.parameters.items())
     title = f"[bold]{kind}{escape(human.name)}[/]" + (f"  {escape(changed)}" if changed else "")
+    if absent_from is not None:
+        title += f"  (did not come in {absent_from})"
     table = _metric_table(title)
     for metric in collapse_closest(human.metrics, set_of):
         table.add_row(*_metric_row(metric))

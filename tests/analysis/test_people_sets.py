@@ -102,7 +102,10 @@ def test_diff_takes_a_crowds_name(lounge: Path, capsys: pytest.CaptureFixture[st
     assert main(["diff", str(lounge), str(lounge), "--human", "visitors", "--json"]) == 0
     shown = json.loads(capsys.readouterr().out)["humans"]
     assert sorted(shown) == sorted(f"visitors_{i}" for i in range(1, 9))
+    capsys.readouterr()
     assert main(["diff", str(lounge), str(lounge), "--human", "nobody"]) == 2
+    # the names --human takes: the named humans, and each crowd and group, not its members
+    assert "(humans: dad, kid, mum, group family, crowd visitors)" in capsys.readouterr().err
 
 
 def test_diff_compares_robots(lounge: Path, tmp_path: Path) -> None:
@@ -197,15 +200,20 @@ def test_diff_lists_a_flows_members_who_came(tmp_path: Path,
     logs = [tmp_path / "a.mcap", tmp_path / "b.mcap"]
     for log, seed in zip(logs, (2, 3), strict=True):
         simulate(program, log=log, seed=seed, writer_process=False)
-    came = {e.human for log in logs for e in load_run(log).events}
+    came_a, came_b = ({e.human for e in load_run(log).events} for log in logs)
+    came = came_a | came_b
     members = load_run(logs[0]).metadata.members("walkers")
     assert came < set(members)   # the flow may bring more than came in either run
     assert main(["diff", *map(str, logs)]) == 0
     table = capsys.readouterr().out
     assert "flow walkers\n" in table and "members who came" in table
     assert main(["diff", *map(str, logs), "--human", "walkers"]) == 0
-    listed = set(re.findall(r"^(walkers_\d+)$", capsys.readouterr().out, re.MULTILINE))
-    assert listed == came
+    titles = re.findall(r"^(walkers_\d+)(?:  \(did not come in ([AB])\))?$",
+                        capsys.readouterr().out, re.MULTILINE)
+    assert {name for name, _ in titles} == came and came_a != came_b
+    # someone who came in one run only has no numbers of the other: the title says so
+    assert {(name, absent) for name, absent in titles if absent} == {
+        *((name, "B") for name in came_a - came_b), *((name, "A") for name in came_b - came_a)}
 
 
 def test_a_sweeps_table_gives_a_crowd_one_row(lounge: Path, reseeded: Path, tmp_path: Path,
