@@ -29,6 +29,8 @@ import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from hubero_dsl.cli.outputs import named_file
+
 if TYPE_CHECKING:
     from hubero_dsl.validation.calibrate import Calibration, FileReport
 
@@ -78,7 +80,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                         help="where the runs of a parameter set execute (default: process)")
     parser.add_argument("--jobs", "-j", metavar="N", type=int,
                         help="worker processes (default: the cores)")
-    parser.add_argument("-o", "--output", metavar="FITTED.hub", type=Path,
+    parser.add_argument("-o", "--output", metavar="FITTED.hub", type=named_file,
                         help="write the fitted defaults block here")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
     parser.add_argument("--quiet", "-q", action="store_true",

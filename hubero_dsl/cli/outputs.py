@@ -20,6 +20,14 @@ def output_file(*suffixes: str) -> Callable[[str], Path]:
     return parse
 
 
+def named_file(text: str) -> Path:
+    """An argparse type: a path that names a file (`-o ""` named the current folder)."""
+    path = Path(text)
+    if path.name in ("", ".", ".."):
+        raise argparse.ArgumentTypeError(f"'{text}' names no file: give a file name")
+    return path
+
+
 PNG = output_file(".png")
 GIF = output_file(".gif")
 YAML = output_file(".yaml", ".yml")

@@ -18,6 +18,9 @@ from typing import Any
 
 from hubero_dsl.cli.outputs import GIF, PNG
 
+FRAMES = 120  # at most this many frames in a GIF, unless --frames says otherwise
+FPS = 10
+
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     parser: argparse.ArgumentParser = subparsers.add_parser(
@@ -33,10 +36,10 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                         help="metres along a path between drawn personal spaces (default 1.5)")
     parser.add_argument("--whole-map", action="store_true",
                         help="show the whole map, not only the part the actors used")
-    parser.add_argument("--frames", metavar="N", type=int, default=120,
-                        help="at most this many frames in the GIF (default 120)")
-    parser.add_argument("--fps", metavar="N", type=int, default=10,
-                        help="GIF frames per second (default 10)")
+    parser.add_argument("--frames", metavar="N", type=int,
+                        help=f"at most this many frames in the GIF (default {FRAMES})")
+    parser.add_argument("--fps", metavar="N", type=int,
+                        help=f"GIF frames per second (default {FPS})")
     return parser
 
 
@@ -49,6 +52,10 @@ def run(args: argparse.Namespace) -> int:
         args.output = Path(args.log).with_suffix(".png")  # RUN.png beside RUN.mcap
     if not args.spacing > 0:
         raise InputError(f"--spacing must be a positive distance in metres, got {args.spacing}")
+    if args.animate is None and (args.frames, args.fps) != (None, None):
+        raise InputError("--frames and --fps shape the GIF of --animate OUT.gif: give it too")
+    args.frames = FRAMES if args.frames is None else args.frames
+    args.fps = FPS if args.fps is None else args.fps
     if args.frames < 1 or args.fps < 1:
         raise InputError("--frames and --fps must be at least 1")
     for out in (args.output, args.animate):

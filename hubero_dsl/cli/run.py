@@ -16,6 +16,8 @@ from contextlib import ExitStack
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from hubero_dsl.cli.outputs import named_file
+
 if TYPE_CHECKING:
     from collections.abc import Callable
 
@@ -32,7 +34,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     parser.add_argument("file", metavar="FILE", help="scenario file (.hub)")
     add_run_options(parser)
     where = parser.add_mutually_exclusive_group()
-    where.add_argument("-o", "--output", metavar="OUT.mcap", type=Path,
+    where.add_argument("-o", "--output", metavar="OUT.mcap", type=named_file,
                        help="write the run's MCAP log here (default: runs/SCENARIO.mcap, or "
                             "runs/SCENARIO-VARIANT.mcap)")
     where.add_argument("--out-dir", metavar="DIR", type=Path,

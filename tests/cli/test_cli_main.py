@@ -237,3 +237,8 @@ def test_an_unknown_option_is_told_with_its_commands_usage(cli: Cli) -> None:
     assert outcome.status == 2
     assert "usage: hubero check" in outcome.err
     assert "hubero check: error: unrecognized arguments: --bogus" in outcome.err
+
+
+def test_an_output_named_empty_is_refused_as_naming_no_file(cli: Cli) -> None:
+    outcome = cli("run", "a.hub", "-o", "")
+    assert outcome.status == 2 and "'' names no file: give a file name" in outcome.err

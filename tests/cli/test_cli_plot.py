@@ -105,6 +105,7 @@ def test_no_picture_is_written_over_a_users_other_file(cli: Cli, log: Path, tmp_
     (("--animate", "{tmp}/missing/x.gif"), "cannot be written"),
     (("-o", "{tmp}/x.png", "--spacing", "0"), "--spacing must be a positive"),
     (("--animate", "{tmp}/x.gif", "--frames", "0"), "--frames and --fps"),
+    (("-o", "{tmp}/x.png", "--fps", "4"), "shape the GIF of --animate OUT.gif: give it too"),
     (("-o", "{tmp}/x.txt"), "give a name ending in .png"),
     (("--animate", "{tmp}/x.pgm"), "give a name ending in .gif"),
 ])
