@@ -197,15 +197,24 @@ def test_compile_error_from_a_command_is_rendered(cli: Cli, monkeypatch: pytest.
         "  |         ^^"]
 
 
+def run_main_as_module(tmp_path: Path, dispatch: str) -> subprocess.CompletedProcess[str]:
+    """`python -m` a module that runs `main` with `_dispatch` as `dispatch` (its source) says:
+    how CPython ends such a process is what is tested, so it runs as a user's would."""
+    (tmp_path / "patched_main.py").write_text(
+        "import time, weakref\n"
+        "from hubero_dsl.cli import main as cli\n"
+        f"{dispatch}\n"
+        "cli._dispatch = dispatch\n"
+        "raise SystemExit(cli.main(['check', 'a.hub']))\n", encoding="utf-8")
+    return subprocess.run([sys.executable, "-m", "patched_main"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=60)
+
+
 def test_an_interrupt_inside_an_imported_exec_still_exits_130(tmp_path: Path) -> None:
     # numpy's imports `exec` a string: a Ctrl-C during them passes through it, and CPython
     # then ended `python -m ...` by killing itself with SIGINT (-2) instead of exiting 130
-    (tmp_path / "interrupted_in_an_exec.py").write_text(
-        "from hubero_dsl.cli import main as cli\n"
-        "cli._dispatch = lambda argv: exec('raise KeyboardInterrupt')\n"
-        "raise SystemExit(cli.main(['check', 'a.hub']))\n", encoding="utf-8")
-    outcome = subprocess.run([sys.executable, "-m", "interrupted_in_an_exec"], cwd=tmp_path,
-                             capture_output=True, text=True, timeout=60)
+    outcome = run_main_as_module(tmp_path, "def dispatch(argv):\n"
+                                           "    exec('raise KeyboardInterrupt')")
     assert outcome.returncode == 130, outcome.stderr
     assert outcome.stderr == "hubero: interrupted\n"
 
@@ -213,21 +222,14 @@ def test_an_interrupt_inside_an_imported_exec_still_exits_130(tmp_path: Path) ->
 def test_an_interrupt_raised_in_a_callback_is_not_lost(tmp_path: Path) -> None:
     # Python runs the Ctrl-C handler wherever the main thread is: in a weak reference's
     # callback its KeyboardInterrupt was printed as "Exception ignored" and the command went on
-    (tmp_path / "interrupted_in_a_callback.py").write_text(
-        "import time, weakref\n"
-        "from hubero_dsl.cli import main as cli\n"
-        "class Held: pass\n"
-        "def interrupt(reference): raise KeyboardInterrupt\n"
-        "def dispatch(argv):\n"
-        "    held = Held()\n"
-        "    reference = weakref.ref(held, interrupt)\n"
-        "    del held\n"
-        "    time.sleep(30)\n"
-        "    return 0\n"
-        "cli._dispatch = dispatch\n"
-        "raise SystemExit(cli.main(['check', 'a.hub']))\n", encoding="utf-8")
-    outcome = subprocess.run([sys.executable, "-m", "interrupted_in_a_callback"], cwd=tmp_path,
-                             capture_output=True, text=True, timeout=60)
+    outcome = run_main_as_module(tmp_path, "class Held: pass\n"
+                                           "def interrupt(reference): raise KeyboardInterrupt\n"
+                                           "def dispatch(argv):\n"
+                                           "    held = Held()\n"
+                                           "    reference = weakref.ref(held, interrupt)\n"
+                                           "    del held\n"
+                                           "    time.sleep(30)\n"
+                                           "    return 0")
     assert outcome.returncode == 130, outcome.stderr
     assert outcome.stderr == "hubero: interrupted\n"
 
