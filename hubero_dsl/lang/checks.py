@@ -982,7 +982,9 @@ class Checker:
                     self.symbols.resolve(label, NameKind.LABEL,
                                          role=f"`{label.name} {part.event.value}`")
                 case ast.ReachesCondition(subject=subject, target=target):
-                    self.symbols.resolve(subject, *BODIES, role="`reaches`")
+                    self.symbols.resolve(subject, *BODIES, role="`reaches`",
+                                         for_many="of many: `all NAME reach ...`, "
+                                                  "`any NAME reaches ...`")
                     self._target(target, "the target of `reaches`")
                 case ast.DistanceCondition(subject=subject, target=target):
                     self.symbols.resolve(subject, *BODIES, role="distance(...)")
@@ -998,7 +1000,8 @@ class Checker:
                     self._area(area, "count(...)")
                     self.values.integer(threshold, "a count", minimum=0)
                 case ast.InsideCondition(subject=subject, area=area):
-                    self.symbols.resolve(subject, *BODIES, role="`in`")
+                    self.symbols.resolve(subject, *BODIES, role="`in`",
+                                         for_many="count them: `count(NAME in AREA) >= N`")
                     self._area(area, "`in`")
                 case ast.TimeCondition(threshold=threshold):
                     self.values.quantity(threshold, Dimension.TIME, "a time", non_negative=True)

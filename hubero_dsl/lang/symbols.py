@@ -88,8 +88,11 @@ class SymbolTable:
         symbol = self.symbols.get(name)
         return symbol.kind if symbol else None
 
-    def resolve(self, ref: ast.NameRef, *kinds: NameKind, role: str) -> Symbol | None:
-        """The symbol `ref` names if it is one of `kinds`; otherwise report and return None."""
+    def resolve(self, ref: ast.NameRef, *kinds: NameKind, role: str,
+                for_many: str | None = None) -> Symbol | None:
+        """The symbol `ref` names if it is one of `kinds`; otherwise report and return None.
+        `for_many`: the hint when it names a crowd, flow or group (the form that takes many,
+        with NAME for its name)."""
         symbol = self.symbols.get(ref.name)
         wanted = " or ".join(k.value for k in kinds)
         if symbol is None:
@@ -104,9 +107,11 @@ class SymbolTable:
             return None
         self.used.add(ref.name)
         if symbol.kind not in kinds:
+            many = symbol.kind in (NameKind.CROWD, NameKind.FLOW, NameKind.GROUP)
+            hint = for_many.replace("NAME", ref.name) if for_many and many else None
             self.diagnostics.append(error(
                 "E103", f"'{ref.name}' is {_a(symbol.kind.value)}, but {role} needs {_a(wanted)}",
-                ref.span, None, (Related(f"'{ref.name}' is defined here", symbol.span),)))
+                ref.span, hint, (Related(f"'{ref.name}' is defined here", symbol.span),)))
             return None
         return symbol
 

@@ -111,6 +111,16 @@ def test_an_equals_sign_is_told_which_comparisons_there_are(check: Check) -> Non
     assert error.hint.startswith("a comparison is <, <=, > or >=")
 
 
+def test_a_crowd_where_one_body_is_meant_is_shown_the_form_for_many(check: Check) -> None:
+    crowd = "crowd c 3 in rect((2, 1), (3, 2))\nactivity { c stand for 1 s }\n"
+    hints = {"expect c in rect((2, 1), (3, 2)) always": "count them: `count(c in AREA) >= N`",
+             "expect c reaches (2.5, 1.5) eventually":
+                 "of many: `all c reach ...`, `any c reaches ...`"}
+    for expectation, hint in hints.items():
+        (error,) = check(crowd + expectation).errors
+        assert (error.code, error.hint) == ("E103", hint)
+
+
 # ---- one diagnostic, pinned to its span ---------------------------------------------------
 
 SINGLE = {
