@@ -142,3 +142,17 @@ def scratch_folder_beside(target: Path, shown: Path | None = None) -> Iterator[P
         raise InputError(f"{shown or target}: cannot be written ({exc.strerror or exc})") from None
     finally:
         shutil.rmtree(work, ignore_errors=True)
+
+
+def distinct_files(paths: Sequence[str]) -> list[str]:
+    """Each file once, however it is written (`a.hub`, `./a.hub`), as first written; a path
+    that names no file is kept as written, to be reported."""
+    first: dict[object, str] = {}
+    for path in paths:
+        try:
+            found = os.stat(path)
+        except (OSError, ValueError):
+            first.setdefault(path, path)
+        else:
+            first.setdefault((found.st_dev, found.st_ino), path)
+    return list(first.values())

@@ -60,7 +60,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    reports = check_paths(_unique(args.files))
+    from hubero_dsl.files import distinct_files
+
+    reports = check_paths(distinct_files(args.files))
     printer = Printer.to(sys.stdout)
     if args.format == "json":
         printer.text(json_report(reports, strict=args.strict))
@@ -96,6 +98,3 @@ def _checker() -> Callable[[str], CheckResult]:
 
     return check_file
 
-
-def _unique(paths: Sequence[str]) -> list[str]:
-    return list(dict.fromkeys(paths))

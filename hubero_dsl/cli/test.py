@@ -42,6 +42,7 @@ def run(args: argparse.Namespace) -> int:
     from hubero_dsl.cli.console import make_console
     from hubero_dsl.cli.diagnostic_formats import report_error
     from hubero_dsl.errors import HuberoError, InputError, SimulationError
+    from hubero_dsl.files import distinct_files
     from hubero_dsl.pipeline import compile_file
 
     console = make_console()
@@ -51,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
     if args.variant is not None:
         args.all_variants = False
     programs: list[tuple[str, Program]] = []
-    for file in args.files:
+    for file in distinct_files(args.files):
         try:
             programs.append((file, compile_file(file)))
         except HuberoError as exc:  # this file's mistakes are said; the other files still run

@@ -244,3 +244,12 @@ def test_an_unknown_option_is_told_with_its_commands_usage(cli: Cli) -> None:
 def test_an_output_named_empty_is_refused_as_naming_no_file(cli: Cli) -> None:
     outcome = cli("run", "a.hub", "-o", "")
     assert outcome.status == 2 and "'' names no file: give a file name" in outcome.err
+
+
+def test_a_file_named_twice_is_checked_once(cli: Cli, tmp_path: Path,
+                                            monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    Path("a.hub").write_text(SYNTAX_ERROR, encoding="utf-8")
+    outcome = cli("check", "a.hub", "./a.hub", str(tmp_path / "a.hub"))
+    assert outcome.status == 1 and outcome.out.count("error[E") == 1
+    assert outcome.out.rstrip().endswith("1 error, 0 warnings in 1 file")

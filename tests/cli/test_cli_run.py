@@ -188,3 +188,11 @@ def test_members_lists_a_flows_people_who_came_only(cli: Callable[..., Outcome],
     assert listed.status == 0, listed.err
     rows = [line for line in listed.out.splitlines() if "walkers_" in line]
     assert rows and all("SUCCEEDED" in row for row in rows)  # none of those who never came
+
+
+def test_hubero_test_runs_a_file_named_twice_once(cli: Callable[..., Outcome]) -> None:
+    twice = cli("test", LIVING_ROOM, str(Path(LIVING_ROOM).parent / "." / "living_room.hub"))
+    once = cli("test", LIVING_ROOM)
+    assert twice.status == once.status == 0
+    assert twice.out.rstrip().splitlines()[-1] == once.out.rstrip().splitlines()[-1] == (
+        "2 passed, 0 failed")  # its two variants
