@@ -82,12 +82,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     _stop_cleanly_on_sigterm()
     _lose_no_interrupt_in_callbacks()
     try:
-        return _main(argv)
+        return _exit_status(argv)
     finally:
         _forget_handled_interrupts()
 
 
-def _main(argv: Sequence[str] | None) -> int:
+def _exit_status(argv: Sequence[str] | None) -> int:
+    """Run the command; every way it can end is answered by an exit status."""
     try:
         status = _dispatch(argv)
         sys.stdout.flush()
