@@ -17,7 +17,7 @@ from hubero_dsl.diagnostics import Diagnostic, Related, Span, error, warning
 from hubero_dsl.errors import InputError
 from hubero_dsl.lang import ast
 from hubero_dsl.lang.lower import area_polygon, coordinate
-from hubero_dsl.lang.symbols import NameKind, SymbolTable, alias_depths
+from hubero_dsl.lang.symbols import MANY, NameKind, SymbolTable, alias_depths
 from hubero_dsl.lang.values import ValueReader, did_you_mean, field_dimension
 from hubero_dsl.model.params import HUMAN_PARAMS, KINEMATICS, ROBOT_PARAMS
 from hubero_dsl.model.program import (
@@ -40,7 +40,6 @@ MAX_TICKS = 1e8  # ticks in a run (time_limit / step): about 14 h of computing a
 MAX_VARIANTS = 10_000  # variants of a scenario (named variants times sweep values)
 MAX_HUMANS = 20_000    # humans of a scenario, crowds included (a log has 65,535 channels)
 TARGETS = (NameKind.PLACE, NameKind.HUMAN, NameKind.ROBOT, NameKind.GROUP)
-MANY = (NameKind.CROWD, NameKind.GROUP, NameKind.FLOW)  # names of sets of humans
 _MEMBER_NAME = re.compile(r"(\w+)_([1-9][0-9]*)")  # a crowd's or flow's member: NAME_N
 
 @dataclass(frozen=True)

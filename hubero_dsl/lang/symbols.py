@@ -32,6 +32,9 @@ class NameKind(StrEnum):
     LABEL = "label"
 
 
+MANY = (NameKind.CROWD, NameKind.GROUP, NameKind.FLOW)  # names of sets of humans
+
+
 @dataclass(frozen=True, slots=True)
 class Symbol:
     name: str
@@ -97,8 +100,7 @@ class SymbolTable:
         wanted = " or ".join(k.value for k in kinds)
         if symbol is None:
             # a crowd's name is closer to a slip of it than any of its members' (`shopers`)
-            sets = (NameKind.CROWD, NameKind.GROUP, NameKind.FLOW) if NameKind.HUMAN in kinds \
-                else ()
+            sets = MANY if NameKind.HUMAN in kinds else ()
             hint = did_you_mean(ref.name, self.names_of(*kinds, *sets))
             if hint is None and (names := self.names_of(*kinds)):
                 hint = "defined: " + ", ".join(names[:8]) + (", ..." if len(names) > 8 else "")
@@ -107,8 +109,8 @@ class SymbolTable:
             return None
         self.used.add(ref.name)
         if symbol.kind not in kinds:
-            many = symbol.kind in (NameKind.CROWD, NameKind.FLOW, NameKind.GROUP)
-            hint = for_many.replace("NAME", ref.name) if for_many and many else None
+            hint = for_many.replace("NAME", ref.name) if for_many and symbol.kind in MANY \
+                else None
             self.diagnostics.append(error(
                 "E103", f"'{ref.name}' is {_a(symbol.kind.value)}, but {role} needs {_a(wanted)}",
                 ref.span, hint, (Related(f"'{ref.name}' is defined here", symbol.span),)))
