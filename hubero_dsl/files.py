@@ -120,7 +120,7 @@ def write_replacing(path: Path, write: Callable[[Path], object],
         write(temp)
         os.replace(temp, path)
     except OSError as exc:
-        raise failure(f"{path}: cannot be written ({exc.strerror or exc})") from None
+        raise failure(_cannot_write(path, exc)) from None
     finally:
         with contextlib.suppress(OSError):
             temp.unlink()
@@ -135,13 +135,17 @@ def scratch_folder_beside(target: Path, shown: Path | None = None) -> Iterator[P
     try:
         work = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
     except OSError as exc:
-        raise InputError(f"{shown or target}: cannot be written ({exc.strerror or exc})") from None
+        raise InputError(_cannot_write(shown or target, exc)) from None
     try:
         yield work
     except OSError as exc:
-        raise InputError(f"{shown or target}: cannot be written ({exc.strerror or exc})") from None
+        raise InputError(_cannot_write(shown or target, exc)) from None
     finally:
         shutil.rmtree(work, ignore_errors=True)
+
+
+def _cannot_write(path: Path, exc: OSError) -> str:
+    return f"{path}: cannot be written ({exc.strerror or exc})"
 
 
 def distinct_files(paths: Sequence[str]) -> list[str]:
