@@ -26,6 +26,7 @@ from hubero_dsl.diagnostics import Diagnostic, Related, Span, error
 from hubero_dsl.errors import CompileError, InputError
 from hubero_dsl.lang import ast
 from hubero_dsl.model.tasks import TASKS
+from hubero_dsl.model.units import Dimension, units_of
 
 MAX_SOURCE_BYTES = 2_000_000
 MAX_NESTING = 64
@@ -197,8 +198,7 @@ def _syntax_diagnostic(exc: UnexpectedInput, source: ast.SourceFile) -> Diagnost
         message = f"unexpected {found}"
         hint = _expected_hint(expected)
         if token.type == "NAME" and _follows_number(exc):
-            hint = (f"'{token.value}' is not a unit; units are m cm mm, s ms min h, m/s km/h, "
-                    "m/s^2, deg rad, rad/s deg/s")
+            hint = f"'{token.value}' is not a unit; units are {_UNITS_BY_DIMENSION}"
         elif token.type in ("ALWAYS", "EVENTUALLY", "WITHIN") and _expects_a_metric(
                 source.line(line)):
             hint = ("a metric's expectation is judged once, when the run ends: it takes no "
@@ -227,6 +227,10 @@ def _syntax_diagnostic(exc: UnexpectedInput, source: ast.SourceFile) -> Diagnost
                                                              column + 1), "a block is not closed",
                      _unclosed_note(source))
     return error("E001", str(exc), Span(source.path, line, column, line, column + 1))
+
+
+# every unit, those of one dimension together: "m cm mm, s ms min h, ..."
+_UNITS_BY_DIMENSION = ", ".join(" ".join(units_of(d)) for d in Dimension if units_of(d))
 
 
 def _unknown_escape(text: str, quote: int) -> tuple[int, str] | None:

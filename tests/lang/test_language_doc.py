@@ -63,6 +63,20 @@ def test_every_code_is_in_the_catalogue() -> None:
     assert emitted <= catalogue, sorted(emitted - catalogue)
 
 
+def test_every_code_in_the_catalogue_has_a_golden_example() -> None:
+    # the reference says so of every code `hubero check` reports (a few the graph analysis
+    # alone reports are "reported as E1xx by `hubero check`")
+    catalogue = {code for code, meaning in re.findall(r"^\| `([EW]\d{3})` \|(.*)$",
+                                                       REFERENCE.read_text(encoding="utf-8"),
+                                                       flags=re.M)
+                 if "by `hubero check`" not in meaning}
+    golden = REPO_ROOT / "tests" / "cases" / "diagnostics"
+    shown = {code for path in golden.glob("*.txt")
+             for code in re.findall(r"^(?:error|warning)\[([EW]\d{3})\]",
+                                    path.read_text(encoding="utf-8"), flags=re.M)}
+    assert catalogue <= shown, sorted(catalogue - shown)
+
+
 def test_the_reserved_words_are_listed() -> None:
     section = REFERENCE.read_text(encoding="utf-8").split("## Reserved words", 1)[1]
     (listing,) = _blocks(section, "")[:1]
