@@ -26,3 +26,11 @@ def make_console(**options: Any) -> Console:
         options.setdefault("width", 100_000)
         options.setdefault("soft_wrap", True)
     return _PipeAwareConsole(**options)
+
+
+def shows_progress(console: Console) -> bool:
+    """Whether a progress bar is drawn on `console`: only when it writes to a terminal, for a
+    person to watch. FORCE_COLOR makes rich take any output for a terminal, and a CI log was
+    filled with bars."""
+    isatty = getattr(console.file, "isatty", None)
+    return bool(isatty is not None and isatty())

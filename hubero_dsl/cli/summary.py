@@ -19,7 +19,7 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from hubero_dsl.cli.console import make_console
+from hubero_dsl.cli.console import make_console, shows_progress
 
 if TYPE_CHECKING:
     from hubero_dsl.model.program import Program
@@ -42,7 +42,7 @@ def progress_observer(program: Program, variant: str | None
     console = make_console(stderr=True)
     progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(),
                         TextColumn("{task.fields[clock]}"), TimeElapsedColumn(),
-                        console=console, transient=True, disable=not console.is_terminal)
+                        console=console, transient=True, disable=not shows_progress(console))
     task = progress.add_task(_label(program, variant), total=program.time_limit, clock="")
     every = max(1, round(0.25 / program.step))
 

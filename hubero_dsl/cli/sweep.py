@@ -159,11 +159,13 @@ class _SweepProgress:
             TimeRemainingColumn,
         )
 
+        from hubero_dsl.cli.console import shows_progress
+
         self._console = console
         self._progress = Progress(
             TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
             TextColumn("{task.fields[problems]}"), TimeElapsedColumn(), TimeRemainingColumn(),
-            console=console, transient=True, disable=quiet or not console.is_terminal)
+            console=console, transient=True, disable=quiet or not shows_progress(console))
         self._task = self._progress.add_task(_escape(f"sweep {Path(plan.scenario).name}"),
                                              total=len(plan.runs), problems="")
         self._problems = 0

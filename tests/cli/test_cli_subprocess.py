@@ -39,6 +39,13 @@ def test_force_color_colours_a_pipe(cli_subprocess: Run, write: Write) -> None:
     assert "\x1b[" in cli_subprocess("check", str(path), FORCE_COLOR="1").out
 
 
+def test_force_color_draws_no_progress_bar_into_a_pipe(cli_subprocess: Run) -> None:
+    # FORCE_COLOR colours; a progress bar is for a terminal, not for a CI log
+    scenario = str(Path(__file__).resolve().parents[2] / "scenarios" / "living_room.hub")
+    outcome = cli_subprocess("run", scenario, "--no-log", FORCE_COLOR="1")
+    assert outcome.status == 0 and outcome.err == ""
+
+
 def test_a_terminal_that_cannot_show_the_source_does_not_crash(cli_subprocess: Run,
                                                               write: Write) -> None:
     path = write("wide.hub", 'scenario "x"\nplace 食卓 (1, 2)\n')
