@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal, cast
 
-from hubero_dsl.diagnostics import Diagnostic, SourceFile, error
+from hubero_dsl.diagnostics import Diagnostic, SourceFile, Span, error
 from hubero_dsl.errors import CompileError
 from hubero_dsl.graph.build import build_activity_graph
 from hubero_dsl.graph.verify import verify_activities
@@ -80,6 +80,14 @@ def check_source(text: str, path: str = "<string>") -> CheckResult:
     ordered = tuple(sorted(dict.fromkeys(diagnostics), key=Diagnostic.sort_key))
     has_errors = any(d.is_error for d in ordered)
     return CheckResult(source, ordered, None if has_errors else program)
+
+
+def first_other_than_defaults(text: str, path: str, *, after: int = 0) -> Span | None:
+    """Where the first statement past the first `after` is that is not a `defaults { }`
+    block (a file of fitted defaults holds nothing else), or None. CompileError for a syntax
+    error."""
+    statements = parse_source(text, path).statements[after:]
+    return next((s.span for s in statements if not isinstance(s, ast.DefaultsDecl)), None)
 
 
 def check_file(path: str | Path) -> CheckResult:

@@ -116,7 +116,7 @@ def load_defaults(path: Path) -> dict[str, ParamValue]:
 
     from hubero_dsl.errors import CompileError
     from hubero_dsl.files import read_bounded
-    from hubero_dsl.pipeline import compile_source
+    from hubero_dsl.pipeline import compile_source, first_other_than_defaults
     from hubero_dsl.world.grid import OccupancyGrid
     from hubero_dsl.world.mapfile import save_map
 
@@ -129,11 +129,13 @@ def load_defaults(path: Path) -> dict[str, ParamValue]:
         save_map(OccupancyGrid(np.zeros((20, 20), dtype=bool), 0.1, (0.0, 0.0)), map_yaml)
         header = f'scenario "defaults"; map "{map_yaml}"\n'
         try:
+            other = first_other_than_defaults(header + text, str(path), after=2)
+            if other is not None:  # a place, a human, a second scenario line
+                raise InputError(f"{path}:{other.line - 1}:{other.column}: a defaults file "
+                                 "holds a `defaults { }` block only")
             program = compile_source(header + text, str(path))
         except CompileError as exc:
             raise CompileError([_line_up(d) for d in exc.diagnostics]) from None
-    if program.humans or program.robots or program.activities or program.flows:
-        raise InputError(f"{path}: a defaults file holds a `defaults {{ }}` block only")
     return dict(program.defaults.values)
 
 

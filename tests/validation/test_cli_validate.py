@@ -117,7 +117,6 @@ def test_a_defaults_file_with_errors_exits_1_at_its_own_line(cli: Cli, tmp_path:
 @pytest.mark.parametrize(("text", "where"), [
     ("defaults { speed 5 s }\n", "1:18"),             # the first line: no header before it
     ("\ndefaults { speed 5 s }\n", "2:18"),
-    ('defaults { speed 1 m/s }\nscenario "x"\n', "2:1"),
 ])
 def test_a_defaults_files_error_is_at_its_own_line_and_column(cli: Cli, tmp_path: Path,
                                                               text: str, where: str) -> None:
@@ -129,12 +128,18 @@ def test_a_defaults_files_error_is_at_its_own_line_and_column(cli: Cli, tmp_path
     assert "first given here" not in outcome.err  # the header it is compiled under is no line
 
 
-def test_a_defaults_file_with_people_is_refused(cli: Cli, tmp_path: Path) -> None:
+@pytest.mark.parametrize(("text", "where"), [
+    ("defaults { speed 1 m/s }\nhuman a at (1.0, 1.0)\n", "2:1"),
+    ("defaults { speed 1 m/s }\nplace p (1, 1)\n", "2:1"),      # accepted silently, once
+    ('scenario "x"\ndefaults { speed 1 m/s }\n', "1:1"),         # "'scenario' given twice"
+])
+def test_a_defaults_file_with_anything_else_is_refused(cli: Cli, tmp_path: Path, text: str,
+                                                        where: str) -> None:
     fitted = tmp_path / "fitted.hub"
-    fitted.write_text("defaults { speed 1 m/s }\nhuman a at (1.0, 1.0)\n", encoding="utf-8")
+    fitted.write_text(text, encoding="utf-8")
     outcome = cli("validate", FREE_FLOW, "--defaults", str(fitted))
     assert outcome.status == 2
-    assert "holds a `defaults { }` block only" in outcome.err
+    assert f"{fitted}:{where}: a defaults file holds a `defaults {{ }}` block only" in outcome.err
 
 
 def test_the_docs_quote_the_held_out_run_as_it_runs_now(cli: Cli) -> None:
