@@ -183,9 +183,10 @@ class Simulation:
         self.robot(name).set_velocity(vx, vy)
 
     def remove(self, name: str) -> None:
-        """Make a human or robot unknown as a target: tasks that follow, face or walk to it
-        lose it (they are aborted as 'disappeared'). Its body stays where it is, an obstacle
-        to the others; taking bodies out of the physics comes with flows of people."""
+        """Make a human or robot unknown as a target: tasks that face or follow it lose it
+        (they are aborted as 'disappeared'; a `move_to` under way walks on to where it was
+        when it began). Its body stays where it is, an obstacle to the others; taking bodies
+        out of the physics comes with flows of people."""
         self.engine.removed.add(name)
 
     def _command(self, actor: str, task: Task, span: Span | None) -> TaskHandle:
