@@ -383,3 +383,27 @@ def test_a_reward_that_cannot_be_called_is_refused_when_the_env_is_made(
     with pytest.raises(InputError, match=message):
         gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(_scenario(tmp_path)), robot="cart",
                        reward=reward)
+
+
+def test_an_env_never_closed_leaves_no_temporary_log(tmp_path: Path) -> None:
+    # the program ends with its env open (no close()): the episode's log is unfinished, and
+    # its temporary file, hidden beside where the log would be, must not outlive the program
+    import subprocess
+    import sys
+
+    map_path = Path(__file__).resolve().parents[1] / "maps" / "living_room.yaml"
+    script = tmp_path / "left_open.py"
+    script.write_text(
+        "from hubero_dsl.gym import ScenarioEnv\n"
+        "from hubero_dsl.pipeline import compile_source\n"
+        f"text = 'scenario \"g\"\\nmap \"{map_path}\"\\nhuman a at (6.3, 2.5)\\n"
+        "robot r at (2.0, 0.0) { controller external; goal (3.0, 1.0) }\\n"
+        "activity { a move_to (5.5, 1.0) }\\n'\n"
+        "env = ScenarioEnv(compile_source(text, 'g.hub'), 'r', log='ep.mcap')\n"
+        "env.reset(seed=1)\n"
+        "for _ in range(5):\n"
+        "    env.step(env.action_space.sample())\n", encoding="utf-8")
+    done = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["left_open.py"]

@@ -38,6 +38,7 @@ import os
 import signal
 import sys
 import threading
+import weakref
 from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, Protocol
@@ -130,6 +131,9 @@ class RunLog:
                     os.close(fd)
             discard_file(None, temp)
             raise
+        # a log never closed (a Gymnasium env left open, dropped, or the program ending) leaves
+        # no temporary file behind it: removed when this object goes, or at exit
+        self._unfinished = weakref.finalize(self, discard_file, None, temp)
         try:
             self.observe(self._sim)
         except BaseException:
@@ -165,6 +169,7 @@ class RunLog:
             self._discard()
             raise
         self._closed = True
+        self._unfinished.detach()  # renamed into place: nothing to remove
         return self.path
 
     @property
@@ -222,6 +227,7 @@ class RunLog:
         """Stop the writer and drop the temporary file (after a failure or an interruption)."""
         if self._sink is not None and not self._closed:
             self._sink.abort()
+            self._unfinished.detach()
         self._closed = True
 
 
