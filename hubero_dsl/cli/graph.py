@@ -16,6 +16,9 @@ from hubero_dsl.cli.diagnostic_formats import FileReport, Printer, text_report
 FORMATS = ("mermaid", "dot", "png")
 _FORMAT_OF_SUFFIX = {".mmd": "mermaid", ".mermaid": "mermaid", ".dot": "dot", ".gv": "dot",
                      ".png": "png"}
+# pictures hubero does not draw: Mermaid text under such a name was a file no viewer opens
+_OTHER_PICTURES = frozenset({".svg", ".pdf", ".jpg", ".jpeg", ".gif", ".bmp", ".tif", ".tiff",
+                             ".webp", ".eps", ".ps"})
 
 _EPILOG = """\
 The format defaults to the one OUT's suffix names (.mmd/.mermaid, .dot/.gv, .png), else mermaid.
@@ -113,6 +116,13 @@ def _checked_program(path: str) -> Any:
 
 
 def _format_from_suffix(output: str | None) -> str:
+    from hubero_dsl.errors import InputError
+
     if output is None:
         return "mermaid"
-    return _FORMAT_OF_SUFFIX.get(Path(output).suffix.lower(), "mermaid")
+    suffix = Path(output).suffix.lower()
+    if suffix in _OTHER_PICTURES:
+        raise InputError(f"{output}: hubero graph draws PNG only; for {suffix[1:].upper()}, "
+                         f"pipe DOT to Graphviz: hubero graph FILE --format dot | dot "
+                         f"-T{suffix[1:]} > {Path(output).name}")
+    return _FORMAT_OF_SUFFIX.get(suffix, "mermaid")

@@ -69,6 +69,15 @@ def test_output_file_and_format_from_its_suffix(cli: Cli, stand_in: list[Any],
     assert target.read_text(encoding="utf-8").startswith("digraph {")
 
 
+@pytest.mark.parametrize("name", ["g.svg", "g.PDF", "g.jpg"])
+def test_a_picture_hubero_does_not_draw_is_refused_with_the_command_that_does(
+        cli: Cli, stand_in: list[Any], tmp_path: Path, name: str) -> None:
+    # Mermaid text under an image's name was a file no viewer opens
+    outcome = cli("graph", "s.hub", "-o", str(tmp_path / name))
+    assert outcome.status == 2 and "--format dot | dot -T" in outcome.err
+    assert not (tmp_path / name).exists()
+
+
 def test_png_goes_to_the_output_file(cli: Cli, stand_in: list[Any], tmp_path: Path) -> None:
     target = tmp_path / "g.png"
     assert cli("graph", "x.hub", "-o", str(target)).status == 0
