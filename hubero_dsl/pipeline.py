@@ -166,7 +166,7 @@ def _check_module(module: ast.Module, diagnostics: list[Diagnostic]) -> Program 
         grid = load_scenario_map(module.source, facts.map, diagnostics)
         if grid is not None:
             check_positions(grid, facts.positions, diagnostics, facts.bodies)
-            check_bodies(grid, facts.bodies, diagnostics)
+            check_bodies(grid, facts.bodies, diagnostics, facts.radius_origins)
             check_overlapping_starts(list(facts.starts.values()), diagnostics)
             check_robot_paths(grid, facts.robots, diagnostics)
     areas = named_areas(module, facts.places)

@@ -93,6 +93,8 @@ class Facts:
     bodies: list[tuple[str, tuple[float, float], float, Span]] = field(default_factory=list)
     # the humans' and robots' starts among `bodies`, by what they are (a name defined twice
     # keeps its first; that is an error of its own)
+    # a body's words -> " (variant 'V')" where a variant gives it the radius it is checked with
+    radius_origins: dict[str, str] = field(default_factory=dict)
     starts: dict[str, tuple[str, tuple[float, float], float, Span]] = field(
         default_factory=dict)
 
@@ -800,12 +802,14 @@ class Checker:
     def _body_places(self) -> None:
         """Where bodies start and are sent, with the largest radius each may have (any variant,
         the upper end of a distribution), for the map check that they fit there."""
-        radius = {name: self._largest_radius(name) for name in self.facts.human_starts}
+        largest = {name: self._largest_radius_and_origin(name)
+                   for name in self.facts.human_starts}
+        for crowd in self.facts.crowds:  # a crowd's or group's goal: where its largest fits
+            largest[crowd.name] = self._largest_radius_and_origin(crowd.name, crowd.layer)
+            largest |= dict.fromkeys(crowd.members, largest[crowd.name])
+        radius = {name: value for name, (value, _) in largest.items()}
         for robot in self.facts.robots:
             radius[robot.name] = robot.radius
-        for crowd in self.facts.crowds:  # a crowd's or group's goal: where its largest fits
-            radius[crowd.name] = self._largest_radius(crowd.name, crowd.layer)
-            radius |= dict.fromkeys(crowd.members, radius[crowd.name])
         for group, members in self.facts.groups.items():
             radius[group] = max((radius[m] for m in members if m in radius), default=0.0)
         for decl in self.module.of_type(ast.HumanDecl):
@@ -813,11 +817,11 @@ class Checker:
             start = self.facts.human_starts.get(name)
             if start is not None:
                 self._start((f"the start of '{name}'", start.xy, radius[name],
-                             decl.start.span))
+                             decl.start.span), largest[name][1])
         for robot_decl, robot in zip(self.module.of_type(ast.RobotDecl), self.facts.robots,
                                      strict=False):
             self._start((f"the start of robot '{robot.name}'", robot.start.xy, robot.radius,
-                         robot_decl.start.span))
+                         robot_decl.start.span), "")
         # the first position written at each span (a scenario of thousands of goals looked
         # each one up in the whole list)
         points: dict[Span, tuple[float, float]] = {}
@@ -826,12 +830,16 @@ class Checker:
         for actor, kind, target in self.goals:
             where = self._point_of(target, points)
             if where is not None and actor in radius:
-                self.facts.bodies.append((f"the goal of {actor}'s {kind}", where,
-                                          radius[actor], target.span))
+                what = f"the goal of {actor}'s {kind}"
+                self.facts.bodies.append((what, where, radius[actor], target.span))
+                if largest.get(actor, (0.0, ""))[1]:
+                    self.facts.radius_origins[what] = largest[actor][1]
 
-    def _start(self, body: tuple[str, tuple[float, float], float, Span]) -> None:
+    def _start(self, body: tuple[str, tuple[float, float], float, Span], origin: str) -> None:
         self.facts.bodies.append(body)
         self.facts.starts.setdefault(body[0], body)
+        if origin:
+            self.facts.radius_origins[body[0]] = origin
 
     def _point_of(self, target: ast.PointValue, points: dict[Span, tuple[float, float]]
                   ) -> tuple[float, float] | None:
@@ -843,22 +851,29 @@ class Checker:
     def _largest_radius(self, human: str, own: ParamLayer | None = None) -> float:
         """The largest radius `human` (or a crowd of that name, whose block is `own`) may
         have: in any variant, at the upper end of a distribution."""
+        return self._largest_radius_and_origin(human, own)[0]
+
+    def _largest_radius_and_origin(self, human: str, own: ParamLayer | None = None
+                                   ) -> tuple[float, str]:
+        """`_largest_radius`, and " (variant 'V')" when a variant (or a swept value) makes
+        it larger than the file's own radius: the words a body that does not fit is told
+        with ("" otherwise)."""
         own = own or self.facts.human_layers.get(human, ParamLayer())
-        layers = [self.facts.defaults, own,
-                  *(layer for _, layer in self.facts.variants),
-                  *(layer for _, options in self.facts.sweeps for _, layer in options)]
-        found = [float(HUMAN_PARAMS["radius"].default)]  # type: ignore[arg-type]
-        for layer in layers:
+        base = [self.facts.defaults, own]
+        varied = [*self.facts.variants,
+                  *(option for _, options in self.facts.sweeps for option in options)]
+        found = [(float(HUMAN_PARAMS["radius"].default), "")]  # type: ignore[arg-type]
+        for layer, origin in [*((layer, "") for layer in base),
+                              *((layer, f" (variant '{name}')") for name, layer in varied)]:
             for value in (layer.values.get("radius"), layer.per_human.get(human, {}).get(
                     "radius")):
                 if isinstance(value, float):
-                    found.append(value)
+                    found.append((value, origin))
                 elif isinstance(value, Distribution):  # a draw may be this large
-                    found.append(value.upper)
-        base = [self.facts.defaults, own]
+                    found.append((value.upper, origin))
         if any("radius" in layer.values for layer in base):  # the file's own, not built-in
             found = found[1:] or found
-        return max(found)
+        return max(found, key=lambda pair: (pair[0], not pair[1]))
 
     def _robot_tasks(self) -> None:
         """E109: tasks given to a robot that drives a scripted path (known once every robot

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -62,10 +62,12 @@ OVERLAP_REPORTS = 10  # pairs of overlapping bodies named one by one
 
 def check_bodies(grid: OccupancyGrid,
                  bodies: list[tuple[str, tuple[float, float], float, Span]],
-                 diagnostics: list[Diagnostic]) -> None:
+                 diagnostics: list[Diagnostic], origins: Mapping[str, str] | None = None
+                 ) -> None:
     """Every body must fit where it starts and where it is sent: its whole radius clear of
     obstacles, as the planners require (points outside the map or in an obstacle are reported
-    by `check_positions`)."""
+    by `check_positions`). `origins`: where a body's radius comes from, by its words (a
+    variant's), said after the radius."""
     from hubero_dsl.errors import MapError
 
     for what, (x, y), radius, span in bodies:
@@ -79,9 +81,10 @@ def check_bodies(grid: OccupancyGrid,
             continue
         if distance > 0:
             clearance = float(grid.clearance_at((x, y)))
+            origin = (origins or {}).get(what, "")
             diagnostics.append(error(
                 "E405", f"{what} ({x:g}, {y:g}) is {clearance:.2f} m from an obstacle; a body "
-                f"of radius {radius:g} m does not fit", span,
+                f"of radius {radius:g} m{origin} does not fit", span,
                 f"the nearest point where it fits is {distance:.2f} m away, at "
                 f"({fx:.2f}, {fy:.2f})"))
 

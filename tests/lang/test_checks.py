@@ -121,6 +121,15 @@ def test_a_crowd_where_one_body_is_meant_is_shown_the_form_for_many(check: Check
         assert (error.code, error.hint) == ("E103", hint)
 
 
+def test_a_body_too_large_says_which_variant_makes_it_so(check: Check) -> None:
+    result = check("variant big { actor1.radius 1.5 m }\nactivity { actor1 stand for 1 s }")
+    (error,) = result.errors
+    assert error.code == "E405"
+    assert "a body of radius 1.5 m (variant 'big') does not fit" in error.message
+    own = check("variant small { actor1.radius 0.1 m }\nactivity { actor1 stand for 1 s }")
+    assert not own.errors  # the file's own radius fits: no variant to name
+
+
 # ---- one diagnostic, pinned to its span ---------------------------------------------------
 
 SINGLE = {
