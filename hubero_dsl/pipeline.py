@@ -252,10 +252,8 @@ def _flows(facts: Facts, grid: OccupancyGrid, lowering: Lowering,
         if flow.target is None or flow.rate is None:
             continue
         area, radius = lowering.area(flow.area), _radius(flow.layer, facts, flow.name)
-        before = len(diagnostics)
-        check_bodies(grid, [(f"the target of flow '{flow.name}'", flow.target, radius,
-                             flow.target_span)], diagnostics)
-        if len(diagnostics) > before or not _target_free(grid, flow.target):
+        if not check_bodies(grid, [(f"the target of flow '{flow.name}'", flow.target, radius,
+                                    flow.target_span)], diagnostics):
             continue  # no way leads to a target where nobody fits: that is the error
         if not len(grid.entry_places(area, flow.target, radius)):
             diagnostics.append(error(
@@ -270,11 +268,6 @@ def _flows(facts: Facts, grid: OccupancyGrid, lowering: Lowering,
         members += [HumanSpec(member, Pose(*flow.target), flow.layer, flow.span, flow.name)
                     for member in flow.members]
     return tuple(flows), tuple(members)
-
-
-def _target_free(grid: OccupancyGrid, target: tuple[float, float]) -> bool:
-    """Whether a flow's target lies on the map's free space (else E402/E403 said so)."""
-    return bool(grid.contains(target)) and bool(grid.is_free(target))
 
 
 def _radius(layer: ParamLayer | None, facts: Facts, name: str) -> float:

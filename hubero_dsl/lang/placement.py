@@ -63,23 +63,27 @@ OVERLAP_REPORTS = 10  # pairs of overlapping bodies named one by one
 def check_bodies(grid: OccupancyGrid,
                  bodies: list[tuple[str, tuple[float, float], float, Span]],
                  diagnostics: list[Diagnostic], origins: Mapping[str, str] | None = None
-                 ) -> None:
+                 ) -> bool:
     """Every body must fit where it starts and where it is sent: its whole radius clear of
     obstacles, as the planners require (points outside the map or in an obstacle are reported
     by `check_positions`). `origins`: where a body's radius comes from, by its words (a
-    variant's), said after the radius."""
+    variant's), said after the radius. Whether every body stands on free space and fits."""
     from hubero_dsl.errors import MapError
 
+    all_fit = True
     for what, (x, y), radius, span in bodies:
         if not (bool(grid.contains((x, y))) and bool(grid.is_free((x, y)))):
+            all_fit = False
             continue
         try:
             (fx, fy), distance = grid.nearest_free((x, y), radius)
         except MapError:
             diagnostics.append(error("E405", f"no place on the map fits a body of radius "
                                      f"{radius:g} m ({what})", span))
+            all_fit = False
             continue
         if distance > 0:
+            all_fit = False
             clearance = float(grid.clearance_at((x, y)))
             origin = (origins or {}).get(what, "")
             diagnostics.append(error(
@@ -87,6 +91,7 @@ def check_bodies(grid: OccupancyGrid,
                 f"of radius {radius:g} m{origin} does not fit", span,
                 f"the nearest point where it fits is {distance:.2f} m away, at "
                 f"({fx:.2f}, {fy:.2f})"))
+    return all_fit
 
 
 def check_overlapping_starts(starts: list[tuple[str, tuple[float, float], float, Span]],
