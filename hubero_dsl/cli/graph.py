@@ -85,15 +85,17 @@ def _check_out(out: Path, output_format: str, reads: tuple[Path, ...]) -> None:
     """OUT must be writable and not one of the inputs; a PNG's name ends in .png (the picture
     is written to exactly the name given); and an existing file is written over only when it
     is a graph of the same kind: a PNG, or text named as a graph (.mmd, .dot, ...)."""
+    from hubero_dsl.cli.outputs import check_picture
     from hubero_dsl.errors import InputError
-    from hubero_dsl.files import PNG_MAGIC, check_output, refuse_other_kind
+    from hubero_dsl.files import check_output
 
-    check_output(out, reads)
     if output_format == "png":
         if out.suffix.lower() != ".png":
             raise InputError(f"{out}: --format png writes a PNG: give -o a name ending in .png")
-        refuse_other_kind(out, PNG_MAGIC, "a PNG", "give another -o")
-    elif out.is_file() and out.suffix.lower() not in _FORMAT_OF_SUFFIX:
+        check_picture(out, reads)
+        return
+    check_output(out, reads)
+    if out.is_file() and out.suffix.lower() not in _FORMAT_OF_SUFFIX:
         raise InputError(f"{out} exists and is not a graph (.mmd, .mermaid, .dot, .gv): not "
                          "writing over it (give another -o)")
 
