@@ -7,6 +7,8 @@ prints.
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from enum import StrEnum
 
@@ -84,3 +86,10 @@ def error(code: str, message: str, span: Span | None, hint: str | None = None,
 def warning(code: str, message: str, span: Span | None, hint: str | None = None,
             related: tuple[Related, ...] = ()) -> Diagnostic:
     return Diagnostic(Severity.WARNING, code, message, span, hint, related)
+
+
+def closest(word: str, candidates: Iterable[str]) -> str | None:
+    """The candidate a slip of `word` most likely meant, for a "did you mean" hint (None when
+    nothing is close): one rule for every such hint, whatever its wording."""
+    close = difflib.get_close_matches(word, sorted(candidates), n=1, cutoff=0.6)
+    return close[0] if close else None

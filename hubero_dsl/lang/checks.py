@@ -29,7 +29,7 @@ from hubero_dsl.model.program import (
     flow_bound,
 )
 from hubero_dsl.model.tasks import TASKS, OptionSpec, TargetRule, TaskKind, ValueKind
-from hubero_dsl.model.units import Dimension
+from hubero_dsl.model.units import Dimension, dimension_named
 from hubero_dsl.planners.registry import global_planner_names, local_planner_names
 
 BODIES = (NameKind.HUMAN, NameKind.ROBOT)
@@ -91,10 +91,10 @@ class Facts:
     positions: list[tuple[str, tuple[float, float], Span]] = field(default_factory=list)
     # where bodies start or are sent, with the largest radius they may have there
     bodies: list[tuple[str, tuple[float, float], float, Span]] = field(default_factory=list)
-    # the humans' and robots' starts among `bodies`, by what they are (a name defined twice
-    # keeps its first; that is an error of its own)
     # a body's words -> " (variant 'V')" where a variant gives it the radius it is checked with
     radius_origins: dict[str, str] = field(default_factory=dict)
+    # the humans' and robots' starts among `bodies`, by what they are (a name defined twice
+    # keeps its first; that is an error of its own)
     starts: dict[str, tuple[str, tuple[float, float], float, Span]] = field(
         default_factory=dict)
 
@@ -313,10 +313,8 @@ class Checker:
                         "against everyone")
         if spec is None:
             return
-        dimension = {"length": Dimension.LENGTH, "time": Dimension.TIME, "speed": Dimension.SPEED,
-                     "ratio": Dimension.RATIO, "acceleration": Dimension.ACCELERATION,
-                     }.get(spec.dimension, Dimension.NUMBER)
-        self.values.quantity(compare.threshold, dimension, f"{spec.name}", non_negative=True)
+        self.values.quantity(compare.threshold, dimension_named(spec.dimension), f"{spec.name}",
+                             non_negative=True)
 
     def _setting(self, setting: ast.SettingDecl) -> None:
         keyword, value = setting.keyword, setting.value
@@ -848,16 +846,12 @@ class Checker:
         pose = self.facts.places.get(target.name)
         return pose.xy if pose is not None else None
 
-    def _largest_radius(self, human: str, own: ParamLayer | None = None) -> float:
-        """The largest radius `human` (or a crowd of that name, whose block is `own`) may
-        have: in any variant, at the upper end of a distribution."""
-        return self._largest_radius_and_origin(human, own)[0]
-
     def _largest_radius_and_origin(self, human: str, own: ParamLayer | None = None
                                    ) -> tuple[float, str]:
-        """`_largest_radius`, and " (variant 'V')" when a variant (or a swept value) makes
-        it larger than the file's own radius: the words a body that does not fit is told
-        with ("" otherwise)."""
+        """The largest radius `human` (or a crowd of that name, whose block is `own`) may
+        have: in any variant, at the upper end of a distribution; and " (variant 'V')" when
+        a variant (or a swept value) makes it larger than the file's own radius: the words a
+        body that does not fit is told with ("" otherwise)."""
         own = own or self.facts.human_layers.get(human, ParamLayer())
         base = [self.facts.defaults, own]
         varied = [*self.facts.variants,
@@ -929,17 +923,15 @@ class Checker:
                         target.span, f"give the task to the others of {subject} one by one")
 
     def _where_to_set(self, name: str, param: str) -> str:
-        """Where a parameter of one human, crowd or flow is given outside a variant."""
-        member = _MEMBER_NAME.fullmatch(name)
-        owner = member.group(1) if member is not None else None
-        if self.symbols.kind_of(owner or "") not in (NameKind.CROWD, NameKind.FLOW):
-            owner = None if self.symbols.kind_of(name) is NameKind.HUMAN else name
-        if owner is None:
+        """Where a parameter of one human (a crowd's member too), crowd or flow is given
+        outside a variant."""
+        symbol = self.symbols.symbols[name]
+        if symbol.crowd is not None:
+            return (f"set it for all of crowd '{symbol.crowd}' in its block as `{param}`, or "
+                    f"for {name} alone in a variant")
+        if symbol.kind is NameKind.HUMAN:
             return f"set it in human {name}'s own block as `{param}`"
-        kind = self.symbols.kind_of(owner)
-        alone = f", or for {name} alone in a variant" if owner != name else ""
-        return (f"set it for all of {kind.value if kind else 'it'} '{owner}' in its block as "
-                f"`{param}`{alone}")
+        return f"set it for all of {symbol.kind.value} '{name}' in its block as `{param}`"
 
     def _flow_of_member(self, name: str) -> str | None:
         """The flow whose member `name` would be (`NAME_N`), or None."""

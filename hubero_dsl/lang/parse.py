@@ -233,10 +233,14 @@ def _syntax_diagnostic(exc: UnexpectedInput, source: ast.SourceFile) -> Diagnost
 _UNITS_BY_DIMENSION = ", ".join(" ".join(units_of(d)) for d in Dimension if units_of(d))
 
 
+# a string's text up to its first escape other than \" and \\, and that escape
+_UNKNOWN_ESCAPE = re.compile(r'(?:[^"\\]|\\["\\])*(\\[^"\\])')
+
+
 def _unknown_escape(text: str, quote: int) -> tuple[int, str] | None:
     """The column and text of the first backslash escape other than \\" and \\\\ in the
     string that opens at column `quote` (the reason it did not lex), if any."""
-    escape = re.compile(r'(?:[^"\\]|\\["\\])*(\\[^"\\])').match(text, quote)
+    escape = _UNKNOWN_ESCAPE.match(text, quote)
     if escape is None:
         return None
     return escape.start(1) + 1, escape.group(1)

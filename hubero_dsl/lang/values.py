@@ -7,11 +7,10 @@ problem of a file is reported in one pass.
 
 from __future__ import annotations
 
-import difflib
 import math
 from collections.abc import Callable, Iterable
 
-from hubero_dsl.diagnostics import Diagnostic, Span, error
+from hubero_dsl.diagnostics import Diagnostic, Span, closest, error
 from hubero_dsl.lang import ast
 from hubero_dsl.model.params import ParamKind, ParamSpec
 from hubero_dsl.model.program import Distribution, ParamValue
@@ -22,6 +21,7 @@ from hubero_dsl.model.units import (
     UNITS,
     Dimension,
     describe,
+    dimension_named,
 )
 from hubero_dsl.world.shapes import Circle, Ellipse, Rectangle, Shape
 
@@ -36,17 +36,15 @@ SHAPE_ARGS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
 
 def did_you_mean(word: str, candidates: Iterable[str]) -> str | None:
     """'did you mean X?' for the closest candidate, or None when nothing is close."""
-    close = difflib.get_close_matches(word, sorted(candidates), n=1, cutoff=0.6)
-    return f"did you mean '{close[0]}'?" if close else None
+    meant = closest(word, candidates)
+    return f"did you mean '{meant}'?" if meant is not None else None
 
 
 def field_dimension(model: type, field: str) -> Dimension:
     """The dimension a planner declares for a parameter (`json_schema_extra={"dimension": ...}`
     on its pydantic field); a parameter that declares none is a plain number."""
     extra = model.model_fields[field].json_schema_extra  # type: ignore[attr-defined]
-    written = extra.get("dimension") if isinstance(extra, dict) else None
-    known = {dimension.value: dimension for dimension in Dimension}
-    return known.get(written, Dimension.NUMBER) if isinstance(written, str) else Dimension.NUMBER
+    return dimension_named(extra.get("dimension") if isinstance(extra, dict) else None)
 
 
 def _range_problem(spec: ParamSpec, number: float) -> str | None:

@@ -64,6 +64,12 @@ EXAMPLE_UNIT: dict[Dimension, str] = {
 }
 
 
+def dimension_named(word: object) -> Dimension:
+    """The dimension a planner's field or a metric names by its word (`"length"`); a plain
+    number for none, or a word that is no dimension (a metric's `"count"`)."""
+    return next((d for d in Dimension if d.value == word), Dimension.NUMBER)
+
+
 def units_of(dimension: Dimension) -> list[str]:
     return [unit for unit, (dim, _) in UNITS.items() if dim is dimension]
 

@@ -20,7 +20,6 @@ allocated. Errors name the file, line and column of the entry at fault.
 
 from __future__ import annotations
 
-import difflib
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,7 +32,7 @@ import yaml
 from shapely.geometry import Point, Polygon, box
 from shapely.geometry.base import BaseGeometry
 
-from hubero_dsl.diagnostics import Span
+from hubero_dsl.diagnostics import Span, closest
 from hubero_dsl.errors import MapError
 from hubero_dsl.files import read_bounded, scratch_folder_beside
 from hubero_dsl.world.grid import MAX_MAP_CELLS, OccupancyGrid
@@ -169,8 +168,8 @@ def _known_keys(reader: _Reader, mapping: dict[Any, Any], known: tuple[str, ...]
     obstacles at all."""
     for key in mapping:
         if key not in known:
-            close = difflib.get_close_matches(str(key), known, n=1, cutoff=0.6)
-            hint = f"did you mean `{close[0]}`?" if close else f"the keys are {', '.join(known)}"
+            meant = closest(str(key), known)
+            hint = f"did you mean `{meant}`?" if meant else f"the keys are {', '.join(known)}"
             raise reader.fail(where, f"unknown key `{str(key)[:60]}` ({hint})",
                               node if node is not None else reader.key_node(key))
 
