@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from hubero_dsl.errors import SimulationError
+from hubero_dsl.errors import MapError, SimulationError
 from hubero_dsl.planners.base import Crowd, Drive, NoPath
 from hubero_dsl.sim import physics
 from hubero_dsl.sim.arrays import BoolArray, FloatArray, HumanArrays, IntArray, PathPool
@@ -291,7 +291,13 @@ class Engine:
         """Free cells reachable from the human (inside `area`), cached per region and area:
         every wanderer of a run draws from the same few arrays."""
         radius = float(self.humans.radius[index]) + REACH_MARGIN
-        start = (float(self.humans.position[index, 0]), float(self.humans.position[index, 1]))
+        position = (float(self.humans.position[index, 0]), float(self.humans.position[index, 1]))
+        try:
+            # someone standing close to a wall is nearer to it than the margin reachable cells
+            # keep: they draw from the region of the nearest cell that keeps it
+            start, _ = self.grid.nearest_free(position, radius)
+        except MapError:
+            return np.zeros((0, 2), dtype=np.intp)
         reachable = self.grid.reachable_mask(start, radius)
         key = (id(reachable), area.wkb if area is not None else b"")
         cells = self._goal_cells.get(key)

@@ -168,6 +168,17 @@ def test_move_around_visits_the_asked_number_of_goals_inside_the_area(
     assert all(inside)
 
 
+def test_move_around_from_beside_a_wall_still_finds_goals(scenario: ScenarioFactory) -> None:
+    # 3 cm nearer the wall than the margin the reachable cells keep: walkers stand there
+    sim = api_sim(scenario, "human alice at (0.27, 4) heading 0 deg\n")
+    alice = sim.human("alice")
+    clearance = sim.engine.grid.clearance_at_point(*alice.position)
+    assert clearance < float(sim.engine.humans.radius[0]) + 0.05
+    task = alice.move_around(times=2)
+    assert sim.run_until(lambda: task.done, time_limit=60)
+    assert task.status is TaskStatus.SUCCEEDED, task.reason
+
+
 def test_move_around_goals_come_from_the_seed(scenario: ScenarioFactory) -> None:
     def wander(seed: int) -> np.ndarray:
         sim = Simulation(scenario(TWO_HUMANS), seed=seed, activities=False)
