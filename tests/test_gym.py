@@ -195,12 +195,12 @@ def test_the_vector_env_batches_and_resets_by_itself(tmp_path: Path) -> None:
     assert list(info["seed"]) == [7, 8, 9] and info["_seed"].all()  # each copy's, batched
     assert observations["robot"].shape == (3, 7) and observations["people"].shape == (3, 8, 5)
     assert envs.observation_space.contains(observations)
-    ended = False
+    ended = np.zeros(3, dtype=bool)
     for _ in range(450):  # the 20 s limit is 400 steps: every episode ends and restarts
         observations, rewards, terminated, truncated, _ = envs.step(
             np.tile([0.0, 0.0], (3, 1)).astype(np.float32))
-        ended = ended or bool((terminated | truncated).all())
-    assert ended and rewards.shape == (3,)
+        ended |= terminated | truncated
+    assert ended.all() and rewards.shape == (3,)
     with pytest.raises(ValueError, match="one row of two numbers per copy, 3 x 2"):
         envs.step(np.zeros((2, 2), dtype=np.float32))
     with pytest.raises(ValueError, match="two finite numbers"):

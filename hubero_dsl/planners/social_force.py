@@ -32,7 +32,9 @@ the same for everyone are kept as scalars, which spares a gather per pair in the
 Units: the model is written as accelerations (per unit mass), so A and A_wall are in m/s^2,
 k in 1/s^2 and kappa in 1/(m s). Defaults: A = 2.1 and B = 0.3 m take Helbing & Molnar's
 (1995) V0 = 2.1 m^2/s^2 and sigma = 0.3 m as the push at the edge of the personal space and its
-decay length; A_wall = 10 and B_wall = 0.2 m likewise take their U0 = 10 m^2/s^2 and R = 0.2 m;
+decay length; A_wall = 10 takes their U0 = 10 m^2/s^2 likewise, and B_wall = 0.08 m is Helbing,
+Farkas & Vicsek's (2000) decay length for walls (JuPedSim's too): Helbing & Molnar's R = 0.2 m
+pushes a walker back from both jambs of a door 0.6 m wide harder than its drive pulls it on;
 k = 1500 and kappa = 3000 are Helbing, Farkas & Vicsek's (2000) k = 1.2e5 kg/s^2 and
 kappa = 2.4e5 kg/(m s) for an 80 kg pedestrian. Outside the field of view Helbing & Molnar
 weigh influences by c = 0.5; here the anisotropy lambda already weakens what is behind, so
@@ -113,8 +115,8 @@ class SocialForceParams(PlannerParams):
         "Decay length of the push from people, m (Helbing & Molnar 1995: sigma = 0.3 m)."))
     A_wall: float = Field(default=10.0, ge=0.0, json_schema_extra=_ACCELERATION, description=(
         "Push from a wall touching the body, m/s^2 (Helbing & Molnar 1995: U0 = 10)."))
-    B_wall: float = Field(default=0.2, gt=0.0, json_schema_extra=_LENGTH, description=(
-        "Decay length of the push from walls, m (Helbing & Molnar 1995: R = 0.2 m)."))
+    B_wall: float = Field(default=0.08, gt=0.0, json_schema_extra=_LENGTH, description=(
+        "Decay length of the push from walls, m (Helbing, Farkas & Vicsek 2000: B = 0.08 m)."))
     lambda_: float = Field(default=0.35, alias="lambda", ge=0.0, le=1.0, description=(
         "Anisotropy: weight of a person straight behind relative to one straight ahead "
         "(1 = isotropic). Written `lambda` in scenarios."))

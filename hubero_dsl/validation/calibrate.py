@@ -61,7 +61,7 @@ FITTABLE: dict[str, Fittable] = {f.name: f for f in (
     Fittable("relaxation_time", 0.2, 1.2, 0.54, "s", "how fast velocity adapts"),
     Fittable("social_force.A", 0.3, 5.0, 2.1, "", "push from people"),
     Fittable("social_force.B", 0.05, 0.6, 0.3, "m", "range of the push from people"),
-    Fittable("social_force.B_wall", 0.03, 0.4, 0.2, "m", "range of the push from walls"),
+    Fittable("social_force.B_wall", 0.03, 0.4, 0.08, "m", "range of the push from walls"),
     Fittable("personal_space", 0.2, 0.7, 0.5, "m", "radius of the personal-space circle"),
     Fittable("social_force.space_at_rest", 0.0, 1.0, 1.0, "",
              "share of the personal space kept standing still"),
