@@ -11,7 +11,8 @@ import pytest
 from hubero_dsl.errors import SimulationError
 from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.sim.status import Posture, TaskStatus
-from tests.sim.conftest import ScenarioFactory
+from hubero_dsl.world.mapfile import save_map
+from tests.sim.conftest import ScenarioFactory, room_grid
 
 TWO_HUMANS = """
 human alice at (2, 4) heading 0 deg
@@ -19,8 +20,9 @@ human bob at (8, 4) heading 180 deg
 """
 
 
-def api_sim(scenario: ScenarioFactory, body: str = TWO_HUMANS) -> Simulation:
-    return Simulation(scenario(body), activities=False)
+def api_sim(scenario: ScenarioFactory, body: str = TWO_HUMANS,
+            map_path: Path | None = None) -> Simulation:
+    return Simulation(scenario(body, map_path), activities=False)
 
 
 def test_move_to_reaches_goal_within_tolerance_and_turns_to_heading(
@@ -176,6 +178,19 @@ def test_move_around_from_beside_a_wall_still_finds_goals(scenario: ScenarioFact
     assert clearance < float(sim.engine.humans.radius[0]) + 0.05
     task = alice.move_around(times=2)
     assert sim.run_until(lambda: task.done, time_limit=60)
+    assert task.status is TaskStatus.SUCCEEDED, task.reason
+
+
+@pytest.mark.parametrize("width", [0.5, 0.6])
+def test_a_walker_passes_a_door_not_much_wider_than_its_body(scenario: ScenarioFactory,
+                                                             tmp_path: Path, width: float) -> None:
+    # the jambs' push must not outweigh the drive (it did, to 0.6 m, when it reached 0.2 m)
+    door = tmp_path / "door.yaml"
+    save_map(room_grid(walls=((4.9, 0.0, 5.1, 4.0 - width / 2),
+                              (4.9, 4.0 + width / 2, 5.1, 8.0))), door)
+    sim = api_sim(scenario, "human alice at (2, 4.3)\n", door)
+    task = sim.human("alice").move_to((8.0, 4.0))
+    assert sim.run_until(lambda: task.done, time_limit=30)
     assert task.status is TaskStatus.SUCCEEDED, task.reason
 
 
