@@ -32,14 +32,11 @@ from hubero_dsl.lang.placement import (
     place_crowd,
 )
 from hubero_dsl.model.activities import Activity
-from hubero_dsl.model.params import HUMAN_PARAMS
 from hubero_dsl.model.program import (
     CrowdSpec,
-    Distribution,
     FlowSpec,
     HumanSpec,
     ParamLayer,
-    ParamValue,
     Pose,
     Program,
     Variant,
@@ -222,7 +219,7 @@ class _Crowds:
 def _crowd_members(facts: Facts, grid: OccupancyGrid, lowering: Lowering,
                    diagnostics: list[Diagnostic]) -> _Crowds:
     """Every crowd's members, placed at seeded random places of its area where they fit."""
-    taken = [(*start.xy, _radius(facts.human_layers.get(name), facts, name))
+    taken = [(*start.xy, facts.largest_radius(name)[0])
              for name, start in facts.human_starts.items()]
     taken += [(*robot.start.xy, robot.radius) for robot in facts.robots]
     fixed = tuple(taken)
@@ -231,7 +228,7 @@ def _crowd_members(facts: Facts, grid: OccupancyGrid, lowering: Lowering,
     specs: list[CrowdSpec] = []
     for crowd in facts.crowds:
         spec = CrowdSpec(crowd.name, lowering.area(crowd.area),
-                         _radius(crowd.layer, facts, crowd.name),
+                         facts.largest_radius(crowd.name, crowd.layer)[0],
                          crowd.heading, crowd.members)
         places = place_crowd(grid, crowd.name, len(crowd.members), spec.area, spec.radius,
                              taken, seed, crowd.span, diagnostics)
@@ -251,7 +248,7 @@ def _flows(facts: Facts, grid: OccupancyGrid, lowering: Lowering,
     for flow in facts.flows:
         if flow.target is None or flow.rate is None:
             continue
-        area, radius = lowering.area(flow.area), _radius(flow.layer, facts, flow.name)
+        area, radius = lowering.area(flow.area), facts.largest_radius(flow.name, flow.layer)[0]
         if not check_bodies(grid, [(f"the target of flow '{flow.name}'", flow.target, radius,
                                     flow.target_span)], diagnostics):
             continue  # no way leads to a target where nobody fits: that is the error
@@ -268,26 +265,6 @@ def _flows(facts: Facts, grid: OccupancyGrid, lowering: Lowering,
         members += [HumanSpec(member, Pose(*flow.target), flow.layer, flow.span, flow.name)
                     for member in flow.members]
     return tuple(flows), tuple(members)
-
-
-def _radius(layer: ParamLayer | None, facts: Facts, name: str) -> float:
-    """The largest body radius a human (crowd, flow) `name` of this layer may have, as
-    written or in any variant (a distribution's upper end): people are placed once, for every
-    variant, where the largest of them fits."""
-    written = next((_upper(value) for source in (layer, facts.defaults)
-                    if source is not None and (value := source.values.get("radius")) is not None),
-                   float(HUMAN_PARAMS["radius"].default))  # type: ignore[arg-type]
-    varied = [_upper(value) for variant in (
-        *(layer for _, layer in facts.variants),
-        *(layer for _, options in facts.sweeps for _, layer in options))
-        for value in (variant.values.get("radius"),
-                      variant.per_human.get(name, {}).get("radius")) if value is not None]
-    return max([written, *varied])
-
-
-def _upper(value: ParamValue) -> float:
-    """A radius, or the upper end of a distribution of radii."""
-    return value.upper if isinstance(value, Distribution) else float(cast(float, value))
 
 
 def _variants(facts: Facts) -> dict[str, Variant]:

@@ -98,6 +98,31 @@ class Facts:
     starts: dict[str, tuple[str, tuple[float, float], float, Span]] = field(
         default_factory=dict)
 
+    def largest_radius(self, name: str, own: ParamLayer | None = None) -> tuple[float, str]:
+        """The largest body radius human `name` (or the crowd or flow of that name, whose
+        block is `own`) may have, at the upper end of a distribution: as the file gives it
+        (its own block's, else the defaults', else the built-in one) or as a variant or a
+        swept value sets it; and " (variant 'V')" when a variant makes it larger than the
+        file's ("" otherwise). People are placed once, for every variant, where the largest
+        of them fits."""
+        own = own if own is not None else self.human_layers.get(name, ParamLayer())
+        written = next((value for layer in (own, self.defaults)
+                        if (value := layer.values.get("radius")) is not None),
+                       HUMAN_PARAMS["radius"].default)
+        largest = (_upper(written), "")
+        for variant, layer in [*self.variants,
+                               *(option for _, options in self.sweeps for option in options)]:
+            for value in (layer.values.get("radius"),
+                          layer.per_human.get(name, {}).get("radius")):
+                if value is not None and _upper(value) > largest[0]:
+                    largest = (_upper(value), f" (variant '{variant}')")
+        return largest
+
+
+def _upper(value: ParamValue) -> float:
+    """A radius, or the upper end of a distribution of radii."""
+    return value.upper if isinstance(value, Distribution) else float(value)  # type: ignore[arg-type]
+
 
 class Checker:
     def __init__(self, module: ast.Module) -> None:
@@ -800,10 +825,10 @@ class Checker:
     def _body_places(self) -> None:
         """Where bodies start and are sent, with the largest radius each may have (any variant,
         the upper end of a distribution), for the map check that they fit there."""
-        largest = {name: self._largest_radius_and_origin(name)
+        largest = {name: self.facts.largest_radius(name)
                    for name in self.facts.human_starts}
         for crowd in self.facts.crowds:  # a crowd's or group's goal: where its largest fits
-            largest[crowd.name] = self._largest_radius_and_origin(crowd.name, crowd.layer)
+            largest[crowd.name] = self.facts.largest_radius(crowd.name, crowd.layer)
             largest |= dict.fromkeys(crowd.members, largest[crowd.name])
         radius = {name: value for name, (value, _) in largest.items()}
         for robot in self.facts.robots:
@@ -845,29 +870,6 @@ class Checker:
             return points.get(target.span)
         pose = self.facts.places.get(target.name)
         return pose.xy if pose is not None else None
-
-    def _largest_radius_and_origin(self, human: str, own: ParamLayer | None = None
-                                   ) -> tuple[float, str]:
-        """The largest radius `human` (or a crowd of that name, whose block is `own`) may
-        have: in any variant, at the upper end of a distribution; and " (variant 'V')" when
-        a variant (or a swept value) makes it larger than the file's own radius: the words a
-        body that does not fit is told with ("" otherwise)."""
-        own = own or self.facts.human_layers.get(human, ParamLayer())
-        base = [self.facts.defaults, own]
-        varied = [*self.facts.variants,
-                  *(option for _, options in self.facts.sweeps for option in options)]
-        found = [(float(HUMAN_PARAMS["radius"].default), "")]  # type: ignore[arg-type]
-        for layer, origin in [*((layer, "") for layer in base),
-                              *((layer, f" (variant '{name}')") for name, layer in varied)]:
-            for value in (layer.values.get("radius"), layer.per_human.get(human, {}).get(
-                    "radius")):
-                if isinstance(value, float):
-                    found.append((value, origin))
-                elif isinstance(value, Distribution):  # a draw may be this large
-                    found.append((value.upper, origin))
-        if any("radius" in layer.values for layer in base):  # the file's own, not built-in
-            found = found[1:] or found
-        return max(found, key=lambda pair: (pair[0], not pair[1]))
 
     def _robot_tasks(self) -> None:
         """E109: tasks given to a robot that drives a scripted path (known once every robot

@@ -130,6 +130,16 @@ def test_a_body_too_large_says_which_variant_makes_it_so(check: Check) -> None:
     assert not own.errors  # the file's own radius fits: no variant to name
 
 
+
+def test_a_humans_own_radius_is_checked_rather_than_the_defaults(check: Check) -> None:
+    body = ("defaults {{ radius {defaults} }}\n"
+            "human near_wall at (-4.95, 0.0) {{ radius {own} }}\n"  # 0.17 m from the wall
+            "activity {{ near_wall stand for 1 s }}")
+    fits = check(body.format(defaults="0.4 m", own="0.15 m"))
+    assert not fits.errors, fits.errors  # its own 0.15 m is what it runs with
+    (error,) = check(body.format(defaults="0.15 m", own="0.4 m")).errors
+    assert error.code == "E405" and "a body of radius 0.4 m does not fit" in error.message
+
 # ---- one diagnostic, pinned to its span ---------------------------------------------------
 
 SINGLE = {
