@@ -321,7 +321,8 @@ class OccupancyGrid:
 
     def contains(self, xy: ArrayLike) -> BoolArray:
         """Whether each point lies inside the map rectangle."""
-        return self._locate(_points(xy))[2]
+        with np.errstate(over="ignore"):  # a coordinate near 1e308 is as much outside as 1e9
+            return self._locate(_points(xy))[2]
 
     def is_free(self, xy: ArrayLike) -> BoolArray:
         """Whether each point lies inside the map on a free cell (outside counts as occupied)."""

@@ -79,6 +79,8 @@ def test_contains_and_is_free() -> None:
     assert grid.is_free(points).tolist() == [False, False, False, False, False, False]
     assert grid.is_free((0.25, 0.25))
     assert grid.contains((2.999, 1.999))
+    with np.errstate(all="raise"):  # a point written as 1e308 is outside, and says no more
+        assert not grid.contains((1e308, -1e308))
 
 
 # --- clearance ----------------------------------------------------------------------------
