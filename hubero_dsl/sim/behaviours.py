@@ -106,6 +106,10 @@ class Behaviour:
         engine.finish(self.index, TaskStatus.ABORTED,
                       f"stuck: no progress for {engine.stuck_time:g} s")
 
+    def on_held_at_goal(self, engine: World) -> None:
+        """The human has made no progress for a while near its goal, and someone stands
+        there. Most tasks wait for their stuck time all the same."""
+
 
 class Stand(Behaviour):
     """Stand still, optionally facing a target (re-aimed while it moves)."""
@@ -298,6 +302,10 @@ class MoveTo(Behaviour):
     def on_aligned(self, engine: World) -> None:
         engine.finish(self.index, TaskStatus.SUCCEEDED)
 
+    def on_held_at_goal(self, engine: World) -> None:
+        # queued behind those standing on the goal: stop there, not after the stuck time
+        self.on_stuck(engine)
+
     def on_stuck(self, engine: World) -> None:
         # a goal others stand on (a counter, a door, a group talking there) is reached as
         # people reach it: as near as those standing there allow, not after pushing through
@@ -332,6 +340,9 @@ class Posed(MoveTo):
 
     def on_stuck(self, engine: World) -> None:
         Behaviour.on_stuck(self, engine)  # a seat someone else takes is not taken beside it
+
+    def on_held_at_goal(self, engine: World) -> None:
+        Behaviour.on_held_at_goal(self, engine)
 
     def on_arrived(self, engine: World) -> None:
         if self.heading is not None and self.state != "aligning":

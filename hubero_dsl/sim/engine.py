@@ -207,6 +207,12 @@ class Engine:
                             else np.concatenate([[here], plan.waypoints]))
         return None
 
+    def hold_short(self, index: int) -> None:
+        """Walker `index`, stalled near its goal: its task is told when someone stands there."""
+        behaviour = self.behaviour[index]
+        if behaviour is not None and self.standing_at_goal(index) is not None:
+            behaviour.on_held_at_goal(self)
+
     def standing_at_goal(self, index: int) -> str | None:
         """`standing_at` for walker `index` and its goal (None when it has none)."""
         h = self.humans

@@ -29,6 +29,8 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 from scipy.spatial import cKDTree
 
+from hubero_dsl.sim import physics
+
 if TYPE_CHECKING:
     from hubero_dsl.sim.arrays import FloatArray, HumanArrays, IntArray, PathPool
     from hubero_dsl.world.grid import OccupancyGrid
@@ -60,6 +62,8 @@ class Walkers(Protocol):
 
     def in_sight(self, a: tuple[float, float], b: tuple[float, float]) -> bool: ...
 
+    def hold_short(self, index: int) -> None: ...
+
 
 class WaysRound:
     """The ways round given to one engine's walkers."""
@@ -79,11 +83,23 @@ class WaysRound:
         if engine.tick % max(1, engine.ticks(LOOK_AGAIN)):
             return
         self._rejoin_groups()
+        rows = self._held_at_goals(rows)
         stalled = self._stalled_alone_by_walls(rows)
         stalled = stalled[engine.tick - self.rerouted_tick[stalled] >= engine.ticks(STALLED)]
         self._plan_again(engine.paths.retreat(stalled, engine.humans.position,
                                               engine.grid.crosses_obstacle, REACH))
         self._make_way(stalled)
+
+    def _held_at_goals(self, rows: IntArray) -> IntArray:
+        """Walkers among `rows` stalled for STALLED s near their goal with someone standing on
+        it are told so (a move_to stops short there); those still walking are returned."""
+        engine, humans = self.engine, self.engine.humans
+        stalled = rows[engine.tick - engine.anchor_tick[rows] >= engine.ticks(STALLED)]
+        near = stalled[physics.lengths(humans.goal[stalled] - humans.position[stalled])
+                       <= physics.CROWDED_GOAL + humans.stop_distance[stalled]]
+        for index in near.tolist():
+            engine.hold_short(index)
+        return rows[humans.moving[rows]] if near.size else rows
 
     def _stalled_alone_by_walls(self, rows: IntArray) -> IntArray:
         """The walkers among `rows` who have made no progress for `STALLED` s within the

@@ -260,3 +260,18 @@ def test_a_crowds_or_groups_goal_where_its_largest_member_does_not_fit_is_e405(
     (error,) = check_source(text, "t.hub").errors
     assert error.code == "E405" and f"the goal of {actor}'s move_to" in error.message
     assert (error.span.line, error.span.column) == (8, 12 + len(actor) + len(" move_to "))
+
+
+def test_a_group_sent_into_a_dead_end_queues_in_it_without_waiting_out_the_stuck_time(
+        tmp_path: Path) -> None:
+    # a pocket 0.7 m wide and 4 m deep: one stands at the goal, the others stop behind
+    pocket = tmp_path / "pocket.yaml"
+    save_map(room_grid(walls=((0.0, 3.0, 4.0, 3.65), (0.0, 4.35, 4.0, 5.0))), pocket)
+    trio = ("human a at (7, 3.3)\nhuman b at (7, 4.0)\nhuman c at (7, 4.7)\n"
+            "group g of (a, b, c)\nactivity { g move_to (1, 4) }\n")
+    sim, result = _run(pocket, trio)
+    done = [e for e in result.events if e.status is not TaskStatus.ACTIVE]
+    assert [e.status for e in done] == [TaskStatus.SUCCEEDED] * 3
+    assert sum(e.reason.startswith("stopped short") for e in done) == 2
+    # within seconds of the first's arrival, not after the stuck time (20 s) each
+    assert done[-1].time - done[0].time < 6.0, [(e.human, e.time) for e in done]
