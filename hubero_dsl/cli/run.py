@@ -85,9 +85,12 @@ def _port(text: str) -> int:
 
 def seed_number(text: str) -> int:
     """A seed as the scenario language takes one: a whole number from 0 on."""
-    if not text.isdigit():
-        raise argparse.ArgumentTypeError(f"invalid seed '{text}': give a whole number from 0 "
-                                         "on")
+    from hubero_dsl.model.params import SEED_DIGITS
+
+    if not text.isdigit() or len(text) > SEED_DIGITS:
+        shown = text if len(text) <= 40 else f"{text[:37]}... ({len(text)} characters)"
+        raise argparse.ArgumentTypeError(f"invalid seed '{shown}': give a whole number from 0 "
+                                         f"on, of at most {SEED_DIGITS} digits")
     return int(text)
 
 

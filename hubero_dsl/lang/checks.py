@@ -19,7 +19,7 @@ from hubero_dsl.lang import ast
 from hubero_dsl.lang.lower import area_polygon, coordinate
 from hubero_dsl.lang.symbols import MANY, NameKind, SymbolTable, alias_depths
 from hubero_dsl.lang.values import ValueReader, did_you_mean, field_dimension
-from hubero_dsl.model.params import HUMAN_PARAMS, KINEMATICS, ROBOT_PARAMS
+from hubero_dsl.model.params import HUMAN_PARAMS, KINEMATICS, ROBOT_PARAMS, SEED_DIGITS
 from hubero_dsl.model.program import (
     Distribution,
     ParamLayer,
@@ -346,7 +346,11 @@ class Checker:
         settings = self.facts.settings
         if keyword == "seed":
             assert isinstance(value, ast.Number)
-            settings["seed"] = self.values.integer(value, "the seed")
+            if value.text.isdigit() and len(value.text) > SEED_DIGITS:
+                self.report("E203", f"the seed has {len(value.text)} digits: at most "
+                            f"{SEED_DIGITS}", value.span)
+            else:
+                settings["seed"] = self.values.integer(value, "the seed")
         elif keyword in ("step", "time_limit"):
             what = "the time step" if keyword == "step" else "the time limit"
             number = self.values.quantity(value, Dimension.TIME, what, positive=True,

@@ -40,6 +40,9 @@ def _q(name: str, dim: Dimension, default: float, doc: str, *, maximum: float = 
 
 
 # How a human reacts to robots, as HuNavSim's agents do (docs/language.md, "Robot reactions").
+# a seed has at most this many digits, in a file and on the command line alike: any longer is
+# no seed anyone means (and int() of thousands of digits raises)
+SEED_DIGITS = 18
 REACTIONS = ("regular", "impassive", "surprised", "curious", "scared", "threatening")
 
 HUMAN_PARAMS: dict[str, ParamSpec] = {spec.name: spec for spec in (

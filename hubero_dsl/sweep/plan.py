@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from hubero_dsl.errors import InputError
+from hubero_dsl.model.params import SEED_DIGITS
 
 if TYPE_CHECKING:
     from hubero_dsl.model.program import ParamValue, Program
@@ -32,9 +33,7 @@ MAX_RUNS = 100_000  # a typo like 1..10000000 should fail at once, not after fil
 MAX_NAME_LENGTH = 80  # characters of a variant's folder name before it is cut and hashed
 DEFAULT_FOLDER = "default"  # the folder of the scenario as written (no variants)
 
-# a seed of at most 18 digits: any longer is no seed anyone means (and int() of thousands of
-# digits raises)
-_SEED_ITEM = re.compile(r"^\s*(\d{1,18})\s*(?:\.\.\s*(\d{1,18})\s*)?$")
+_SEED_ITEM = re.compile(rf"^\s*(\d{{1,{SEED_DIGITS}}})\s*(?:\.\.\s*(\d{{1,{SEED_DIGITS}}})\s*)?$")
 _UNSAFE = re.compile(r"[^A-Za-z0-9._,=+-]")
 _RESERVED = frozenset({"CON", "PRN", "AUX", "NUL", *(f"COM{i}" for i in range(1, 10)),
                        *(f"LPT{i}" for i in range(1, 10))})
@@ -75,8 +74,8 @@ def parse_seeds(text: str) -> tuple[int, ...]:
         if match is None:
             shown = item.strip() if len(item.strip()) <= 40 else item.strip()[:37] + "..."
             raise InputError(f"--seeds: '{shown}' is not a seed or a range; give seeds "
-                             "like 1..20, 3 or 1,2,5 (whole numbers from 0, of at most 18 "
-                             "digits)")
+                             "like 1..20, 3 or 1,2,5 (whole numbers from 0, of at most "
+                             f"{SEED_DIGITS} digits)")
         first = int(match[1])
         last = int(match[2]) if match[2] is not None else first
         if last < first:

@@ -62,6 +62,9 @@ def test_bad_input_exits_2_or_1(cli: Callable[..., Outcome], tmp_path: Path) -> 
     assert cli("run", LIVING_ROOM, "--log-rate", "0").status == 2
     negative = cli("run", LIVING_ROOM, "--seed", "-3")
     assert negative.status == 2 and "invalid seed '-3'" in negative.err
+    huge = cli("run", LIVING_ROOM, "--seed", "9" * 5000)  # as many digits as a sweep takes
+    assert huge.status == 2 and "(5000 characters)': give a whole number from 0 on, of at " \
+        "most 18 digits" in huge.err and len(huge.err) < 1000
     broken = cli("run", scenario(tmp_path, "activity { a move_to nowhere }\n"))
     assert broken.status == 1 and "unknown" in broken.err
 

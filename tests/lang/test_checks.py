@@ -156,6 +156,7 @@ SINGLE = {
     "wrong dimension": ("defaults { speed 5 s }", ("E201", 5, 18, 21)),
     "unknown unit": ("defaults { speed 5kg }", ("E202", 5, 18, 21)),
     "zero radius": ("defaults { radius 0 m }", ("E203", 5, 19, 22)),
+    "a seed of 19 digits": ("seed 1234567890123456789", ("E203", 5, 6, 25)),
     "planner parameter out of range": ("defaults { social_force.lambda 2 }",
                                        ("E203", 5, 32, 33)),
     "missing unit": ("defaults { speed 5 }", ("E204", 5, 18, 19)),
@@ -627,7 +628,8 @@ def test_a_seed_of_hundreds_of_digits_is_too_large_not_fractional(check: Check) 
     # as a float it is infinite: it was "not a whole number"
     (diagnostic,) = check("seed " + "9" * 309 + "\nactivity { actor1 stand for 1 s }\n"
                           ).diagnostics
-    assert (diagnostic.code, diagnostic.message) == ("E203", "the seed has 309 digits: too large")
+    assert (diagnostic.code, diagnostic.message) == ("E203",
+                                                     "the seed has 309 digits: at most 18")
 
 
 def test_a_value_out_of_range_is_shown_in_the_unit_it_was_written_in(check: Check) -> None:
