@@ -54,6 +54,7 @@ def read_bounded(path: Path, limit: int, what: str, failure: Failure = InputErro
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"   # how every PNG file starts
 GIF_MAGIC = b"GIF8"                 # how every GIF file starts (GIF87a, GIF89a)
+MCAP_MAGIC = b"\x89MCAP0\r\n"        # how every MCAP file starts (and ends)
 
 
 def refuse_other_kind(path: Path, magic: bytes, kind: str, advice: str) -> None:

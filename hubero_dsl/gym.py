@@ -152,6 +152,10 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         self.map_patch = map_patch
         self.reward_function = checked_reward(reward)
         self.log_path = Path(log) if log is not None else None
+        if self.log_path is not None:  # told now, not at the first reset
+            from hubero_dsl.log.writer import check_log_path
+
+            check_log_path(self.log_path, self.program, "give another log=")
         self.action_box = action_space(self.robot_spec)
         self.action_space = self.action_box
         self._action_bounds = list(zip(self.action_box.low.tolist(),

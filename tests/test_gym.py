@@ -407,3 +407,24 @@ def test_an_env_never_closed_leaves_no_temporary_log(tmp_path: Path) -> None:
                           text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["left_open.py"]
+
+
+def test_a_log_is_never_written_over_a_users_file(tmp_path: Path) -> None:
+    notes = tmp_path / "notes.txt"
+    notes.write_text("my notes", encoding="utf-8")
+    with pytest.raises(InputError, match="notes.txt exists and is not an MCAP log: not "
+                                         r"writing over it \(give another log=\)"):
+        gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(_scenario(tmp_path)), robot="cart",
+                       log=str(notes))
+    assert notes.read_text(encoding="utf-8") == "my notes"
+
+
+def test_a_run_of_the_api_never_writes_its_log_over_a_users_file(tmp_path: Path) -> None:
+    from hubero_dsl.pipeline import compile_file
+    from hubero_dsl.simulate import simulate
+
+    notes = tmp_path / "notes.mcap"
+    notes.write_text("my notes", encoding="utf-8")
+    with pytest.raises(InputError, match="is not an MCAP log: not writing over it"):
+        simulate(compile_file(_scenario(tmp_path)), log=notes, writer_process=False)
+    assert notes.read_text(encoding="utf-8") == "my notes"

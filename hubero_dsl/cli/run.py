@@ -181,7 +181,6 @@ def run(args: argparse.Namespace) -> int:
 
 
 DEFAULT_LOG_FOLDER = Path("runs")  # where a run's log goes unless told otherwise
-MCAP_MAGIC = b"\x89MCAP0\r\n"
 
 
 def _log_path(args: argparse.Namespace, variant: str | None) -> Path | None:
@@ -207,7 +206,7 @@ def default_log_path(stem: str) -> Path:
 def writable_log_path(path: Path) -> Path:
     """`path`, unless a file that is not an MCAP log is there (InputError): a log is written
     over, a user's file never (nor a folder, a device or a FIFO: `RunLog` refuses those)."""
-    from hubero_dsl.files import refuse_other_kind
+    from hubero_dsl.files import MCAP_MAGIC, refuse_other_kind
 
     refuse_other_kind(path, MCAP_MAGIC, "an MCAP log", "give another -o OUT.mcap, or --no-log")
     return path

@@ -50,7 +50,8 @@ from mcap.records import (
     SummaryOffset,
 )
 
-MAGIC = b"\x89MCAP0\r\n"
+from hubero_dsl.files import MCAP_MAGIC
+
 COMPRESSIONS = ("zstd", "")  # zstd or none
 ZSTD_LEVEL = 1  # 3 compresses 2% better and takes 40% longer
 
@@ -95,7 +96,7 @@ class McapContainer:
         self._start_time: int | None = None
         self._end_time = 0
         self._chunk = _OpenChunk()
-        self._run(self._write, MAGIC)
+        self._run(self._write, MCAP_MAGIC)
         self._run(self._write_record, Header(profile=profile, library=library))
 
     # ---- definitions ------------------------------------------------------------------------
@@ -243,7 +244,7 @@ class McapContainer:
         self._write_record(Footer(summary_start=summary_start,
                                   summary_offset_start=summary_offset_start,
                                   summary_crc=summary_crc))
-        self._write(MAGIC)
+        self._write(MCAP_MAGIC)
 
     # ---- internals --------------------------------------------------------------------------
 

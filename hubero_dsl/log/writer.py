@@ -45,7 +45,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 from hubero_dsl import __version__
 from hubero_dsl.errors import LogError
-from hubero_dsl.files import check_output
+from hubero_dsl.files import MCAP_MAGIC, check_output, refuse_other_kind
 from hubero_dsl.log import schemas as s
 from hubero_dsl.log.crowds import members_of_crowds
 from hubero_dsl.log.encoder import LogEncoder, LogSetup, Update, discard_file
@@ -57,12 +57,22 @@ from hubero_dsl.world.mapfile import map_files
 if TYPE_CHECKING:
     from multiprocessing.connection import Connection
 
+    from hubero_dsl.model.program import Program
     from hubero_dsl.sim.loop import HumanSummary, RunResult
     from hubero_dsl.sim.simulation import Simulation
     from hubero_dsl.sim.status import TaskEvent
 
 SAMPLE_EPSILON = 1e-9  # tick * dt * rate lands a hair below an integer for some dt and rates
 WRITER_JOIN_TIMEOUT = 30.0  # s to wait for the writer process to wind down after a failure
+
+
+def check_log_path(path: Path, program: Program, advice: str = "name another log") -> None:
+    """Refuse (InputError) to write a log of `program` at `path`: in a folder that does not
+    exist, over a folder, a device, the scenario or its map, or over a file that is not an
+    MCAP log (a log is written over, a user's file never)."""
+    check_output(path, (Path(program.source.path), *map_files(program.map_path)),
+                 lambda where, reason: f"cannot write log {where}: {reason}")
+    refuse_other_kind(path, MCAP_MAGIC, "an MCAP log", advice)
 
 
 class RunLog:
@@ -114,8 +124,7 @@ class RunLog:
         program = self._sim.program
         fd, temp = None, None
         if self.path is not None:
-            check_output(self.path, (Path(program.source.path), *map_files(program.map_path)),
-                         lambda where, reason: f"cannot write log {where}: {reason}")
+            check_log_path(self.path, program)
             fd, temp = _create_temp(self.path)
         try:
             setup = self._setup(temp)

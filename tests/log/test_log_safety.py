@@ -85,12 +85,13 @@ def test_failing_run_leaves_no_file(world: World, tmp_path: Path) -> None:
 def test_an_existing_log_is_replaced_only_when_the_new_one_is_complete(
         world: World, tmp_path: Path) -> None:
     output = tmp_path / "run.mcap"
-    output.write_bytes(b"previous")
+    previous = b"\x89MCAP0\r\n a previous run's log"  # a log, which a run may write over
+    output.write_bytes(previous)
     sim = Simulation(compile_file(world.scenario("waiting.hub", WAITING)))
     with pytest.raises(KeyboardInterrupt), RunLog(output, sim) as log:
         log.observe(sim)
         raise KeyboardInterrupt
-    assert output.read_bytes() == b"previous"
+    assert output.read_bytes() == previous
     sim = Simulation(compile_file(world.scenario("waiting.hub", WAITING)))
     with RunLog(output, sim) as log:
         log.close(run_program(sim, [log.observe]))
