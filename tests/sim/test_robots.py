@@ -89,6 +89,23 @@ def test_a_controller_that_cannot_be_imported_is_bad_input() -> None:
         import_controller("no_colon")
 
 
+def test_a_controller_whose_params_are_no_parameter_model_is_bad_input(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    (tmp_path / "odd_robots.py").write_text(
+        "import dataclasses\n"
+        "@dataclasses.dataclass\nclass Gains:\n    gain: float = 1.0\n"
+        "class Dataclassed:\n    Params = Gains\n"
+        "    def command(self, observation):\n        return (0.0, 0.0)\n"
+        "class NoneParams:\n    Params = None\n"
+        "    def command(self, observation):\n        return (0.0, 0.0)\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    for name in ("Dataclassed", "NoneParams"):
+        with pytest.raises(InputError, match="its `Params` must be a subclass of "
+                                             "hubero_dsl.controllers.base.ControllerParams"):
+            import_controller(f"odd_robots:{name}")
+    sys.modules.pop("odd_robots", None)
+
+
 def test_a_scenario_file_names_no_code(room_map: Path) -> None:
     from hubero_dsl.pipeline import check_source
 
