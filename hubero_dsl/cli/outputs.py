@@ -4,6 +4,7 @@ before any work is done (a picture is a PNG, a replay a GIF, a map a YAML file).
 from __future__ import annotations
 
 import argparse
+import os
 from collections.abc import Callable
 from pathlib import Path
 
@@ -23,7 +24,7 @@ def output_file(*suffixes: str) -> Callable[[str], Path]:
 def named_file(text: str) -> Path:
     """An argparse type: a path that names a file (`-o ""` named the current folder)."""
     path = Path(text)
-    if path.name in ("", ".", ".."):
+    if path.name in ("", ".", "..") or text.endswith(("/", os.sep)):  # `out/` is a folder
         raise argparse.ArgumentTypeError(f"'{text}' names no file: give a file name")
     return path
 

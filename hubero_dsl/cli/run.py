@@ -204,11 +204,12 @@ def default_log_path(stem: str) -> Path:
 
 
 def writable_log_path(path: Path) -> Path:
-    """`path`, unless a file that is not an MCAP log is there (InputError): a log is written
-    over, a user's file never (nor a folder, a device or a FIFO: `RunLog` refuses those)."""
-    from hubero_dsl.files import MCAP_MAGIC, refuse_other_kind
+    """`path`, unless a file that is not a hubero run log is there (InputError): a run's log
+    is written over, a user's file never (nor a folder, a device or a FIFO: `RunLog` refuses
+    those)."""
+    from hubero_dsl.log.reader import refuse_unless_run_log
 
-    refuse_other_kind(path, MCAP_MAGIC, "an MCAP log", "give another -o OUT.mcap, or --no-log")
+    refuse_unless_run_log(path, "give another -o OUT.mcap, or --no-log")
     return path
 
 

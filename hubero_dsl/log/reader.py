@@ -30,7 +30,8 @@ from mcap.records import Chunk
 from mcap.stream_reader import StreamReader
 
 from hubero_dsl.diagnostics import Span
-from hubero_dsl.errors import LogError
+from hubero_dsl.errors import InputError, LogError
+from hubero_dsl.files import MCAP_MAGIC, refuse_other_kind
 from hubero_dsl.log import schemas as s
 from hubero_dsl.log.crowds import crowd_state_topic
 from hubero_dsl.model.program import ParamValue
@@ -146,6 +147,25 @@ class LoggedRun:
     log: list[LogLine]
     result: RunOutcome | None
     attachments: dict[str, bytes] = field(repr=False)
+
+
+def refuse_unless_run_log(path: Path, advice: str) -> None:
+    """Refuse (InputError) to write over a regular file at `path` that is not a hubero run
+    log: a run's log is written over, a user's file never, another tool's MCAP (a ROS 2 bag)
+    neither."""
+    refuse_other_kind(path, MCAP_MAGIC, "an MCAP log", advice)
+    if not path.is_file():
+        return
+    try:
+        with path.open("rb") as stream:
+            records = {record.name: dict(record.metadata)
+                       for record in make_reader(stream).iter_metadata()}
+        ours = records.get(s.METADATA_NAME, {}).get("format") == s.FORMAT
+    except Exception:  # whatever it is, it cannot be shown to be a run's log
+        ours = False
+    if not ours:
+        raise InputError(f"{path} is an MCAP file but not a hubero run log: not writing over "
+                         f"it ({advice})")
 
 
 def load_run(path: str | Path) -> LoggedRun:

@@ -45,12 +45,13 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 from hubero_dsl import __version__
 from hubero_dsl.errors import LogError
-from hubero_dsl.files import MCAP_MAGIC, check_output, refuse_other_kind
+from hubero_dsl.files import check_output
 from hubero_dsl.log import schemas as s
 from hubero_dsl.log.crowds import members_of_crowds
 from hubero_dsl.log.encoder import LogEncoder, LogSetup, Update, discard_file
 from hubero_dsl.log.frames import Capturer
 from hubero_dsl.log.provenance import logged_source_path, provenance
+from hubero_dsl.log.reader import refuse_unless_run_log
 from hubero_dsl.log.sinks import MessageSink
 from hubero_dsl.world.mapfile import map_files
 
@@ -68,11 +69,11 @@ WRITER_JOIN_TIMEOUT = 30.0  # s to wait for the writer process to wind down afte
 
 def check_log_path(path: Path, program: Program, advice: str = "name another log") -> None:
     """Refuse (InputError) to write a log of `program` at `path`: in a folder that does not
-    exist, over a folder, a device, the scenario or its map, or over a file that is not an
-    MCAP log (a log is written over, a user's file never)."""
+    exist, over a folder, a device, the scenario or its map, or over a file that is not a
+    hubero run log (a run's log is written over, a user's file never)."""
     check_output(path, (Path(program.source.path), *map_files(program.map_path)),
                  lambda where, reason: f"cannot write log {where}: {reason}")
-    refuse_other_kind(path, MCAP_MAGIC, "an MCAP log", advice)
+    refuse_unless_run_log(path, advice)
 
 
 class RunLog:

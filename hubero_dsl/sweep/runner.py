@@ -25,7 +25,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from hubero_dsl.errors import LogError, Terminated
-from hubero_dsl.files import MCAP_MAGIC, refuse_other_kind
 from hubero_dsl.sweep.executors import executor_slots, terminate
 from hubero_dsl.sweep.plan import SweepPlan
 from hubero_dsl.sweep.worker import (
@@ -56,6 +55,7 @@ def prepare_out_dir(plan: SweepPlan, out_dir: str | Path) -> Path:
     """Create the output folders, check they are writable, and remove the logs of an earlier
     sweep at this sweep's log paths (so a log the index names is always this sweep's); a file
     there that is not a log is the user's, and refused."""
+    from hubero_dsl.log.reader import refuse_unless_run_log
     from hubero_dsl.log.writer import ensure_directory
 
     folder = ensure_directory(out_dir)
@@ -66,7 +66,7 @@ def prepare_out_dir(plan: SweepPlan, out_dir: str | Path) -> Path:
         raise LogError(f"cannot write into {folder}: {exc.strerror or exc}") from None
     for spec in plan.runs:
         log = folder / spec.log
-        refuse_other_kind(log, MCAP_MAGIC, "an MCAP log", "give another --out-dir")
+        refuse_unless_run_log(log, "give another --out-dir")
     for spec in plan.runs:
         log = folder / spec.log
         if not log.parent.is_dir():

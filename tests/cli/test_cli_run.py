@@ -107,6 +107,29 @@ def test_o_and_out_dir_never_write_over_a_file_that_is_not_a_log(
     assert cli("run", LIVING_ROOM, "--variant", "circle", "-o", str(log), "-q").status == 0
 
 
+def test_o_never_writes_over_another_tools_mcap_file(cli: Callable[..., Outcome],
+                                                     tmp_path: Path) -> None:
+    from mcap.writer import Writer
+
+    bag = tmp_path / "bag.mcap"  # a ROS 2 bag, say: an MCAP file, but no run's log
+    with bag.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="ros2")
+        writer.finish()
+    kept = bag.read_bytes()
+    refused = cli("run", LIVING_ROOM, "--variant", "circle", "-o", str(bag), "-q")
+    assert refused.status == 2
+    assert f"{bag} is an MCAP file but not a hubero run log: not writing over it" in refused.err
+    assert bag.read_bytes() == kept
+
+
+def test_o_with_a_trailing_slash_names_a_folder_not_a_file(cli: Callable[..., Outcome],
+                                                          tmp_path: Path) -> None:
+    refused = cli("run", LIVING_ROOM, "-o", f"{tmp_path / 'outdir'}/", "-q")
+    assert refused.status == 2 and "names no file: give a file name" in refused.err
+    assert not (tmp_path / "outdir").exists()
+
+
 def test_hubero_test_reports_a_file_that_does_not_compile_and_runs_the_others(
         cli: Callable[..., Outcome], tmp_path: Path) -> None:
     broken = tmp_path / "broken.hub"

@@ -19,6 +19,7 @@ from hubero_dsl.log.writer import RunLog
 from hubero_dsl.pipeline import compile_file
 from hubero_dsl.sim.loop import run_program
 from hubero_dsl.sim.simulation import Simulation
+from tests.conftest import earlier_run_log
 from tests.log.conftest import ENDLESS, MEETING, REPO_ROOT, WAITING, World, hubero
 
 # The first signal waits for the log's temporary file; the run lasts far longer than that.
@@ -85,8 +86,7 @@ def test_failing_run_leaves_no_file(world: World, tmp_path: Path) -> None:
 def test_an_existing_log_is_replaced_only_when_the_new_one_is_complete(
         world: World, tmp_path: Path) -> None:
     output = tmp_path / "run.mcap"
-    previous = b"\x89MCAP0\r\n a previous run's log"  # a log, which a run may write over
-    output.write_bytes(previous)
+    previous = earlier_run_log(output)  # a log, which a run may write over
     sim = Simulation(compile_file(world.scenario("waiting.hub", WAITING)))
     with pytest.raises(KeyboardInterrupt), RunLog(output, sim) as log:
         log.observe(sim)

@@ -269,7 +269,7 @@ def test_a_group_sent_into_a_dead_end_queues_in_it_without_waiting_out_the_stuck
     save_map(room_grid(walls=((0.0, 3.0, 4.0, 3.65), (0.0, 4.35, 4.0, 5.0))), pocket)
     trio = ("human a at (7, 3.3)\nhuman b at (7, 4.0)\nhuman c at (7, 4.7)\n"
             "group g of (a, b, c)\nactivity { g move_to (1, 4) }\n")
-    sim, result = _run(pocket, trio)
+    _, result = _run(pocket, trio)
     done = [e for e in result.events if e.status is not TaskStatus.ACTIVE]
     assert [e.status for e in done] == [TaskStatus.SUCCEEDED] * 3
     assert sum(e.reason.startswith("stopped short") for e in done) == 2

@@ -100,8 +100,8 @@ def test_a_controller_whose_params_are_no_parameter_model_is_bad_input(
         "    def command(self, observation):\n        return (0.0, 0.0)\n")
     monkeypatch.syspath_prepend(str(tmp_path))
     for name in ("Dataclassed", "NoneParams"):
-        with pytest.raises(InputError, match="its `Params` must be a subclass of "
-                                             "hubero_dsl.controllers.base.ControllerParams"):
+        with pytest.raises(InputError, match=r"its `Params` must be a subclass of "
+                                             r"hubero_dsl\.controllers\.base\.ControllerParams"):
             import_controller(f"odd_robots:{name}")
     sys.modules.pop("odd_robots", None)
 

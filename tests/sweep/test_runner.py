@@ -17,6 +17,7 @@ from hubero_dsl.sweep.index import write_index
 from hubero_dsl.sweep.plan import SweepPlan, plan_sweep
 from hubero_dsl.sweep.runner import SweepOutcome, prepare_out_dir, run_sweep
 from hubero_dsl.sweep.worker import RunRecord
+from tests.conftest import earlier_run_log
 from tests.sweep.conftest import ABORTED, MAP, OUTCOMES, SWEPT, Write, wandering
 
 
@@ -144,7 +145,7 @@ def test_stale_logs_of_an_earlier_sweep_are_removed(write_scenario: Write,
     plan = plan_for(write_scenario(OUTCOMES), seeds=(1,), variants=["quick"])
     stale = tmp_path / "runs" / "quick" / "seed-1.mcap"
     stale.parent.mkdir(parents=True)
-    stale.write_bytes(b"\x89MCAP0\r\n an earlier sweep's log")
+    earlier_run_log(stale)
     prepare_out_dir(plan, tmp_path)
     assert not stale.exists()
 
