@@ -171,6 +171,7 @@ def _obstacle_field(occupied: BoolArray, resolution: float
 
 
 REACH_MARGIN = 0.05  # m beyond a body's radius that reachable cells keep from obstacles
+_FAR = 1e15  # cells: a point further off than this is off every map (and floors exactly)
 
 
 @dataclass(frozen=True, eq=False)
@@ -497,6 +498,8 @@ class OccupancyGrid:
         x0, y0, resolution, last_row, last_col = self._point_frame
         row_f = (y - y0) / resolution
         col_f = (x - x0) / resolution
+        if not (-_FAR < row_f < _FAR and -_FAR < col_f < _FAR):  # far off the map (or inf)
+            return row_f, col_f, 0, 0, False
         row_floor, col_floor = math.floor(row_f), math.floor(col_f)
         row = 0 if row_floor < 0 else last_row if row_floor > last_row else row_floor
         col = 0 if col_floor < 0 else last_col if col_floor > last_col else col_floor

@@ -118,6 +118,24 @@ def test_numbers_of_any_real_type_are_a_velocity(scenario: ScenarioFactory) -> N
     assert sim.robot("r").velocity[0] > 0.0
 
 
+@pytest.mark.parametrize("kinematics", ["holonomic", "unicycle"])
+def test_an_absurd_but_finite_speed_keeps_the_robot_on_the_map(
+        scenario: ScenarioFactory, kinematics: str) -> None:
+    # no max_speed: the command is taken as it is, and the walls stop it (on a 2 cm grid a
+    # step of 1e308 * 0.05 m is more cells than a float holds)
+    living_room = Path(__file__).resolve().parents[2] / "maps" / "living_room.yaml"
+    sim = Simulation(scenario(f"robot r at (-4.4, 4.8) {{ controller external; kinematics "
+                              f"{kinematics} }}\n", living_room), activities=False)
+    robot = sim.robot("r")
+    if kinematics == "holonomic":
+        robot.set_velocity(1e308, 1e308)
+    else:
+        robot.drive(1e308, 0.0)
+    for _ in range(3):
+        sim.step()
+    assert sim.engine.grid.is_free(robot.position)
+
+
 class Tuned:
     """A controller with a parameter of its own, handed over for a robot whose scenario sets
     it."""
