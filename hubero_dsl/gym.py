@@ -233,13 +233,16 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
 
     def _act(self, action: npt.NDArray[np.float32]) -> None:
         """Hand the robot the action for the coming tick (the controller is not asked)."""
-        self._act_floats(np.asarray(action, dtype=np.float64).reshape(2).tolist(), action)
+        given = real_numbers(action, "an action is two finite numbers")
+        if given.size != 2:
+            raise ValueError(f"an action is two finite numbers, not {action!r}")
+        self._act_floats(given.reshape(2).tolist(), action)
 
     def _act_floats(self, action: list[float], given: object) -> None:
         """`_act` with the action as two floats (`given`: as the caller gave it)."""
         self._simulation()
         first, second = action
-        if not math.isfinite(first + second):
+        if not (math.isfinite(first) and math.isfinite(second)):
             raise ValueError(f"an action is two finite numbers, not {given!r}")
         (low_1, high_1), (low_2, high_2) = self._action_bounds  # the box's clipping, in floats
         self._robot.drive(min(max(first, low_1), high_1), min(max(second, low_2), high_2))
@@ -494,6 +497,18 @@ def _patch(sim: Simulation, centre: tuple[float, float], size: int) -> npt.NDArr
     return out[::-1]  # grid row 0 is the lowest y; the patch's first row is the northmost
 
 
+def real_numbers(given: object, words: str) -> npt.NDArray[np.float64]:
+    """`given` as an array of floats; ValueError (`words`, and what it was) for anything but
+    real numbers: None, strings, complex numbers, booleans."""
+    try:
+        array = np.asarray(given)
+    except (ValueError, TypeError):  # ragged sequences
+        array = np.asarray(None)
+    if array.dtype.kind not in "iuf":
+        raise ValueError(f"{words}, not {given!r}")
+    return array.astype(np.float64)
+
+
 def copy_log(log: str | Path | None, index: int, copies: int) -> Path | None:
     """Where copy `index` of a vector env writes its episodes: `run.mcap` becomes
     `run-0.mcap`, `run-1.mcap`, ... (one copy keeps the name as given)."""
@@ -577,7 +592,7 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
         """One tick of the copies whose episodes go on (`going`), their array work done for
         all of them at once (`Lockstep`, `JointSteering`, `sense`): what their robots see
         (None: no episode goes on)."""
-        given = np.asarray(actions, dtype=np.float64)
+        given = real_numbers(actions, "actions are one row of two numbers per copy")
         if given.size != 2 * self.num_envs:
             raise ValueError(f"actions are one row of two numbers per copy, "
                              f"{self.num_envs} x 2, not an array of shape {given.shape}")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -127,6 +128,11 @@ def test_actions_are_clipped_to_the_box_and_must_be_finite(tmp_path: Path) -> No
     assert observation["robot"][2] == pytest.approx(1.0)
     with pytest.raises(ValueError, match="two finite numbers"):
         env.step(np.array([np.nan, 0.0], np.float32))
+    observation, *_ = env.step(np.array([1e308, 1e308]))  # finite: clipped as any other
+    assert math.hypot(*observation["robot"][2:4]) == pytest.approx(1.0, abs=0.01)
+    for wrong in (np.zeros(3), None, np.array([1j, 0.0]), "ab", [True, False], [0.1, [0.2]]):
+        with pytest.raises(ValueError, match=r"^an action is two finite numbers, not "):
+            env.step(wrong)
 
 
 def _people_seen(env: gymnasium.Env, seed: int, steps: int = 120) -> np.ndarray:
