@@ -849,6 +849,10 @@ class Checker:
                                      strict=False):
             self._start((f"the start of robot '{robot.name}'", robot.start.xy, robot.radius,
                          robot_decl.start.span), "")
+            goal = next((p for p in robot_decl.params if p.dotted == "goal"), None)
+            if robot.goal is not None and goal is not None:  # where it must arrive: it fits
+                self.facts.bodies.append((f"the goal of robot '{robot.name}'", robot.goal,
+                                          robot.radius, goal.value.span))
         # the first position written at each span (a scenario of thousands of goals looked
         # each one up in the whole list)
         points: dict[Span, tuple[float, float]] = {}
