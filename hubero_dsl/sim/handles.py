@@ -107,8 +107,10 @@ class _Actor:
 
     def _required_target(self, target: Target) -> Target:
         if not isinstance(target, str):
-            x, y = target
-            return (float(x), float(y))
+            x, y = float(target[0]), float(target[1])
+            if not (math.isfinite(x) and math.isfinite(y)):
+                raise SimulationError(f"{self.name}: a point must be finite, got {target!r}")
+            return (x, y)
         if target in self._places:
             return self._places[target]
         if self._engine.position_of(target) is None:

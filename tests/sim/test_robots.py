@@ -114,3 +114,13 @@ def test_a_scenario_file_names_no_code(room_map: Path) -> None:
     (diagnostic,) = check_source(text, "t.hub").errors
     assert (diagnostic.code, diagnostic.message) == ("E110", "a scenario file names no Python code")
     assert diagnostic.span is not None and diagnostic.span.column == 32
+
+
+@pytest.mark.parametrize("point", [(float("nan"), 0.0), (0.0, float("inf"))])
+def test_a_target_that_is_no_finite_point_is_refused_when_given(
+        scenario: ScenarioFactory, point: tuple[float, float]) -> None:
+    sim = Simulation(scenario("robot r at (2, 2) { controller navigator }\n"
+                              "human h at (5, 5)\n"), activities=False)
+    for actor in (sim.robot("r"), sim.human("h")):
+        with pytest.raises(SimulationError, match="a point must be finite"):
+            actor.move_to(point)
