@@ -17,7 +17,7 @@ import itertools
 import json
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -135,8 +135,20 @@ def diff_runs(a: LoggedRun, b: LoggedRun, *, epsilon: float = DEFAULT_EPSILON,
             diverged_at=diverged,
             parameters=parameter_changes(a.metadata.params.get(name, {}),
                                          b.metadata.params.get(name, {})))
-    return RunDiff(_side(a), _side(b), epsilon, humans, _notes(a, b), _robot_diffs(a, b, epsilon),
-                   a.metadata.sets)
+    diff = RunDiff(_side(a), _side(b), epsilon, humans, _notes(a, b),
+                   _robot_diffs(a, b, epsilon), a.metadata.sets)
+    for member, absent in came_in_one_run(diff).items():
+        diff.humans[member] = _one_sided(diff.humans[member], absent)
+    return diff
+
+
+def _one_sided(human: HumanDiff, absent: str) -> HumanDiff:
+    """A flow's member who came in one run only: the run it did not come in (`absent`, "A"
+    or "B") has nothing of it to compare, not the zeros of someone who stood still."""
+    metrics = tuple(MetricDelta(m.name, None if absent == "A" else m.a,
+                                None if absent == "B" else m.b, None) for m in human.metrics)
+    return replace(human, metrics=metrics, frechet=None, hausdorff=None, max_separation=None,
+                   diverged_at=None)
 
 
 def _robot_diffs(a: LoggedRun, b: LoggedRun, epsilon: float) -> dict[str, HumanDiff]:

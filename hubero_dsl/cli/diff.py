@@ -262,7 +262,8 @@ def _human_table(human: HumanDiff, epsilon: float, set_of: Callable[[str], str |
     table.add_row("path Fréchet distance", "", "", _value(human.frechet, "m"))
     table.add_row("path Hausdorff distance", "", "", _value(human.hausdorff, "m"))
     table.add_row("largest same-time gap", "", "", _value(human.max_separation, "m"))
-    diverged = "never" if human.diverged_at is None else f"t = {human.diverged_at:.2f} s"
+    diverged = ("-" if absent_from is not None else "never" if human.diverged_at is None
+                else f"t = {human.diverged_at:.2f} s")
     table.add_row(f"first > {epsilon:g} m apart", "", "", diverged)
     return table
 

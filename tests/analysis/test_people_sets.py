@@ -214,6 +214,16 @@ def test_diff_lists_a_flows_members_who_came(tmp_path: Path,
     # someone who came in one run only has no numbers of the other: the title says so
     assert {(name, absent) for name, absent in titles if absent} == {
         *((name, "B") for name in came_a - came_b), *((name, "A") for name in came_b - came_a)}
+    # ... nor a difference to it, nor paths compared: not the zeros of someone standing still
+    from hubero_dsl.analysis.diff import diff_runs
+
+    diff = diff_runs(*(load_run(log) for log in logs))
+    one_sided = [(name, "a") for name in came_b - came_a] + [(n, "b") for n in came_a - came_b]
+    assert one_sided
+    for name, absent in one_sided:
+        human = diff.humans[name]
+        assert all(getattr(m, absent) is None and m.delta is None for m in human.metrics)
+        assert (human.frechet, human.diverged_at) == (None, None)
 
 
 def test_a_sweeps_table_gives_a_crowd_one_row(lounge: Path, reseeded: Path, tmp_path: Path,
