@@ -93,7 +93,9 @@ def _exit_status(argv: Sequence[str] | None) -> int:
         status = _dispatch(argv)
         sys.stdout.flush()
         return status
-    except BrokenPipeError:
+    except BrokenPipeError as exc:
+        if not _stdout_closed():  # a pipe of hubero's own (to a worker): a failure to tell
+            return _internal_error(exc)
         _discard_stdout()
         return EXIT_BROKEN_PIPE
     except Terminated:
@@ -113,12 +115,16 @@ def _exit_status(argv: Sequence[str] | None) -> int:
         report_error(InputError(_os_error_message(exc)))
         return EXIT_USAGE
     except Exception as exc:
-        _say(f"internal error: {type(exc).__name__}: {exc} (please report)")
-        if os.environ.get("HUBERO_DEBUG") == "1":
-            _say(traceback.format_exc().rstrip("\n"))
-        else:
-            _say("set HUBERO_DEBUG=1 to see the traceback")
-        return EXIT_INTERNAL
+        return _internal_error(exc)
+
+
+def _internal_error(exc: Exception) -> int:
+    _say(f"internal error: {type(exc).__name__}: {exc} (please report)")
+    if os.environ.get("HUBERO_DEBUG") == "1":
+        _say(traceback.format_exc().rstrip("\n"))
+    else:
+        _say("set HUBERO_DEBUG=1 to see the traceback")
+    return EXIT_INTERNAL
 
 
 def _dispatch(argv: Sequence[str] | None) -> int:
@@ -198,6 +204,19 @@ def _tolerate_unencodable_output() -> None:
         if reconfigure is not None:
             with contextlib.suppress(ValueError, OSError):
                 reconfigure(errors="backslashreplace")
+
+
+def _stdout_closed() -> bool:
+    """Whether standard output is a pipe whose reader has gone (`hubero graph x | head`):
+    the system reports an error on its end. Where that cannot be asked, assume so."""
+    try:
+        import select
+
+        poller = select.poll()
+        poller.register(sys.stdout.fileno(), select.POLLOUT)
+        return any(events & (select.POLLERR | select.POLLHUP) for _, events in poller.poll(0))
+    except (OSError, ValueError, AttributeError):
+        return True
 
 
 def _discard_stdout() -> None:

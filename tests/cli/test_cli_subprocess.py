@@ -84,6 +84,18 @@ def test_broken_pipe_is_quiet(write: Write) -> None:
     assert status == 141
 
 
+def test_a_broken_pipe_of_its_own_is_no_closed_output(tmp_path: Path) -> None:
+    # a pipe to a worker that could not start, while standard output is open: said, not 141
+    script = ("import hubero_dsl.cli.main as m\n"
+              "def broken(argv):\n    raise BrokenPipeError(32, 'Broken pipe')\n"
+              "m._dispatch = broken\nraise SystemExit(m.main(['sweep']))\n")
+    with (tmp_path / "out.txt").open("w") as out:
+        completed = subprocess.run([sys.executable, "-c", script], stdout=out,
+                                   stderr=subprocess.PIPE, text=True, timeout=60, check=False)
+    assert completed.returncode == 3
+    assert "internal error: BrokenPipeError" in completed.stderr
+
+
 def test_console_script_prints_the_version() -> None:
     script = Path(sys.executable).parent / "hubero"
     if not script.exists():
