@@ -50,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
         write_tables,
     )
     from hubero_dsl.sweep.executors import available_cores, open_executor
-    from hubero_dsl.sweep.plan import parse_seeds
+    from hubero_dsl.sweep.plan import parse_seeds, variant_label
 
     if args.jobs is not None and args.jobs < 1:
         raise InputError(f"--jobs must be at least 1, got {args.jobs}")
@@ -70,7 +70,8 @@ def run(args: argparse.Namespace) -> int:
     console = make_console()
     for row in rows:
         if not row.succeeded:
-            console.print(f"{row.scenario} [{row.variant}] seed {row.seed} {row.controller}: "
+            console.print(f"{row.scenario} [{variant_label(row.variant)}] seed {row.seed} "
+                          f"{row.controller}: "
                           f"{row.status}: {row.reason or 'an expectation failed'}",
                           highlight=False, soft_wrap=True,
                           markup=False)

@@ -132,6 +132,7 @@ def variants_to_run(program: Program, args: argparse.Namespace) -> list[str | No
 def run(args: argparse.Namespace) -> int:
     from hubero_dsl.errors import InputError, SimulationError
     from hubero_dsl.pipeline import compile_file
+    from hubero_dsl.sweep.plan import variant_label
 
     if args.log_rate <= 0:
         raise InputError("--log-rate must be greater than zero")
@@ -164,7 +165,7 @@ def run(args: argparse.Namespace) -> int:
             # one variant's error (a robot's controller raised): said, and the others run
             from hubero_dsl.cli.diagnostic_formats import report_error
 
-            report_error(SimulationError(f"variant {variant or '(as written)'}: {exc.message}",
+            report_error(SimulationError(f"variant {variant_label(variant)}: {exc.message}",
                                          exc.span, exc.hint))
             failed = True
             continue

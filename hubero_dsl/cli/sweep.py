@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any
 
 from hubero_dsl.cli.main import EXIT_INTERRUPTED, EXIT_TERMINATED
 from hubero_dsl.cli.run import refuse_live
+from hubero_dsl.sweep.plan import variant_label
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -187,7 +188,7 @@ class _SweepProgress:
 
 
 def _problem_line(record: RunRecord) -> str:
-    name = _escape(_variant_label(record.variant))
+    name = _escape(variant_label(record.variant))
     if record.status == "completed":
         status, detail = "[yellow]expectations fail[/]", "; ".join(record.failed_expectations)
     else:
@@ -212,20 +213,16 @@ def _print_table(plan: SweepPlan, outcome: SweepOutcome) -> None:
         states = Counter(r.status for r in records)
         durations = [r.duration for r in records if r.duration is not None]
         mean = f"{sum(durations) / len(durations):.2f} s" if durations else "-"
-        table.add_row(_escape(_variant_label(variant)), str(len(records)),
+        table.add_row(_escape(variant_label(variant)), str(len(records)),
                       str(sum(r.succeeded for r in records)),
                       str(sum(r.status == "completed" and not r.succeeded for r in records)),
                       str(states["failed"]),
                       str(states["timed_out"]), str(states["error"]), mean)
     console = make_console()
     if not console.is_terminal:  # a file or a pipe: as wide as the names, never wrapped
-        longest = max(len(_variant_label(v)) for v in plan.variants)
+        longest = max(len(variant_label(v)) for v in plan.variants)
         console.width = max(console.width, longest + 80)
     console.print(table)
-
-
-def _variant_label(variant: str | None) -> str:
-    return variant if variant is not None else "(as written)"
 
 
 def _escape(text: str) -> str:

@@ -22,7 +22,7 @@ from hubero_dsl.errors import InputError
 from hubero_dsl.log.reader import LoggedRun, load_run
 from hubero_dsl.pipeline import compile_file
 from hubero_dsl.sweep.index import write_atomically
-from hubero_dsl.sweep.plan import plan_sweep
+from hubero_dsl.sweep.plan import plan_sweep, variant_label
 from hubero_dsl.sweep.runner import prepare_out_dir, run_sweep
 
 REFERENCE, YOURS = "reference", "yours"
@@ -164,7 +164,7 @@ def _worst(name: str, values: list[float | None]) -> float:
 
 
 def _cells(row: BenchRow) -> list[str]:
-    return [row.scenario, row.variant or "(as written)",
+    return [row.scenario, variant_label(row.variant),
             "" if row.seed is None else str(row.seed), row.controller, row.status,
             "true" if row.succeeded else "false",
             *(_number(row.metrics.get(name)) for name in METRICS), row.success,

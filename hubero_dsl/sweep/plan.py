@@ -24,7 +24,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from hubero_dsl.errors import InputError
-from hubero_dsl.model.params import SEED_DIGITS
 
 if TYPE_CHECKING:
     from hubero_dsl.model.program import ParamValue, Program
@@ -33,10 +32,14 @@ MAX_RUNS = 100_000  # a typo like 1..10000000 should fail at once, not after fil
 MAX_NAME_LENGTH = 80  # characters of a variant's folder name before it is cut and hashed
 DEFAULT_FOLDER = "default"  # the folder of the scenario as written (no variants)
 
-_SEED_ITEM = re.compile(rf"^\s*(\d{{1,{SEED_DIGITS}}})\s*(?:\.\.\s*(\d{{1,{SEED_DIGITS}}})\s*)?$")
 _UNSAFE = re.compile(r"[^A-Za-z0-9._,=+-]")
 _RESERVED = frozenset({"CON", "PRN", "AUX", "NUL", *(f"COM{i}" for i in range(1, 10)),
                        *(f"LPT{i}" for i in range(1, 10))})
+
+
+def variant_label(variant: str | None) -> str:
+    """A variant's name as tables and messages show it; the scenario as written has none."""
+    return variant if variant is not None else "(as written)"
 
 
 @dataclass(frozen=True, slots=True)
@@ -66,11 +69,15 @@ class SweepPlan:
 
 def parse_seeds(text: str) -> tuple[int, ...]:
     """`1..20`, `3`, `1,2,5` or a mix (`1..3,10`): the seeds, sorted, each once."""
+    from hubero_dsl.model.params import SEED_DIGITS  # here: its module brings numpy with it
+
+    seed = rf"(\d{{1,{SEED_DIGITS}}})"
+    seed_item = re.compile(rf"^\s*{seed}\s*(?:\.\.\s*{seed}\s*)?$")
     if not text.strip():
         raise InputError("--seeds is empty: give seeds like 1..20, 3 or 1,2,5")
     seeds: set[int] = set()
     for item in text.split(","):
-        match = _SEED_ITEM.match(item)
+        match = seed_item.match(item)
         if match is None:
             shown = item.strip() if len(item.strip()) <= 40 else item.strip()[:37] + "..."
             raise InputError(f"--seeds: '{shown}' is not a seed or a range; give seeds "

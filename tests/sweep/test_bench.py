@@ -140,3 +140,17 @@ def test_the_documented_reference_table_is_what_the_command_writes(tmp_path: Pat
     doc = (ROOT / "docs" / "benchmark.md").read_text(encoding="utf-8")
     committed = doc.split("<!-- bench-summary:start -->\n")[1].split("<!-- bench-summary:end")[0]
     assert committed == (out / "summary.md").read_text(encoding="utf-8")
+
+
+def test_a_failed_run_of_a_scenario_without_variants_is_named_as_written(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    suite = tmp_path / "suite"
+    suite.mkdir()
+    (suite / "tiny.hub").write_text(
+        f'scenario "tiny"\nmap "{ROOT / "maps" / "living_room.yaml"}"\ntime_limit 3 s\n'
+        "robot cart at (-4.4, 4.8) { controller navigator; goal (3.5, 0.5) }\n"
+        "human g at (1.0, 1.0)\nactivity { g stand for 3 s }\n"
+        "expect cart reaches (3.5, 0.5) within 2 s\n", encoding="utf-8")
+    assert main(["bench", str(suite), "-o", str(tmp_path / "out"), "--jobs", "1"]) == 1
+    out = capsys.readouterr().out
+    assert "tiny [(as written)] seed" in out and "[None]" not in out
