@@ -157,6 +157,8 @@ SINGLE = {
     "unknown unit": ("defaults { speed 5kg }", ("E202", 5, 18, 21)),
     "zero radius": ("defaults { radius 0 m }", ("E203", 5, 19, 22)),
     "a seed of 19 digits": ("seed 1234567890123456789", ("E203", 5, 6, 25)),
+    "another controller's parameter": (
+        "robot r at (5.5, 1.0) { navigator.safety_margin 0.3 m }", ("E105", 5, 25, 48)),
     "a robot's goal its body does not fit at": (
         "robot r at (5.5, 1.0) { goal (-2.0, 2.95) }", ("E405", 5, 30, 42)),
     "planner parameter out of range": ("defaults { social_force.lambda 2 }",
