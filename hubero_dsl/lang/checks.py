@@ -501,7 +501,7 @@ class Checker:
                                               positive=True, maximum=spec.maximum)
                 if number is not None:
                     values[spec.name] = number
-            elif len(param.path) == 2 and param.path[0] in self.controllers:
+            elif controller and len(param.path) == 2 and param.path[0] in self.controllers:
                 self.report("E105", f"robot '{name}' has controller {controller}, not "
                             f"{param.path[0]}: '{param.dotted}' is not its parameter",
                             param.name_span, f"write `controller {param.path[0]}` in its block "
