@@ -14,6 +14,7 @@ MAX_CHUNK_BYTES.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import struct
 from dataclasses import dataclass, field
@@ -213,6 +214,7 @@ def _read(path: Path, stream: Any) -> LoggedRun:
                        f"{provenance.get('hubero_version')}; this hubero reads format "
                        f"{s.FORMAT_VERSION} and older")
     attachments = {a.name: a.data for a in reader.iter_attachments()}
+    _check_attachments(path, provenance, attachments)
     crowds = [name for name, entry in _json(provenance.get("sets", "{}")).items()
               if entry["kind"] != "group"]
     collector = _Collector(_json(provenance["humans"]), _json(provenance["robots"]),
@@ -229,6 +231,19 @@ def _read(path: Path, stream: Any) -> LoggedRun:
         humans=collector.human_tracks(), robots=collector.robot_tracks(),
         events=collector.events, log=collector.log,
         result=_outcome(result) if result is not None else None, attachments=attachments)
+
+
+def _check_attachments(path: Path, provenance: dict[str, str],
+                       attachments: dict[str, bytes]) -> None:
+    """LogError for an attached scenario or map whose bytes are not those the provenance
+    record's checksum names (the MCAP library checks the chunks' CRCs, not attachments')."""
+    names = _json(provenance.get("attachments", "{}"))
+    for key in ("source", "map", "map_image"):
+        name, expected = names.get(key), provenance.get(f"{key}_sha256")
+        if name in attachments and expected is not None \
+                and hashlib.sha256(attachments[name]).hexdigest() != expected:
+            raise LogError(f"{path} is not a readable hubero run log (truncated or corrupt?): "
+                           f"its attachment {name} is not what it was when written")
 
 
 def _refuse_chunk_bombs(path: Path, stream: Any) -> None:

@@ -64,6 +64,19 @@ def test_corrupt_chunk(meeting: LoggedMeeting, tmp_path: Path) -> None:
         load_run(path)
 
 
+def test_a_changed_attachment(meeting: LoggedMeeting, tmp_path: Path) -> None:
+    # attachments lie outside the chunks, whose CRCs the MCAP library checks
+    data = bytearray(meeting.log.read_bytes())
+    where = data.find(b"scenario ")  # the attached scenario's first line
+    assert where > 0
+    data[where:where + 8] = b"@" * 8
+    path = tmp_path / "changed.mcap"
+    path.write_bytes(bytes(data))
+    with pytest.raises(LogError, match=r"truncated or corrupt\?\): its attachment source/"
+                                       r".* is not what it was when written"):
+        load_run(path)
+
+
 def test_another_tools_mcap(tmp_path: Path) -> None:
     path = tmp_path / "other.mcap"
     with path.open("wb") as stream:
