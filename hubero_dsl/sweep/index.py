@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from hubero_dsl.errors import LogError
-from hubero_dsl.files import refuse_other_kind
+from hubero_dsl.files import check_output, refuse_other_kind
 from hubero_dsl.sweep.plan import SweepPlan
 from hubero_dsl.sweep.runner import SweepOutcome
 from hubero_dsl.sweep.worker import RunRecord
@@ -44,10 +44,13 @@ _BEGINNINGS = {INDEX_JSON: b'{\n  "version": ', INDEX_CSV: ",".join(CSV_FIRST_CO
 
 
 def refuse_other_indexes(out_dir: str | Path) -> None:
-    """InputError when `out_dir` holds an index.json or index.csv that is not a sweep's."""
+    """InputError when `out_dir` holds an index.json or index.csv that is not a sweep's, or
+    a folder, a device or a FIFO by that name: refused before any folder is made there."""
     for name, beginning in _BEGINNINGS.items():
-        refuse_other_kind(Path(out_dir) / name, beginning, "a sweep's index",
-                          "give another --out-dir")
+        path = Path(out_dir) / name
+        if path.parent.is_dir():
+            check_output(path)
+        refuse_other_kind(path, beginning, "a sweep's index", "give another --out-dir")
 
 
 def build_index(plan: SweepPlan, outcome: SweepOutcome) -> dict[str, Any]:

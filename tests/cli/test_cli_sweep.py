@@ -231,10 +231,12 @@ def test_a_users_file_at_a_log_path_or_an_index_that_cannot_be_written_is_refuse
     assert f"{notes} exists and is not an MCAP log" in outcome.err
     assert notes.read_text(encoding="utf-8") == "my notes"
     notes.unlink()
+    notes.parent.rmdir()
     (out / "index.json").mkdir()
     outcome = cli("sweep", scenario(tmp_path, SWEPT), "--out-dir", str(out), "-q")
-    assert outcome.status == 2 and "index.json" in outcome.err
-    assert not list(out.glob("runs/*/*.mcap"))  # refused before any run
+    assert outcome.status == 2 and "index.json: cannot be written (it is a directory)" in \
+        outcome.err
+    assert not list(out.glob("runs/*"))  # refused before any run, or any folder for one
 
 
 def test_a_sweep_writes_over_its_own_index_but_not_over_a_users_file(cli: Run,
