@@ -158,3 +158,22 @@ def test_bad_input_exits_2(cli: Cli, argv: tuple[str, ...], message: str) -> Non
     outcome = cli("calibrate", "--executor", "serial", *argv)
     assert outcome.status == 2
     assert message in outcome.err
+
+
+def test_each_fittable_parameters_default_is_the_one_runs_take() -> None:
+    # the "hubero's defaults" side of a calibration's report is measured with these
+    from hubero_dsl.model.params import HUMAN_PARAMS
+    from hubero_dsl.planners.social_force import SocialForceParams
+    from hubero_dsl.validation.calibrate import FITTABLE
+
+    for fittable in FITTABLE.values():
+        planner, _, field = fittable.name.rpartition(".")
+        if planner == "social_force":
+            default = SocialForceParams.model_fields[field].default
+        elif fittable.name == "personal_space":
+            default = HUMAN_PARAMS["personal_space"].default.radius
+        elif fittable.name == "speed_scale":  # a factor on measured speeds, not a parameter
+            default = 1.0
+        else:
+            default = HUMAN_PARAMS[fittable.name].default
+        assert fittable.default == pytest.approx(default), fittable.name
