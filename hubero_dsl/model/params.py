@@ -39,10 +39,11 @@ def _q(name: str, dim: Dimension, default: float, doc: str, *, maximum: float = 
     return ParamSpec(name, ParamKind.QUANTITY, doc, dim, default, positive, maximum)
 
 
-# How a human reacts to robots, as HuNavSim's agents do (docs/language.md, "Robot reactions").
-# a seed has at most this many digits, in a file and on the command line alike: any longer is
-# no seed anyone means (and int() of thousands of digits raises)
+# A seed has at most this many digits, in a file and on the command line alike: any longer is
+# no seed anyone means (and int() of thousands of digits raises).
 SEED_DIGITS = 18
+
+# How a human reacts to robots, as HuNavSim's agents do (docs/language.md, "Robot reactions").
 REACTIONS = ("regular", "impassive", "surprised", "curious", "scared", "threatening")
 
 HUMAN_PARAMS: dict[str, ParamSpec] = {spec.name: spec for spec in (

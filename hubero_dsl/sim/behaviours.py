@@ -342,7 +342,7 @@ class Posed(MoveTo):
         Behaviour.on_stuck(self, engine)  # a seat someone else takes is not taken beside it
 
     def on_held_at_goal(self, engine: World) -> None:
-        Behaviour.on_held_at_goal(self, engine)
+        Behaviour.on_held_at_goal(self, engine)  # a taken seat: its stuck time, as above
 
     def on_arrived(self, engine: World) -> None:
         if self.heading is not None and self.state != "aligning":

@@ -17,6 +17,11 @@ way round at most every STALLED s:
   before it: about 0.6 m aside), then goes on to its goal. A group member leaves its group's
   formation until it has stepped aside: the group's pull would hold it where it was.
 
+Before any of that, a walker of any surroundings stalled for STALLED s within CROWDED_GOAL of
+its goal while someone stands on it is told so (`Engine.hold_short`): a `move_to` queued
+there stops short, rather than wait out the stuck time that the jostling of a queue keeps
+resetting.
+
 Progress is still measured from where each walker was (`Engine.anchor`): one who cannot get on
 is given up as stuck all the same.
 """
