@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 from pydantic import ValidationError
 
-from hubero_dsl.errors import OUTSIDE_STOPS, SimulationError, failure_of
+from hubero_dsl.errors import OUTSIDE_STOPS, InputError, SimulationError, failure_of
 from hubero_dsl.model.params import HUMAN_PARAMS, REACTIONS, ParamKind
 from hubero_dsl.model.program import Distribution, ParamValue, Pose, Program, unknown_variants
 from hubero_dsl.planners.base import GlobalPlanner, LocalPlanner, PlannerParams
@@ -349,10 +349,9 @@ def build_controllers(program: Program, given: Mapping[str, type | RobotControll
                   if chosen is None or params_model is not ControllerParams else {})
         try:
             params = params_model.model_validate(dict(values))
-        except ValidationError as exc:
-            raise SimulationError(f"robot '{spec.name}': controller {cls.__name__} "
-                                  f"{_refused_params(exc, spec.controller, cls.__name__)}"
-                                  ) from None
+        except ValidationError as exc:  # the class handed over does not fit the file: input
+            raise InputError(f"robot '{spec.name}': controller {cls.__name__} "
+                             f"{_refused_params(exc, spec.controller, cls.__name__)}") from None
         try:
             built[spec.name] = cls(body, params)
         except OUTSIDE_STOPS:

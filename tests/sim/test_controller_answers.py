@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from hubero_dsl.controllers.base import ControllerParams, Observation
-from hubero_dsl.errors import SimulationError
+from hubero_dsl.errors import InputError
 from hubero_dsl.sim.robots import ControllerError
 from hubero_dsl.sim.simulation import Simulation
 from tests.sim.conftest import ScenarioFactory
@@ -166,6 +166,17 @@ def test_a_class_handed_over_takes_the_parameters_it_declares(tmp_path: Path) ->
     done = _hubero("run", str(file), "--controller", "r=tuned:Tuned", "--no-log", "-q",
                    cwd=tmp_path, pythonpath=site)
     assert done.returncode == 0, done.stderr
+    # a class whose Params do not declare the file's gain: they do not fit, which is bad input
+    (site / "other.py").write_text(
+        "from hubero_dsl.controllers.base import ControllerParams\n"
+        "class Params(ControllerParams):\n    lead: float = 1.0\n"
+        "class Other:\n    Params = Params\n"
+        "    def __init__(self, body, params):\n        pass\n"
+        "    def command(self, observation):\n        return (0.0, 0.0)\n", encoding="utf-8")
+    refused = _hubero("run", str(file), "--controller", "r=other:Other", "--no-log", "-q",
+                      cwd=tmp_path, pythonpath=site)
+    assert refused.returncode == 2 and "does not take the scenario's `straight_drive.gain`" \
+        in refused.stderr, refused.stderr
     # at 2 m/s (0.1 x the scenario's gain of 20, not the default 1) from x = 2 to x = 6
     assert "completed at t = 2." in done.stdout + done.stderr or done.returncode == 0
 
@@ -220,7 +231,7 @@ def test_a_class_handed_over_without_a_parameter_the_scenario_gives_is_told_whic
         scenario: ScenarioFactory) -> None:
     program = scenario("robot r at (2, 4) { controller navigator; navigator.safety_margin 0.25 m "
                        "}\n")
-    with pytest.raises(SimulationError, match=(
+    with pytest.raises(InputError, match=(
             r"^robot 'r': controller Tuned does not take the scenario's "
             r"`navigator.safety_margin` \(declare safety_margin in Tuned.Params, or leave it "
             r"out\)$")):
