@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 from hubero_dsl.cli.outputs import named_file
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Iterator
 
     from hubero_dsl.log.live import LiveServer
     from hubero_dsl.model.program import Program
@@ -130,9 +130,8 @@ def variants_to_run(program: Program, args: argparse.Namespace) -> list[str | No
 
 
 def run(args: argparse.Namespace) -> int:
-    from hubero_dsl.errors import InputError, SimulationError
+    from hubero_dsl.errors import InputError
     from hubero_dsl.pipeline import compile_file
-    from hubero_dsl.sweep.plan import variant_label
 
     if args.log_rate <= 0:
         raise InputError("--log-rate must be greater than zero")
@@ -142,14 +141,44 @@ def run(args: argparse.Namespace) -> int:
     if args.output is not None and len(variants) > 1:
         raise InputError("--all-variants writes several logs: use --out-dir DIR, or leave "
                          "them in runs/")
-    if args.out_dir is not None:
-        from hubero_dsl.log.writer import ensure_directory
-
-        ensure_directory(args.out_dir)
     controllers = handed_controllers(args)
     unknown = sorted(set(controllers) - {robot.name for robot in program.robots})
     if unknown:
         raise InputError(f"--controller: no robot named '{unknown[0]}' in {args.file}")
+    with _removed_if_left_empty(_log_folder(args)):
+        return _run_variants(program, variants, args, controllers)
+
+
+def _log_folder(args: argparse.Namespace) -> Path | None:
+    """The folder the command makes for its logs, if any (`-o` names a file in one that is)."""
+    if args.no_log or args.output is not None:
+        return None
+    return Path(args.out_dir) if args.out_dir is not None else DEFAULT_LOG_FOLDER
+
+
+@contextlib.contextmanager
+def _removed_if_left_empty(folder: Path | None) -> Iterator[None]:
+    """A folder this command makes and leaves empty (every run failed before its log was
+    written) is removed again: a failed command leaves nothing behind."""
+    made = folder is not None and not folder.exists()
+    try:
+        yield
+    finally:
+        if made and folder is not None:
+            with contextlib.suppress(OSError):  # not empty, or gone: left as it is
+                folder.rmdir()
+
+
+def _run_variants(program: Program, variants: list[str | None], args: argparse.Namespace,
+                  controllers: dict[str, type]) -> int:
+    """Run each variant in turn, its summary after it: 1 when any failed."""
+    from hubero_dsl.errors import SimulationError
+    from hubero_dsl.sweep.plan import variant_label
+
+    if args.out_dir is not None:
+        from hubero_dsl.log.writer import ensure_directory
+
+        ensure_directory(args.out_dir)
     failed = False
     for variant in variants:
         output = _log_path(args, variant)

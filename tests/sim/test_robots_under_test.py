@@ -285,6 +285,11 @@ def test_a_user_controller_that_raises_is_exit_1_not_an_internal_error(tmp_path:
     assert "robot 'r' at t = 0 s: its controller Broken raised RuntimeError: boom" in done.stderr
     assert "internal error" not in done.stderr and "Traceback" not in done.stderr
     assert not (tmp_path / "out.mcap").exists()
+    for where in ((), ("--out-dir", str(tmp_path / "logs"))):  # runs/, or the folder asked
+        again = _hubero("run", str(file), "--controller", "r=my_nav:Broken", *where,
+                        cwd=tmp_path, pythonpath=tmp_path)
+        assert again.returncode == 1, again.stderr
+    assert not (tmp_path / "runs").exists() and not (tmp_path / "logs").exists()
 
 
 def test_a_plugin_controller_registered_by_entry_point_runs(tmp_path: Path) -> None:
