@@ -7,6 +7,7 @@ written in (and their SI value), and nothing has been checked. The semantic pass
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from enum import StrEnum
 from typing import TypeAlias, TypeVar
@@ -50,8 +51,10 @@ class Quantity:
 
     @property
     def si(self) -> float:
-        """The value in SI units (m, s, m/s, rad)."""
-        return self.magnitude * UNITS[self.unit][1]
+        """The value in SI units (m, s, m/s, rad); NaN for an unknown unit, which the checker
+        reports (a program is lowered for its other errors all the same)."""
+        entry = UNITS.get(self.unit)
+        return self.magnitude * entry[1] if entry else math.nan
 
 
 @dataclass(frozen=True, slots=True)

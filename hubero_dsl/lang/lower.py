@@ -43,13 +43,15 @@ def area_polygon(value: ast.RectArea | ast.PolygonArea, places: Mapping[str, Pos
     """The polygon of a literal area (names inside must be places; checked before)."""
     from shapely.geometry import Polygon
 
+    corners = (value.corner_a, value.corner_b) if isinstance(value, ast.RectArea) \
+        else value.vertices
+    points = [fixed_point(v, places) or (0.0, 0.0) for v in corners]
+    if not all(math.isfinite(x) and math.isfinite(y) for x, y in points):
+        return Polygon()  # a coordinate of an unknown unit: the checker's error
     if isinstance(value, ast.RectArea):
-        a = fixed_point(value.corner_a, places) or (0.0, 0.0)
-        b = fixed_point(value.corner_b, places) or (0.0, 0.0)
-        (x0, x1), (y0, y1) = sorted((a[0], b[0])), sorted((a[1], b[1]))
+        (x0, x1), (y0, y1) = sorted(x for x, _ in points), sorted(y for _, y in points)
         return Polygon([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
-    vertices = [fixed_point(v, places) or (0.0, 0.0) for v in value.vertices]
-    return Polygon(vertices) if len(vertices) >= 3 else Polygon()  # fewer: the checker's error
+    return Polygon(points) if len(points) >= 3 else Polygon()  # fewer: the checker's error
 
 
 def named_areas(module: ast.Module, places: Mapping[str, Pose]) -> dict[str, Polygon]:

@@ -157,6 +157,11 @@ SINGLE = {
     "unknown unit": ("defaults { speed 5kg }", ("E202", 5, 18, 21)),
     "zero radius": ("defaults { radius 0 m }", ("E203", 5, 19, 22)),
     "a seed of 19 digits": ("seed 1234567890123456789", ("E203", 5, 6, 25)),
+    "an unknown unit glued to a task's time": (
+        "activity { actor1 stand for 5kg }", ("E202", 5, 29, 32)),
+    "an unknown unit glued to an area's corner": (
+        "activity { actor1 move_around in rect((1kg, 0), (2, 2)) for 2 s }",
+        ("E202", 5, 40, 43)),
     "another controller's parameter": (
         "robot r at (5.5, 1.0) { navigator.safety_margin 0.3 m }", ("E105", 5, 25, 48)),
     "a robot's goal its body does not fit at": (
