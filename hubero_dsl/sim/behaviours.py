@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from hubero_dsl.model.tasks import Target, Task
+from hubero_dsl.sim.physics import STILL
 from hubero_dsl.sim.status import Posture, TaskStatus
 
 if TYPE_CHECKING:
@@ -40,6 +41,7 @@ class World(Protocol):
 
     def ticks(self, seconds: float) -> int: ...
     def position_of(self, target: Target) -> tuple[float, float] | None: ...
+    def velocity_of(self, name: str) -> tuple[float, float]: ...
     def body_radius_of(self, name: str) -> float: ...
     def walking_speed(self, index: int, running: bool = False) -> float: ...
     def walk_to(self, index: int, goal: tuple[float, float], speed: float, stop_distance: float,
@@ -420,21 +422,37 @@ class Follow(Behaviour):
             return
         here = engine.humans.position[self.index]
         gap = float(np.hypot(where[0] - here[0], where[1] - here[1]))
-        if gap <= self.distance + engine.humans.goal_tolerance[self.index]:
-            self.state = "waiting"      # close enough: wait, facing the target
+        walking = math.hypot(*engine.velocity_of(self.target)) > STILL
+        if gap <= self.distance + engine.humans.goal_tolerance[self.index] and not walking:
+            self.state = "waiting"      # close to a target standing still: wait, facing it
             engine.halt(self.index)
             engine.face_point(self.index, where)
         else:
             self.state = "following"
-            reason = engine.walk_to(self.index, where, engine.walking_speed(self.index),
-                                    self.distance, abort=False)
+            reason = engine.walk_to(self.index, self._ahead(engine, where),
+                                    engine.walking_speed(self.index), self.distance, abort=False)
             if reason is not None:      # the target stands where we cannot go: wait
                 self.state = "waiting"
                 engine.halt(self.index)
-        replan = engine.ticks(float(engine.follow_replan[self.index]))
-        wake = engine.tick + max(1, replan)
+        # waiting, it looks again soon: a target that walks on is followed at once, not a
+        # re-plan later and as far behind as it walked meanwhile
+        again = FACE_REFRESH if self.state == "waiting" else float(
+            engine.follow_replan[self.index])
+        self._wake_in(engine, again)
+
+    def _wake_in(self, engine: World, seconds: float) -> None:
+        wake = engine.tick + max(1, engine.ticks(seconds))
         engine.set_timer_tick(self.index, wake if self.deadline is None
                               else min(wake, self.deadline))
+
+    def _ahead(self, engine: World, where: tuple[float, float]) -> tuple[float, float]:
+        """Where the target will be at the next re-plan, if it goes on as it goes (and a body
+        fits there): walking to where it was, one trails it by the distance it walks in
+        between, a metre at 1 m/s re-planned every second."""
+        vx, vy = engine.velocity_of(self.target)
+        lead = float(engine.follow_replan[self.index])
+        ahead = (where[0] + vx * lead, where[1] + vy * lead)
+        return ahead if engine.fits(self.index, ahead) else where
 
     def on_timer(self, engine: World) -> None:
         if self.deadline is not None and engine.tick >= self.deadline:
@@ -445,6 +463,7 @@ class Follow(Behaviour):
     def on_arrived(self, engine: World) -> None:
         self.state = "waiting"
         engine.halt(self.index)
+        self._wake_in(engine, FACE_REFRESH)
 
     def on_stuck(self, engine: World) -> None:
         self.state = "waiting"

@@ -139,6 +139,21 @@ class Engine:
             return (float(x), float(y))
         return self.robots.position_of(target)
 
+    def velocity_of(self, name: str) -> tuple[float, float]:
+        """How a human, a group (its members' mean) or a robot moves now; (0, 0) for anyone
+        else."""
+        row = self._row_of.get(name)
+        if row is not None and name not in self.removed:
+            vx, vy = self.humans.velocity[row].tolist()
+            return (vx, vy)
+        if name in self.groups:
+            vx, vy = self.humans.velocity[self.groups[name]].mean(axis=0)
+            return (float(vx), float(vy))
+        if name in self.robots.names:
+            vx, vy = self.robots.velocity[self.robots.names.index(name)]
+            return (float(vx), float(vy))
+        return (0.0, 0.0)
+
     def locator(self, target: tuple[float, float] | str
                 ) -> Callable[[], tuple[float, float] | None]:
         """`position_of(target)` as a function, a human's row found once (a condition asks

@@ -105,6 +105,23 @@ def test_follow_keeps_its_distance_and_waits_when_close(scenario: ScenarioFactor
     assert alice.velocity == (0.0, 0.0)
 
 
+@pytest.mark.parametrize("distance", [1.0, 2.0])
+def test_follow_keeps_near_its_distance_behind_a_walking_target(
+        scenario: ScenarioFactory, distance: float) -> None:
+    # walking to where the leader was, one re-plan ago, trailed it by a metre more at 1 m/s
+    sim = api_sim(scenario, "human alice at (1, 4) heading 0 deg\n"
+                            "human bob at (3, 4) heading 0 deg\n")
+    alice, bob = sim.human("alice"), sim.human("bob")
+    alice.follow("bob", distance=distance, duration=8.0)
+    bob.move_to((9.5, 4.0), speed=1.0)
+    gaps = []
+    while sim.time < 7.0:
+        sim.step()
+        if sim.time >= 3.0:  # under way
+            gaps.append(math.dist(alice.position, bob.position))
+    assert max(gaps) < distance + 0.8, (min(gaps), max(gaps))
+
+
 def test_follow_aborts_when_the_target_disappears(scenario: ScenarioFactory) -> None:
     sim = api_sim(scenario)
     follow = sim.human("alice").follow("bob", duration=20.0)
