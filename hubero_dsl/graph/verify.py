@@ -7,14 +7,16 @@ find what would make a scenario hang or fight over a human at run time:
 - E302 a human commanded by two steps of one activity that can run at the same time.
 - E303 `wait until L ...` where no step is labelled L.
 - E304 a wait that can never be satisfied: L can only start/finish after the wait has ended.
-- E305 a deadlock: waits across branches or activities that wait for each other (a cycle).
+- E305 a deadlock: waits across branches or activities that wait for each other (a cycle);
+  a task that ends only by its `until` waits as a `wait until` does.
 - E306 a task with no natural end and no `for`, `times`, `until` or `forever`.
 - E307 (warning) `forever` on a task that ends by itself.
 - E308 a `forever` task that blocks what follows: later steps, a `parallel`'s join, a repeat.
 - E309 a `repeat` count that is not a whole number of at least 1.
 - E310 a label defined twice (clashes with other kinds of names are the name checker's).
 - E311 an empty `parallel`/`race` or branch (an error for a race branch: it ends the race).
-- E312 `wait until L done` where L never finishes because a `forever` task holds it.
+- E312 `wait until L done` (or a task that ends only `until L done`) where L never finishes
+  because a `forever` task holds it.
 - E313 an `until` that can never hold while its task runs.
 
 Ordering is a happens-before relation on events: every node `n` has a start event `(n, "s")`
@@ -124,10 +126,20 @@ class _Context:
 
     def _wait_orders(self) -> Iterator[_Wait]:
         for accept in nodes_of_kind(self.graph, NodeKind.ACCEPT):
-            for condition in required_labels(self.graph.nodes[accept]["condition"]):
-                scope = self.scopes.get(condition.label.name)
-                if scope is not None:
-                    yield _Wait(accept, condition, scope, label_event(scope, condition.event))
+            yield from self._orders(accept, self.graph.nodes[accept]["condition"])
+
+    def until_orders(self) -> Iterator[_Wait]:
+        """What a task with no end but its `until` waits for, as a `wait until` does."""
+        for action in self.actions():
+            step: m.TaskStep = self.graph.nodes[action]["step"]
+            if step.until is not None and not ends_by_itself(step.task):
+                yield from self._orders(action, step.until)
+
+    def _orders(self, node: str, condition: Condition) -> Iterator[_Wait]:
+        for needed in required_labels(condition):
+            scope = self.scopes.get(needed.label.name)
+            if scope is not None:
+                yield _Wait(node, needed, scope, label_event(scope, needed.event))
 
     def structurally_after(self, first: Event, then: Event) -> bool:
         """`then` can only happen after `first`, by the flow of the activities alone."""
@@ -426,6 +438,13 @@ def _waits(context: _Context, never_done: dict[str, str],
             found.append(_waits_for_later(context, wait))
         else:
             possible.append(wait)
+    # a task that ends only by its `until` waits as a `wait until` does (E313 says when its
+    # label can only come after it)
+    for wait in context.until_orders():
+        if wait.condition.event is LabelEvent.DONE and wait.scope.label in never_done:
+            found.append(_never_done(context, wait, never_done[wait.scope.label]))
+        elif not context.structurally_after((wait.accept, "e"), wait.source):
+            possible.append(wait)
     return found + _deadlocks(context, possible)
 
 
@@ -442,8 +461,8 @@ def _unknown_labels(context: _Context) -> Iterator[Diagnostic]:
 def _never_done(context: _Context, wait: _Wait, forever: str) -> Diagnostic:
     graph = context.graph
     label = wait.scope.label
-    return error("E312", f"`wait until {label} done` never ends: {_quoted(graph, forever)} runs "
-                 f"forever, so `{label}` is never done", graph.nodes[wait.accept]["span"],
+    return error("E312", f"{_quoted(graph, wait.accept)} never ends: {_quoted(graph, forever)} "
+                 f"runs forever, so `{label}` is never done", graph.nodes[wait.accept]["span"],
                  f"bound the task with `for 10 s` or `until ...`, or wait for `{label} started`",
                  (Related("this task runs forever", graph.nodes[forever]["span"]),))
 
@@ -490,20 +509,25 @@ def _where(context: _Context, node: str, reference: str) -> str:
     return f"{line}, in {context.activity_name(data['activity'])}"
 
 
+def _waiter(graph: nx.DiGraph, node: str) -> str:
+    """What waits at `node`: a `wait until`, or a task that ends by its `until`."""
+    return "wait" if graph.nodes[node]["kind"] is NodeKind.ACCEPT else "step"
+
+
 def _deadlock(context: _Context, cycle: list[_Wait]) -> Diagnostic:
     """`cycle[0]` waits for a label that comes after `cycle[1]`, which waits for ... cycle[0]."""
     graph = context.graph
     steps = []
     for index, wait in enumerate(cycle):
         following = cycle[(index + 1) % len(cycle)]
-        where = "this wait"
+        where = f"this {_waiter(graph, cycle[0].accept)}"
         if following is not cycle[0]:
             place = _where(context, following.accept, cycle[0].accept)
             where = f"{_quoted(graph, following.accept)} ({place})"
         steps.append(f"needs `{wait.condition.text}`, which can only happen after "
                      f"{where}")
     message = (f"deadlock: {_quoted(graph, cycle[0].accept)} " + ", which ".join(steps))
-    related = tuple(Related(f"this wait is part of the cycle: it needs "
+    related = tuple(Related(f"this {_waiter(graph, w.accept)} is part of the cycle: it needs "
                             f"`{w.condition.text}`", graph.nodes[w.accept]["span"])
                     for w in cycle[1:])
     related += tuple(Related(f"`{w.scope.label}` is here", w.scope.ref.span) for w in cycle)
