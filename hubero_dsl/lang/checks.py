@@ -912,8 +912,9 @@ class Checker:
     def _bare_target(self, step: ast.TaskStep, kind: TaskKind) -> None:
         task = step.task
         if kind.target is not TargetRule.NONE and task.target is None:
-            self.report("E205", f"{task.kind} needs a target", task.kind_span,
-                        f"write `{step.human.name} {task.kind} PLACE` or a point `(x, y)`")
+            what = ("a human or robot: `{} {} NAME`" if kind.target is TargetRule.BODY
+                    else "`{} {} PLACE` or a point `(x, y)`").format(step.human.name, task.kind)
+            self.report("E205", f"{task.kind} needs a target", task.kind_span, f"write {what}")
         if task.target is None:
             return
         if kind.target is TargetRule.NONE:

@@ -341,7 +341,11 @@ class Posed(MoveTo):
             super().start(engine)
 
     def on_stuck(self, engine: World) -> None:
-        Behaviour.on_stuck(self, engine)  # a seat someone else takes is not taken beside it
+        # a seat someone else takes is not taken beside it: stuck, and who sits there said
+        blocker = engine.standing_at_goal(self.index)
+        taken = f", its goal taken by {blocker}" if blocker is not None else ""
+        engine.finish(self.index, TaskStatus.ABORTED,
+                      f"stuck: no progress for {engine.stuck_time:g} s{taken}")
 
     def on_held_at_goal(self, engine: World) -> None:
         Behaviour.on_held_at_goal(self, engine)  # a taken seat: its stuck time, as above

@@ -121,6 +121,13 @@ def test_a_crowd_where_one_body_is_meant_is_shown_the_form_for_many(check: Check
         assert (error.code, error.hint) == ("E103", hint)
 
 
+def test_a_task_without_its_target_is_shown_the_target_it_takes(check: Check) -> None:
+    (follow,) = check("activity { actor1 follow for 3 s }").errors
+    assert (follow.code, follow.hint) == ("E205", "write a human or robot: `actor1 follow NAME`")
+    (move,) = check("activity { actor1 move_to speed 1 m/s }").errors
+    assert move.hint == "write `actor1 move_to PLACE` or a point `(x, y)`"
+
+
 def test_a_body_too_large_says_which_variant_makes_it_so(check: Check) -> None:
     result = check("variant big { actor1.radius 1.5 m }\nactivity { actor1 stand for 1 s }")
     (error,) = result.errors
