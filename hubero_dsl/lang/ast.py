@@ -302,6 +302,8 @@ class TaskStep:
     forever: bool
     span: Span
     label: NameRef | None = None
+    # a modifier written again (`within 8 s within 1 s`): the later ones, reported by checks
+    repeated: tuple[tuple[str, Span], ...] = ()
 
 
 @dataclass(frozen=True, slots=True)

@@ -818,6 +818,9 @@ class Checker:
             self.symbols.resolve(step.human, NameKind.HUMAN, role=f"the subject of {task.kind}")
         self._bare_target(step, kind)
         self._task_options(step, kind)
+        for modifier, span in step.repeated:
+            self.report("E106", f"`{modifier}` is given twice", span,
+                        "keep one: a step has one `until`, one `within` and one `forever`")
         if step.until is not None:
             self._condition(step.until)
         if step.within is not None:

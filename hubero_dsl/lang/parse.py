@@ -542,9 +542,16 @@ class _ToAst(Transformer[Token, Any]):
 
     def task_step(self, meta: Any, children: list[Any]) -> ast.TaskStep:
         human, task, *modifiers = children
-        found = {kind: value for kind, value, _ in modifiers}
+        found: dict[str, Any] = {}
+        repeated = []
+        for kind, value, span in modifiers:
+            if kind in found:
+                repeated.append((kind, span))
+            else:
+                found[kind] = value
         return ast.TaskStep(self._name(human), task, found.get("until"), found.get("within"),
-                            bool(found.get("forever")), self._span(meta))
+                            bool(found.get("forever")), self._span(meta),
+                            repeated=tuple(repeated))
 
     def wait(self, meta: Any, children: list[Any]) -> ast.WaitStep:
         return ast.WaitStep(children[0], self._span(meta))

@@ -169,6 +169,8 @@ SINGLE = {
     "an unknown unit glued to an area's corner": (
         "activity { actor1 move_around in rect((1kg, 0), (2, 2)) for 2 s }",
         ("E202", 5, 40, 43)),
+    "a step's modifier given twice": (
+        "activity { actor1 move_to (5.5, 1.0) within 8 s within 1 s }", ("E106", 5, 49, 59)),
     "another controller's parameter": (
         "robot r at (5.5, 1.0) { navigator.safety_margin 0.3 m }", ("E105", 5, 25, 48)),
     "a robot's goal its body does not fit at": (
