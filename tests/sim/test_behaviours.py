@@ -256,7 +256,7 @@ def test_a_boxed_in_human_is_aborted_as_stuck(scenario: ScenarioFactory) -> None
     task = sim.human("alice").move_to((8.0, 0.5))
     sim.run_until(lambda: task.done, time_limit=60)
     assert task.status is TaskStatus.ABORTED
-    assert task.reason.startswith("stuck: no progress for 5 s, its goal taken by "), task.reason
+    assert task.reason.startswith("stuck")
 
 
 GROUP_AT_GOAL = """
@@ -303,7 +303,7 @@ def test_a_seat_someone_sits_on_is_not_taken_beside_them(scenario: ScenarioFacto
     task = sim.human("alice").sit_down(at=(5.0, 4.0), duration=10.0)
     sim.run_until(lambda: task.done, time_limit=60)
     assert task.status is TaskStatus.ABORTED
-    assert task.reason.startswith("stuck")
+    assert task.reason.startswith("stuck: no progress for 5 s, its goal taken by "), task.reason
 
 
 def _corridor(scenario: ScenarioFactory) -> Path:
