@@ -157,6 +157,7 @@ class Checker:
         self._unused()
         self._inert_planner_values()
         self._robot_tasks()
+        self._arrivals_measured()
         self._body_places()
         self._tick_count()
         self._flow_members()
@@ -886,6 +887,28 @@ class Checker:
             return points.get(target.span)
         pose = self.facts.places.get(target.name)
         return pose.xy if pose is not None else None
+
+    def _arrivals_measured(self) -> None:
+        """E103: `time_to_goal` of a body without a `goal` (a human, a robot without one): it
+        never arrives, so the expectation always fails (known once every robot is read)."""
+        goals = {robot.name: robot.goal for robot in self.facts.robots}
+        for expect in self.module.of_type(ast.ExpectDecl):
+            compare = expect.condition
+            if not isinstance(compare, ast.MetricCompare) \
+                    or compare.metric.name != "time_to_goal":
+                continue
+            name = compare.subject.name
+            kind = self.symbols.kind_of(name)
+            if (kind is NameKind.ROBOT and goals.get(name) is not None) or kind not in (
+                    NameKind.HUMAN, NameKind.ROBOT):
+                continue  # a robot with a goal, or a name already reported
+            what = f"robot '{name}' has no `goal`" if kind is NameKind.ROBOT else \
+                f"'{name}' is a human, and humans have no goal it measures"
+            self.report("E103", f"time_to_goal measures a robot's arrival at its `goal`: "
+                        f"{what}, so the expectation always fails", compare.subject.span,
+                        f"give the robot `goal P` in its block, or expect `{name} reaches P "
+                        "within Q`" if kind is NameKind.ROBOT
+                        else f"expect `{name} reaches P within Q` instead")
 
     def _robot_tasks(self) -> None:
         """E109: tasks given to a robot that drives a scripted path (known once every robot

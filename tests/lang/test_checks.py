@@ -171,6 +171,7 @@ SINGLE = {
         ("E202", 5, 40, 43)),
     "a step's modifier given twice": (
         "activity { actor1 move_to (5.5, 1.0) within 8 s within 1 s }", ("E106", 5, 49, 59)),
+    "a human's time to goal": ("expect time_to_goal(actor1) <= 60 s", ("E103", 5, 21, 27)),
     "another controller's parameter": (
         "robot r at (5.5, 1.0) { navigator.safety_margin 0.3 m }", ("E105", 5, 25, 48)),
     "a robot's goal its body does not fit at": (
