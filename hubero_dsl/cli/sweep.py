@@ -25,7 +25,6 @@ from typing import TYPE_CHECKING, Any
 
 from hubero_dsl.cli.main import EXIT_INTERRUPTED, EXIT_TERMINATED
 from hubero_dsl.cli.run import refuse_live
-from hubero_dsl.sweep.plan import variant_label
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -188,6 +187,8 @@ class _SweepProgress:
 
 
 def _problem_line(record: RunRecord) -> str:
+    from hubero_dsl.sweep.plan import variant_label
+
     name = _escape(variant_label(record.variant))
     if record.status == "completed":
         status, detail = "[yellow]expectations fail[/]", "; ".join(record.failed_expectations)
@@ -203,6 +204,7 @@ def _print_table(plan: SweepPlan, outcome: SweepOutcome) -> None:
     from rich.table import Table
 
     from hubero_dsl.cli.console import make_console
+    from hubero_dsl.sweep.plan import variant_label
 
     table = Table(title="sweep", title_justify="left", box=box.SIMPLE_HEAD)
     table.add_column("variant", overflow="fold")  # long sweep names wrap, never cut
