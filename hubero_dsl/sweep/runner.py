@@ -206,8 +206,11 @@ def _harvest(pending: dict[Future[RunRecord], int], records: dict[int, RunRecord
 
 def _drop_unrecorded_logs(tasks: list[RunTask], records: dict[int, RunRecord]) -> None:
     """A run stopped after its log was closed (while measuring it) has a log the index will
-    not name: remove it, so that the logs on disk are the index's."""
+    not name, and a worker stopped before its clean-up ran (killed after the grace time, or
+    stopped while it was opening its log) leaves a temporary file: remove both, so that the
+    logs on disk are the index's. The workers are stopped by now, so none is still writing."""
     for index, task in enumerate(tasks):
         if index not in records:
             with contextlib.suppress(OSError):
                 os.unlink(task.log_path)
+            _remove_temporary_logs(task)
