@@ -149,6 +149,13 @@ class Checker:
         self._reported.add((code, message, span))
         self.diagnostics.append(error(code, message, span, hint, related))
 
+    def warn(self, code: str, message: str, span: Span | None, hint: str | None = None) -> None:
+        """Add a warning, once, as `report` adds an error."""
+        if (code, message, span) in self._reported:
+            return
+        self._reported.add((code, message, span))
+        self.diagnostics.append(warning(code, message, span, hint))
+
     def run(self) -> Facts:
         self._structure()
         self._define_names()
@@ -818,14 +825,16 @@ class Checker:
             if self.symbols.kind_of(step.human.name) in (NameKind.CROWD, NameKind.GROUP) else \
             self.symbols.resolve(step.human, NameKind.HUMAN, role=f"the subject of {task.kind}")
         self._bare_target(step, kind)
-        self._task_options(step, kind)
+        lasts = self._task_options(step, kind)
         for modifier, span in step.repeated:
             self.report("E106", f"`{modifier}` is given twice", span,
                         "keep one: a step has one `until`, one `within` and one `forever`")
         if step.until is not None:
             self._condition(step.until)
         if step.within is not None:
-            self.values.quantity(step.within, Dimension.TIME, "'within'", positive=True)
+            deadline = self.values.quantity(step.within, Dimension.TIME, "'within'",
+                                            positive=True)
+            self._never_in_time(step, lasts, deadline)
         if human is not None and kind.target is TargetRule.BODY \
                 and isinstance(task.target, ast.NameRef) \
                 and self.symbols.kind_of(task.target.name) is NameKind.PLACE:
@@ -987,8 +996,20 @@ class Checker:
             return self.facts.groups[name]
         return next((crowd.members for crowd in self.facts.crowds if crowd.name == name), ())
 
-    def _task_options(self, step: ast.TaskStep, kind: TaskKind) -> None:
+    def _never_in_time(self, step: ast.TaskStep, lasts: float | None,
+                       deadline: float | None) -> None:
+        """A task that lasts longer than its `within` (and has no `until` to end it sooner) is
+        aborted on every run: say so."""
+        if lasts is not None and deadline is not None and lasts > deadline \
+                and step.until is None:
+            self.warn("W506", f"{step.task.kind} lasts at least {lasts:g} s (its `for`), so "
+                        f"`within {deadline:g} s` aborts it on every run", step.within.span,
+                        "give the task a shorter `for` or more time")
+
+    def _task_options(self, step: ast.TaskStep, kind: TaskKind) -> float | None:
+        """Check a task's options; the time its `for` gives it (None: no `for`)."""
         task = step.task
+        lasts: float | None = None
         seen: dict[str, ast.TaskOption] = {}
         for option in task.options:
             spec = kind.option(option.keyword)
@@ -1002,12 +1023,17 @@ class Checker:
                             (Related("first given here", seen[option.keyword].span),))
                 continue
             seen[option.keyword] = option
-            self._option_value(step, option, spec)
+            number = self._option_value(step, option, spec)
+            if option.keyword == "for":
+                lasts = number
         if "for" in seen and "times" in seen:
             self.report("E106", f"{task.kind} takes `for` or `times`, not both",
                         seen["times"].span)
+        return lasts
 
-    def _option_value(self, step: ast.TaskStep, option: ast.TaskOption, spec: OptionSpec) -> None:
+    def _option_value(self, step: ast.TaskStep, option: ast.TaskOption,
+                      spec: OptionSpec) -> float | None:
+        """Check an option's value; its SI number where it is a quantity."""
         value = option.value
         role = f"`{option.keyword}` of {step.task.kind}"
         if spec.value is ValueKind.TARGET:
@@ -1018,8 +1044,9 @@ class Checker:
         elif spec.value is ValueKind.COUNT:
             self.values.integer(value, role, minimum=1)  # type: ignore[arg-type]
         elif spec.value.dimension is not None:
-            self.values.quantity(value, spec.value.dimension, role,
-                                 positive=spec.value is not ValueKind.ANGLE)
+            return self.values.quantity(value, spec.value.dimension, role,  # type: ignore[arg-type]
+                                        positive=spec.value is not ValueKind.ANGLE)
+        return None
 
     # ---- conditions ------------------------------------------------------------------------
 

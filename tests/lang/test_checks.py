@@ -198,6 +198,8 @@ SINGLE = {
     "unknown task": ("activity { actor1 move_too (5.5, 1.0) }", ("E108", 5, 19, 27)),
     "k above the step's cap": ("defaults { social_force.k 1000 }", ("W106", 5, 27, 31)),
     "unused place": ("place sofa (5.5, 1.0)", ("W501", 5, 7, 11)),
+    "longer than its within": ("activity { actor1 talk for 5 s within 2 s }",
+                               ("W506", 5, 39, 42)),
     "a huge duration": ("activity { actor1 stand for 1e308 s }", ("E203", 5, 29, 36)),
     "a step too small": ("step 1e-12 s", ("E203", 5, 6, 13)),
     "a polygon of two corners": ("activity { actor1 move_around in polygon((0, 0), (1, 1)) "
@@ -209,6 +211,12 @@ def test_a_scenario_without_activities_is_warned_about(check: Check) -> None:
     assert codes(check("")) == ["W502"]
     assert "W502" in codes(check_source(ROOM + "activity { }", CASE_PATH))
     assert codes(check("activity { actor1 stand for 1 s }")) == []
+
+
+def test_a_task_that_may_end_in_time_is_no_warning(check: Check) -> None:
+    assert codes(check("activity { actor1 stand for 2 s within 2 s }")) == []
+    assert codes(check("activity { parallel { actor1 move_around for 9 s until t done "
+                       "within 2 s; t: actor2 stand for 1 s } }")) == []
 
 
 def test_k_within_the_cap_of_a_smaller_step_is_no_warning(check: Check) -> None:
