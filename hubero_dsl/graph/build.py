@@ -29,6 +29,9 @@ or `activity#N` for the N-th activity when it has none), `order` (N of the id), 
   and member nodes: `LABEL started` holds once a token enters the begin node, `LABEL done` once
   a token leaves the end node, `LABEL failed` once a member action is aborted.
 
+`signals` lists what each `wait until` and task `until` waits for (which node's start or end),
+for the renderings to draw; the executed graph has no edge for them.
+
 Empty `parallel`/`race` blocks and empty branches are rejected by the analyses
 (`hubero_dsl.graph.verify`); the graph still links them (fork straight to join).
 """
@@ -45,7 +48,7 @@ import networkx as nx
 
 from hubero_dsl.diagnostics import Span
 from hubero_dsl.model import activities as m
-from hubero_dsl.model.conditions import Label
+from hubero_dsl.model.conditions import Label, LabelCondition, LabelEvent, walk_conditions
 
 
 class NodeKind(StrEnum):
@@ -87,6 +90,16 @@ class LabelScope:
     begin: str
     end: str
     members: tuple[str, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Signal:
+    """A label's event that a `wait until` or a task's `until` waits for: `source` is the node
+    where the event happens (see `label_event`), `target` the node that waits."""
+
+    source: str
+    target: str
+    event: LabelEvent
 
 
 # A built piece of flow: (entry node, exit node), or None when it holds no node at all.
@@ -287,6 +300,33 @@ def label_scopes(graph: nx.DiGraph) -> dict[str, LabelScope]:
             members = tuple(f"{activity}/{n}" for n in range(first, last + 1))
             scopes[ref.name] = LabelScope(ref.name, ref, begin, end, members)
     return scopes
+
+
+def label_event(scope: LabelScope, event: LabelEvent) -> tuple[str, str]:
+    """The event, (node, "s" for its start | "e" for its end), after which `LABEL event`
+    holds (a composite step can fail from its start on)."""
+    if event is LabelEvent.STARTED:
+        return (scope.begin, "s")
+    if event is LabelEvent.FAILED and scope.begin != scope.end:
+        return (scope.begin, "s")
+    return (scope.end, "e")
+
+
+def signals(graph: nx.DiGraph) -> list[Signal]:
+    """Every label event a node waits for (`wait until`, a task's `until`), in source order of
+    the waiting node, each once; labels that are not defined (an error) give none."""
+    scopes = label_scopes(graph)
+    found: list[Signal] = []
+    for node in nodes_of_kind(graph, NodeKind.ACCEPT, NodeKind.ACTION):
+        data = graph.nodes[node]
+        condition = data["condition"] if data["kind"] is NodeKind.ACCEPT else data["until"]
+        for part in walk_conditions(condition) if condition is not None else ():
+            if not isinstance(part, LabelCondition) or part.label.name not in scopes:
+                continue
+            source, _ = label_event(scopes[part.label.name], part.event)
+            if (signal := Signal(source, node, part.event)) not in found:
+                found.append(signal)
+    return found
 
 
 def label_definitions(graph: nx.DiGraph) -> list[tuple[Label, str]]:

@@ -22,9 +22,11 @@ from hubero_dsl.graph.build import (
     FORK_KINDS,
     JOIN_KINDS,
     NodeKind,
+    Signal,
     branches_of,
     exit_successor,
     forward_graph,
+    signals,
 )
 from hubero_dsl.graph.render import _ordered_edges, _short_caption, describe_node
 
@@ -37,6 +39,8 @@ _WRAP = 34
 _MAX_PIXELS = 30_000
 _DIAMOND_INCHES = 0.12  # half the diagonal of a decision/merge rhombus
 _BAR_HEIGHT = 0.07 / ROW_INCHES  # a fork or join bar, in rows
+SIGNAL_COLOUR = "steelblue"  # the arrows from a label's event to who waits for it
+_SIGNAL_BEND = -0.25  # matplotlib's arc3 `rad`: to the left of the way the arrow goes
 
 
 def to_png(graph: nx.DiGraph, path: str | Path, *, dpi: int = 110) -> Path:
@@ -58,6 +62,8 @@ def to_png(graph: nx.DiGraph, path: str | Path, *, dpi: int = 110) -> Path:
             _draw_loop(axes, edge, positions, loops[edge])
         else:
             _draw_edge(axes, graph, edge, positions, patches)
+    for signal in signals(graph):
+        _draw_signal(axes, signal, positions, patches)
     for activity in graph.graph["activities"]:
         x, y = positions[f"{activity}/0"]
         axes.text(x, y + 0.35, activity, ha="center", va="bottom", fontsize=FONT_SIZE + 2,
@@ -247,6 +253,25 @@ def _draw_edge(axes: Axes, graph: nx.DiGraph, edge: tuple[str, str],
     axes.add_patch(FancyArrowPatch((x0, y0), (x1, y1), patchA=patch_a, patchB=patch_b,
                                    arrowstyle="-|>", mutation_scale=9, shrinkA=0, shrinkB=0,
                                    linewidth=0.8, color="#222", zorder=1))
+
+
+def _draw_signal(axes: Axes, signal: Signal, positions: dict[str, tuple[float, float]],
+                 patches: dict[str, Patch]) -> None:
+    """A dotted arc from where a label's event happens to the node waiting for it, its event
+    written at the middle; bent, so that it does not hide the flow between the two."""
+    (x0, y0), (x1, y1) = positions[signal.source], positions[signal.target]
+    axes.add_patch(FancyArrowPatch((x0, y0), (x1, y1), patchA=patches[signal.source],
+                                   patchB=patches[signal.target], arrowstyle="-|>",
+                                   connectionstyle=f"arc3,rad={_SIGNAL_BEND}", mutation_scale=9,
+                                   linewidth=0.8, linestyle=":", color=SIGNAL_COLOUR, zorder=2))
+    # the arc's middle: half its bend off the chord's middle, square to the chord in inches
+    # (matplotlib bends it on the page, where a column and a row differ in size)
+    across, down = (x1 - x0) * COLUMN_INCHES, (y1 - y0) * ROW_INCHES
+    middle = ((x0 + x1) / 2 + _SIGNAL_BEND / 2 * down / COLUMN_INCHES,
+              (y0 + y1) / 2 - _SIGNAL_BEND / 2 * across / ROW_INCHES)
+    axes.text(*middle, signal.event.value, ha="center", va="center",
+              fontsize=FONT_SIZE - 1, color=SIGNAL_COLOUR,
+              bbox={"boxstyle": "round,pad=0.15", "facecolor": "white", "edgecolor": "none"})
 
 
 def _extent(patch: Patch) -> Bbox:

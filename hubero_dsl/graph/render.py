@@ -3,7 +3,8 @@
 The texts are deterministic (nodes and edges in source order), so they serve as golden files.
 Shapes follow SysML activity diagrams: a filled circle starts an activity and a bull's eye ends
 it, bars fork and join, rhombi decide and merge (repeat), rounded boxes are actions, a notched
-box is an accept event (`wait until`) and a trapezium a time event (`wait Q`). The PNG needs no
+box is an accept event (`wait until`) and a trapezium a time event (`wait Q`); a dotted arrow
+runs from a label's event to each `wait until` or `until` waiting for it. The PNG needs no
 graphviz: nodes are laid out in layers (longest path from the start) and columns (one per
 branch), then drawn as matplotlib patches.
 
@@ -18,6 +19,7 @@ import networkx as nx
 from hubero_dsl.graph.build import (
     NodeKind,
     activity_nodes,
+    signals,
     successors_in_order,
 )
 
@@ -124,6 +126,9 @@ def to_mermaid(graph: nx.DiGraph) -> str:
             words = f"|{_mermaid_text(caption)}|" if caption else ""
             lines.append(f"        {ids[source]} {arrow}{words} {ids[target]}")
         lines.append("    end")
+    for signal in signals(graph):  # a wait's dotted arrow from the event it waits for
+        lines.append(f"    {ids[signal.source]} -.->|{_mermaid_text(signal.event.value)}| "
+                     f"{ids[signal.target]}")
     for name in sorted(by_class):
         lines.append(f"    classDef {name} {_MERMAID_CLASS_STYLES[name]}")
         lines.append(f"    class {','.join(by_class[name])} {name}")
@@ -184,5 +189,9 @@ def to_dot(graph: nx.DiGraph) -> str:
             suffix = f" [{', '.join(attrs)}]" if attrs else ""
             lines.append(f"        {_dot_quote(source)} -> {_dot_quote(target)}{suffix};")
         lines.append("    }")
+    for signal in signals(graph):  # dotted, and not ranked: the flow alone lays out the graph
+        lines.append(f"    {_dot_quote(signal.source)} -> {_dot_quote(signal.target)} "
+                     f"[style=dotted, color=steelblue, fontcolor=steelblue, constraint=false, "
+                     f"label={_dot_quote(signal.event.value)}];")
     lines.append("}")
     return "\n".join(lines) + "\n"

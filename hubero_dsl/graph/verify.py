@@ -45,6 +45,7 @@ from hubero_dsl.graph.build import (
     exit_successor,
     forward_graph,
     label_definitions,
+    label_event,
     label_scopes,
     node_sort_key,
     nodes_of_kind,
@@ -157,15 +158,6 @@ class _Context:
 
     def actions(self) -> list[str]:
         return nodes_of_kind(self.graph, NodeKind.ACTION)
-
-
-def label_event(scope: LabelScope, event: LabelEvent) -> Event:
-    """The event after which `LABEL event` holds (a composite step fails from its start on)."""
-    if event is LabelEvent.STARTED:
-        return (scope.begin, "s")
-    if event is LabelEvent.FAILED and scope.begin != scope.end:
-        return (scope.begin, "s")
-    return (scope.end, "e")
 
 
 def _structural_order(graph: nx.DiGraph) -> nx.DiGraph:

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from hubero_dsl.graph.build import build_activity_graph
+from hubero_dsl.graph.build import build_activity_graph, signals
 from hubero_dsl.graph.picture import layout, to_png
 from hubero_dsl.graph.render import describe_node, to_dot, to_mermaid
 from hubero_dsl.lang import ast
@@ -85,8 +85,10 @@ def test_mermaid_shapes(graph: nx.DiGraph) -> None:
     assert re.search(r"class [a-z0-9_,]*a1_4[a-z0-9_,]* bar", text)
 
 
-def test_mermaid_has_one_edge_line_per_edge(graph: nx.DiGraph) -> None:
-    assert len(re.findall(r" -(?:->|\.->)", to_mermaid(graph))) == graph.number_of_edges()
+def test_mermaid_has_one_edge_line_per_edge_and_per_signal(graph: nx.DiGraph) -> None:
+    assert len(signals(graph)) == 1              # `wait until invite done and ...`
+    assert len(re.findall(r" -(?:->|\.->)", to_mermaid(graph))) == \
+        graph.number_of_edges() + 1
 
 
 def test_dot_quotes_ids_and_escapes_labels(graph: nx.DiGraph) -> None:
@@ -96,7 +98,7 @@ def test_dot_quotes_ids_and_escapes_labels(graph: nx.DiGraph) -> None:
            'label="actor3 talk to \\"say \\\\\\"hi\\\\\\" #1\\" for 2 s"];' in text
     assert '"dinner/16" -> "dinner/14" [style=dashed, constraint=false, label="next round"];' \
         in text
-    assert text.count(" -> ") == graph.number_of_edges()
+    assert text.count(" -> ") == graph.number_of_edges() + len(signals(graph))
 
 
 @pytest.mark.skipif(shutil.which("dot") is None, reason="graphviz is not installed")
@@ -106,6 +108,39 @@ def test_dot_is_accepted_by_graphviz(graph: nx.DiGraph, tmp_path: Path) -> None:
     assert result.returncode == 0, result.stderr
     assert result.stderr == ""
     assert "actor3 talk to &quot;say \\&quot;hi\\&quot; #1&quot; for 2 s" in result.stdout
+
+
+WAITS_ACROSS = """\
+activity one {
+    arrive: a move_to (2.0, -2.8)
+    wait until back started
+}
+activity two {
+    wait until arrive done
+    back: { b move_to (0.6, -2.0); b stand for 1 s }
+    b move_around for 9 s until arrive done or back failed
+}
+"""
+
+
+def test_waits_are_drawn_from_the_event_they_wait_for() -> None:
+    graph = graph_of(WAITS_ACROSS)
+    found = {(s.source, s.target, s.event.value) for s in signals(graph)}
+    # move_to ends `arrive`; `back` starts at its begin node, and can fail from there on
+    assert found == {("one/1", "two/1", "done"), ("two/2", "one/2", "started"),
+                     ("one/1", "two/6", "done"), ("two/2", "two/6", "failed")}
+    mermaid = to_mermaid(graph)
+    assert '    a1_1 -.->|"done"| a2_1\n' in mermaid
+    assert '    a2_2 -.->|"started"| a1_2\n' in mermaid
+    assert '"one/1" -> "two/1" [style=dotted, color=steelblue, fontcolor=steelblue, ' \
+           'constraint=false, label="done"];' in to_dot(graph)
+
+
+def test_png_draws_the_waits(tmp_path: Path) -> None:
+    with Image.open(to_png(graph_of(WAITS_ACROSS), tmp_path / "g.png")) as image:
+        pixels = np.asarray(image.convert("RGB")).astype(int)
+    red, green, blue = pixels[..., 0], pixels[..., 1], pixels[..., 2]
+    assert ((blue - red > 60) & (blue > green)).sum() > 100   # steelblue arcs and words
 
 
 def test_renderings_are_deterministic() -> None:
