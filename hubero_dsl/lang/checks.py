@@ -1001,10 +1001,10 @@ class Checker:
         """A task that lasts longer than its `within` (and has no `until` to end it sooner) is
         aborted on every run: say so."""
         if lasts is not None and deadline is not None and lasts > deadline \
-                and step.until is None:
+                and step.until is None and step.within is not None:
             self.warn("W506", f"{step.task.kind} lasts at least {lasts:g} s (its `for`), so "
-                        f"`within {deadline:g} s` aborts it on every run", step.within.span,
-                        "give the task a shorter `for` or more time")
+                      f"`within {deadline:g} s` aborts it on every run", step.within.span,
+                      "give the task a shorter `for` or more time")
 
     def _task_options(self, step: ast.TaskStep, kind: TaskKind) -> float | None:
         """Check a task's options; the time its `for` gives it (None: no `for`)."""
@@ -1044,7 +1044,7 @@ class Checker:
         elif spec.value is ValueKind.COUNT:
             self.values.integer(value, role, minimum=1)  # type: ignore[arg-type]
         elif spec.value.dimension is not None:
-            return self.values.quantity(value, spec.value.dimension, role,  # type: ignore[arg-type]
+            return self.values.quantity(value, spec.value.dimension, role,
                                         positive=spec.value is not ValueKind.ANGLE)
         return None
 
