@@ -23,6 +23,8 @@ BoolArray = npt.NDArray[np.bool_]
 NO_GOAL = np.nan
 
 Sight = Callable[[FloatArray, FloatArray], BoolArray]  # where a wall hides `there` from `here`
+# where the straight way from `here` to `there` is clear for the bodies of rows `rows`
+WayClear = Callable[[FloatArray, FloatArray, IntArray], BoolArray]
 
 
 @dataclass(eq=False)
@@ -123,6 +125,19 @@ class PathPool:
                 return
             self.cursor[passing] += 1
             self.careful[passing] = False
+
+    def see_past(self, rows: IntArray, position: FloatArray, clear: WayClear) -> None:
+        """Move the cursors of `rows` past each waypoint whose next one they can walk to
+        straight from `position` (their rows of it; `clear(here, there, rows)` says where the
+        straight way is clear for their bodies): someone drawn off their plan by others (a
+        group keeping together) would otherwise turn back to a waypoint they left behind."""
+        for _ in range(4):  # a few passes skip several waypoints in one tick
+            rows = rows[self.end[rows] - self.cursor[rows] > 1]
+            if not rows.size:
+                return
+            rows = rows[clear(position[rows], self.points[self.cursor[rows] + 1], rows)]
+            self.cursor[rows] += 1
+            self.careful[rows] = False
 
     def retreat(self, rows: IntArray, position: FloatArray, hidden: Sight, reach: float
                 ) -> IntArray:

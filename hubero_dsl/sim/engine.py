@@ -46,6 +46,7 @@ ABREAST_CLOSE = 1.0     # s over which a lead is closed
 ABREAST_SLOWEST = 0.2   # of its desired speed, the slowest one waiting walks
 ABREAST_ROOM = 1.0      # m further on where there must still be room for two
 ABREAST_ONE_WAY = 0.8   # the mean of the members' unit ways at least this long: one way
+WAY_MARGIN = 0.1        # m off walls beyond the body, for a member to walk straight on
 
 
 @dataclass(frozen=True, slots=True)
@@ -263,6 +264,17 @@ class Engine:
         """Whether human `index`'s body fits at `point`, clear of walls."""
         return self.grid.clearance_at_point(*point) > float(self.humans.radius[index])
 
+    def _way_clear(self, here: FloatArray, there: FloatArray, rows: IntArray) -> BoolArray:
+        """Where the straight way from `here` to `there` keeps the bodies of humans `rows`
+        (each with its planning margin) off walls, sampled every half cell."""
+        fractions = np.asarray(self.grid.segment_fractions(
+            float(physics.lengths(there - here).max(initial=0.0))))
+        points = here[:, None, :] + (there - here)[:, None, :] * fractions[None, :, None]
+        clearance = self.grid.clearance_at(points.reshape(-1, 2)).reshape(len(rows), -1)
+        room = self.humans.radius[rows] + WAY_MARGIN
+        clear: BoolArray = np.all(clearance >= room[:, None], axis=1)
+        return clear
+
     def in_sight(self, a: tuple[float, float], b: tuple[float, float]) -> bool:
         """Whether no wall stands on the straight line from `a` to `b`."""
         return not bool(self.grid.crosses_obstacle(np.array([a]), np.array([b]))[0])
@@ -431,6 +443,8 @@ class Engine:
         if not len(rows):
             return None
         self.paths.advance(humans.position, LOOKAHEAD, self.grid.crosses_obstacle)
+        if self.groups:  # kept together, members leave their own plans' lines
+            self.paths.see_past(rows[humans.with_group[rows]], humans.position, self._way_clear)
         self.ways_round.look(rows)
         if self._only_local is not None:
             parts = [(self._only_local, rows)]

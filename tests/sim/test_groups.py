@@ -275,3 +275,22 @@ def test_a_group_sent_into_a_dead_end_queues_in_it_without_waiting_out_the_stuck
     assert sum(e.reason.startswith("stopped short") for e in done) == 2
     # within seconds of the first's arrival, not after the stuck time (20 s) each
     assert done[-1].time - done[0].time < 6.0, [(e.human, e.time) for e in done]
+
+
+STATION = Path(__file__).resolve().parents[2] / "maps" / "station.yaml"
+
+
+@pytest.mark.parametrize(("a", "b", "goal"), [
+    ((16.4, 11.6), (23.9, 11.4), (8.8, 6.0)),   # planned round a pillar on either side
+    ((2.0, 10.6), (15.3, 3.4), (25.7, 6.2)),
+])
+def test_a_group_drawn_off_its_plans_walks_on_instead_of_turning_back(
+        a: tuple[float, float], b: tuple[float, float], goal: tuple[float, float]) -> None:
+    # keeping together draws a member off its own plan's line, past a pillar its plan goes
+    # round on the other side: it walks on to the waypoint after, which it can see
+    sim, result = _run(STATION, f"time_limit 2 min\nhuman a at {a}\nhuman b at {b}\n"
+                                f"group pair of (a, b)\nactivity {{ pair move_to {goal} }}\n")
+    assert result.state.name == "COMPLETED", result.reason
+    ends = [sim.human(name).position for name in ("a", "b")]
+    assert all(math.dist(end, goal) < 1.0 for end in ends)
+    assert 0.5 < math.dist(*ends) < 1.0                  # side by side at the goal
