@@ -66,6 +66,7 @@ JOIN_SLACK = 1.0       # s beyond the walk to its place a member takes to reach 
 CIRCLE_GAP = 0.4       # m between neighbours' bodies on the circle
 CIRCLE_RADIUS = 0.6    # m: the smallest circle, two people about 1.2 m apart (personal distance)
 FORMED_DISTANCE = 0.4  # m from the centre at least, for a group already formed
+FORMED_SLACK = 0.6     # m beyond its talking circle at most, for a group already formed
 FORMED_GAP = math.radians(45.0)  # between neighbours' bearings from the centre, at least
 
 
@@ -186,7 +187,7 @@ class Talk(Stand):
         if rows is None or self.index not in rows:
             return None
         h = engine.humans
-        if in_formation(h.position[rows]):
+        if in_formation(h.position[rows], h.radius[rows]):
             return None  # already round their centre (as a scenario placed them): they face it
         places = talking_circle(h.position[rows], h.radius[rows])
         place = places[int(np.flatnonzero(rows == self.index)[0])]
@@ -210,13 +211,16 @@ class Talk(Stand):
         self._aim(engine)
 
 
-def in_formation(position: FloatArray) -> bool:
+def in_formation(position: FloatArray, radius: FloatArray) -> bool:
     """Whether people already stand round their centre, as in an F-formation, open or closed:
-    each some way from it, no one behind another (a line, or a group arrived abreast, is not:
+    each some way from it but near enough to talk (no farther than the circle they would
+    form, and a little), no one behind another (a line, or a group arrived abreast, is not:
     its middle stands on the centre, its ends in line)."""
     centre = position.mean(axis=0)
     offset = position - centre
-    if (np.hypot(offset[:, 0], offset[:, 1]) < FORMED_DISTANCE).any():
+    distance = np.hypot(offset[:, 0], offset[:, 1])
+    farthest = _circle_size(len(position), radius) + FORMED_SLACK
+    if (distance < FORMED_DISTANCE).any() or (distance > farthest).any():
         return False
     bearing = np.sort(np.arctan2(offset[:, 1], offset[:, 0]))
     gaps = np.diff(np.append(bearing, bearing[0] + 2.0 * math.pi))
@@ -233,12 +237,18 @@ def talking_circle(position: FloatArray, radius: FloatArray) -> list[tuple[float
     spread = 2.0 * math.pi * np.arange(count) / count
     turn = bearing[order] - spread  # the circle's turn that puts each exactly where it is
     start = math.atan2(float(np.sin(turn).mean()), float(np.cos(turn).mean()))
-    size = max(CIRCLE_RADIUS, (2.0 * float(radius.max()) + CIRCLE_GAP)
-               / (2.0 * math.sin(math.pi / count)))
+    size = _circle_size(count, radius)
     angle = np.empty(count)
     angle[order] = start + spread
     places = centre + size * np.column_stack([np.cos(angle), np.sin(angle)])
     return [(float(x), float(y)) for x, y in places]
+
+
+def _circle_size(count: int, radius: FloatArray) -> float:
+    """The radius of the talking circle of `count` people of body radii `radius`: CIRCLE_GAP
+    between neighbours' bodies, CIRCLE_RADIUS at least."""
+    return max(CIRCLE_RADIUS, (2.0 * float(radius.max()) + CIRCLE_GAP)
+               / (2.0 * math.sin(math.pi / count)))
 
 
 def _place_abreast(engine: World, group: str, index: int, goal: tuple[float, float]

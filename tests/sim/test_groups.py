@@ -184,6 +184,16 @@ def test_a_group_already_round_its_centre_keeps_its_places(room_map: Path) -> No
     assert sim.human("c").position == pytest.approx((5.57, 3.43), abs=1e-9)
 
 
+def test_a_group_standing_far_apart_closes_into_a_circle_to_talk(room_map: Path) -> None:
+    # round their centre, but 2.5 m from it: too far to talk; they step to a circle of 0.6 m
+    far = ("human a at (2.5, 4.0)\nhuman b at (6.25, 6.17)\nhuman c at (6.25, 1.83)\n"
+           "group g of (a, b, c)\nactivity { g talk for 8 s }\n")
+    sim, _ = _run(room_map, far)
+    places = np.array([sim.human(n).position for n in ("a", "b", "c")])
+    assert np.hypot(*(places - places.mean(axis=0)).T).max() < 0.8
+    assert _each_faces_the_centre(sim, ("a", "b", "c"))
+
+
 def test_a_member_whose_place_is_in_a_wall_talks_from_where_it_stands(
         room_map: Path) -> None:
     # two against the room's south wall (y = 0): the circle's places would be 0.6 m from
