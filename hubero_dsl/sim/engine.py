@@ -230,35 +230,52 @@ class Engine:
             behaviour.on_held_at_goal(self)
 
     def standing_at_goal(self, index: int) -> str | None:
-        """`standing_at` for walker `index` and its goal (None when it has none)."""
+        """`standing_at` for walker `index` and its goal (None when it has none), queues
+        behind those standing there included."""
         h = self.humans
         goal = h.goal[index]
         if not np.isfinite(goal).all():
             return None
         return self.standing_at((float(goal[0]), float(goal[1])), h.position[index],
-                                float(h.stop_distance[index]))
+                                float(h.stop_distance[index]), float(h.radius[index]))
 
-    def standing_at(self, goal: tuple[float, float], here: FloatArray,
-                    stop_distance: float) -> str | None:
-        """Who stands between a body at `here` and its `goal`, when the body is within
-        CROWDED_GOAL (beyond `stop_distance`) of it: the body standing still (a human not
-        walking, a robot at rest) nearest to the goal and nearer to it than `here`."""
+    def standing_at(self, goal: tuple[float, float], here: FloatArray, stop_distance: float,
+                    radius: float | None = None) -> str | None:
+        """Who stands between a body at `here` and its `goal`: within CROWDED_GOAL (beyond
+        `stop_distance`) of it, the body standing still (a human not walking, a robot at rest)
+        nearest to the goal and nearer to it than `here`; farther, given the body's `radius`,
+        the one it queues behind: nearer the goal, within QUEUE_GAP of it, and gathered round
+        the goal (`physics.gathered_round`)."""
         than = math.dist(here, goal)
-        if than > physics.CROWDED_GOAL + stop_distance:
+        queued = than > physics.CROWDED_GOAL + stop_distance
+        if queued and radius is None:
             return None
+        names, position, size, still = self._bodies_at_rest()
+        distance = physics.lengths(position - np.asarray(goal))
+        ahead = still & (distance < than)
+        if queued and ahead.any():
+            gap = physics.lengths(position - here) - size - (radius or 0.0)
+            ahead &= gap <= physics.QUEUE_GAP
+            if ahead.any():
+                ahead &= physics.gathered_round(goal, position, size, still)
+        rows = ahead.nonzero()[0]
+        if not len(rows):
+            return None
+        return names[int(rows[np.argmin(distance[rows])])]
+
+    def _bodies_at_rest(self) -> tuple[list[str], FloatArray, FloatArray, BoolArray]:
+        """Every body's name, position and radius, humans' then robots', and which stand still
+        (a human present and not walking, a robot at rest)."""
         h = self.humans
-        names, position, still = list(h.names), h.position, ~h.moving
+        names, position, radius, still = list(h.names), h.position, h.radius, ~h.moving
         if h.present is not None:
             still &= h.present
         if self.robots.count:
             names += self.robots.names
             position = np.concatenate([position, self.robots.position])
+            radius = np.concatenate([radius, self.robots.radius])
             still = np.concatenate([still, physics.lengths(self.robots.velocity) < physics.STILL])
-        distance = physics.lengths(position - np.asarray(goal))
-        ahead = (still & (distance < than)).nonzero()[0]
-        if not len(ahead):
-            return None
-        return names[int(ahead[np.argmin(distance[ahead])])]
+        return names, position, radius, still
 
     def fits(self, index: int, point: tuple[float, float]) -> bool:
         """Whether human `index`'s body fits at `point`, clear of walls."""

@@ -13,6 +13,8 @@ from typing import TYPE_CHECKING, overload
 
 import numpy as np
 import numpy.typing as npt
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from hubero_dsl.planners.neighbours import PairFinder
@@ -29,6 +31,7 @@ WALL_MARGIN = 0.02       # m of clearance a body centre keeps beyond "free"
 STILL = 0.1              # m/s below which a body counts as standing
 FEW_BODIES = 8           # up to this many, wall and overlap tests run in floats
 CROWDED_GOAL = 1.5       # m from a goal within which a stuck walker looks for who stands there
+QUEUE_GAP = 0.5          # m between bodies at most, of people queued one behind another
 
 
 class BodySeparation:
@@ -68,6 +71,28 @@ def any_overlap(position: list[Point], radius: list[float]) -> bool:
             if math.hypot(xi - xj, yi - yj) < ri + rj:
                 return True
     return False
+
+
+def gathered_round(goal: Point, position: FloatArray, radius: FloatArray,
+                   still: BoolArray) -> BoolArray:
+    """The bodies standing round `goal`: still ones within CROWDED_GOAL of it and, in turn,
+    still ones within QUEUE_GAP of one of those (a queue, the rings of a crowd gathered at a
+    point)."""
+    rows = still.nonzero()[0]
+    gathered = np.zeros(len(position), dtype=bool)
+    seeds = lengths(position[rows] - np.asarray(goal)) <= CROWDED_GOAL
+    if not seeds.any():
+        return gathered
+    where, size = position[rows], radius[rows]
+    pairs = cKDTree(where).query_pairs(r=2.0 * float(size.max()) + QUEUE_GAP,
+                                       output_type="ndarray")
+    gap = lengths(where[pairs[:, 0]] - where[pairs[:, 1]]) - size[pairs[:, 0]] - size[pairs[:, 1]]
+    pairs = pairs[gap <= QUEUE_GAP]
+    links = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
+                       shape=(len(rows), len(rows)))
+    _, part = connected_components(links, directed=False)
+    gathered[rows[np.isin(part, part[seeds])]] = True
+    return gathered
 
 
 def separate_bodies(position: FloatArray, radius: FloatArray, movable: BoolArray) -> FloatArray:

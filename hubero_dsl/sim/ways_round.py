@@ -34,8 +34,6 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 from scipy.spatial import cKDTree
 
-from hubero_dsl.sim import physics
-
 if TYPE_CHECKING:
     from hubero_dsl.sim.arrays import FloatArray, HumanArrays, IntArray, PathPool
     from hubero_dsl.world.grid import OccupancyGrid
@@ -97,14 +95,14 @@ class WaysRound:
 
     def _held_at_goals(self, rows: IntArray) -> IntArray:
         """Walkers among `rows` stalled for STALLED s near their goal with someone standing on
-        it are told so (a move_to stops short there); those still walking are returned."""
+        it, or queued behind those, are told so (a move_to stops short there); those still
+        walking are returned."""
         engine, humans = self.engine, self.engine.humans
         stalled = rows[engine.tick - engine.anchor_tick[rows] >= engine.ticks(STALLED)]
-        near = stalled[physics.lengths(humans.goal[stalled] - humans.position[stalled])
-                       <= physics.CROWDED_GOAL + humans.stop_distance[stalled]]
-        for index in near.tolist():
+        stalled = stalled[np.isfinite(humans.goal[stalled]).all(axis=1)]
+        for index in stalled.tolist():
             engine.hold_short(index)
-        return rows[humans.moving[rows]] if near.size else rows
+        return rows[humans.moving[rows]] if stalled.size else rows
 
     def _stalled_alone_by_walls(self, rows: IntArray) -> IntArray:
         """The walkers among `rows` who have made no progress for `STALLED` s within the

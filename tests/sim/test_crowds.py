@@ -184,3 +184,23 @@ def test_a_name_taken_by_a_crowds_member_says_whose_member(room_map: Path) -> No
     assert error.code == "E102"
     assert [note.message for note in error.related] == [
         "first defined here as a member of crowd 'c'"]
+
+
+STATION = Path(__file__).resolve().parents[2] / "maps" / "station.yaml"
+
+
+def test_a_crowd_sent_to_one_point_gathers_round_it_and_the_step_ends() -> None:
+    # twenty to one point: the first stand on it, the rest queue in rings behind them and
+    # stop there in turn, however far out the rings reach, instead of pushing until stuck
+    text = (f'scenario "gather"\nmap "{STATION}"\nseed 1\n'
+            "crowd tourists 20 in rect((0.5, 0.5), (29.5, 13.5))\n"
+            "activity { gather: tourists move_to (15.0, 7.0) }\n")
+    sim = Simulation(compile_source(text, "t.hub"))
+    result = run_program(sim)
+    assert result.state.name == "COMPLETED", result.reason
+    ends = {e.human: e for e in result.events if e.status.is_final}
+    assert {e.status for e in ends.values()} == {TaskStatus.SUCCEEDED}
+    short = [e for e in ends.values() if e.reason.startswith("stopped short of a goal taken")]
+    far = [name for name in ends if math.dist(sim.human(name).position, (15.0, 7.0)) > 1.8]
+    assert far and set(far) <= {e.human for e in short}   # the outer rings queued
+    assert all(math.dist(sim.human(name).position, (15.0, 7.0)) < 4.0 for name in ends)
