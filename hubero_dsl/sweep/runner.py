@@ -37,6 +37,9 @@ from hubero_dsl.sweep.worker import (
 )
 
 OnDone = Callable[[RunRecord], None]
+FRUITLESS_POOLS = 3  # fresh pools in a row, none of whose runs began, before giving up
+WORKERS_DIE = ("worker processes die as they start, pool after pool; a Python script that "
+               "starts a sweep must do so under `if __name__ == \"__main__\":`")
 
 
 @dataclass(frozen=True)
@@ -110,13 +113,19 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, executor: Executor, *,
         limit = window if window is not None else 2 * executor_slots(executor)
         queue: Iterator[tuple[int, RunTask]] = iter(enumerate(tasks))
         _submit(executor, queue, tasks, pending, collect, max(1, limit))
+        fruitless = 0  # pools in a row that broke before any of their runs began
         while pending:
             finished, _ = wait(pending, return_when=FIRST_COMPLETED)
-            if any(_broke_the_pool(future) for future in finished) and _renew(executor):
+            broke = any(_broke_the_pool(future) for future in finished)
+            if broke and fruitless >= FRUITLESS_POOLS:
+                _give_up(pending, queue, tasks, collect)
+                break
+            if broke and _renew(executor):
                 finished = set(wait(pending).done)  # every submitted run fails with the pool
                 unstarted = {f: pending.pop(f) for f in finished
                              if _broke_the_pool(f) and not _started(tasks[pending[f]])}
                 finished -= set(unstarted)  # they go again, first, in the fresh pool
+                fruitless = fruitless + 1 if not finished else 0
                 queue = itertools.chain(((i, tasks[i]) for i in sorted(unstarted.values())),
                                         queue)
             for future in sorted(finished, key=pending.__getitem__):
@@ -130,6 +139,19 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, executor: Executor, *,
         return SweepOutcome(tuple(records[i] for i in sorted(records)), complete=False,
                             terminated=isinstance(stop, Terminated))
     return SweepOutcome(tuple(records[i] for i in sorted(records)), complete=True)
+
+
+def _give_up(pending: dict[Future[RunRecord], int], queue: Iterator[tuple[int, RunTask]],
+             tasks: list[RunTask], collect: Callable[[int, RunRecord], None]) -> None:
+    """Record every run left as failed: worker processes die as they start, pool after pool
+    (a script that starts a sweep without `if __name__ == "__main__":` makes each worker
+    start it again), so a fresh pool would die too."""
+    wait(pending)
+    left = sorted([*pending.values(), *(index for index, _ in queue)])
+    pending.clear()
+    for index in left:
+        _remove_temporary_logs(tasks[index])
+        collect(index, error_record(tasks[index].variant, tasks[index].seed, WORKERS_DIE))
 
 
 def _submit(executor: Executor, queue: Iterator[tuple[int, RunTask]], tasks: list[RunTask],

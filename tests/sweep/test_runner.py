@@ -208,3 +208,39 @@ def test_a_worker_that_dies_fails_the_runs_in_flight_and_the_rest_go_on(
     assert 1 <= len(failed) <= 2 and all("the worker failed" in r.reason for r in failed)
     assert sum(r.status == "completed" for r in outcome.records) == 6 - len(failed)
     assert not list(out.rglob("*.part"))  # the dead worker's log is not left half written
+
+
+UNGUARDED_SCRIPT = """\
+import json
+from hubero_dsl.pipeline import compile_file
+from hubero_dsl.sweep.executors import open_executor
+from hubero_dsl.sweep.plan import plan_sweep
+from hubero_dsl.sweep.runner import prepare_out_dir, run_sweep
+
+program = compile_file({scenario!r})
+plan = plan_sweep({scenario!r}, program, list(program.variants), (1, 2))
+prepare_out_dir(plan, {out!r})
+with open_executor("process", jobs=2) as executor:
+    outcome = run_sweep(plan, {out!r}, executor)
+print(json.dumps([r.reason for r in outcome.records]))
+"""
+
+
+def test_a_script_without_a_main_guard_ends_with_a_reason_instead_of_restarting_for_ever(
+        write_scenario: Write, tmp_path: Path) -> None:
+    # each worker of a process pool imports the script that started it as `__mp_main__`:
+    # unguarded, it starts the sweep again and dies; pool after pool would die the same way
+    import subprocess
+    import sys
+
+    from hubero_dsl.sweep.runner import WORKERS_DIE
+
+    script = tmp_path / "sweep_script.py"
+    script.write_text(UNGUARDED_SCRIPT.format(scenario=str(write_scenario(OUTCOMES)),
+                                              out=str(tmp_path / "out")), encoding="utf-8")
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                          timeout=300, check=False, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr[-2000:]
+    reasons = json.loads(done.stdout.strip().splitlines()[-1])
+    assert reasons and set(reasons) == {WORKERS_DIE}
+    assert not [p for p in (tmp_path / "out").rglob("*") if p.name.endswith(".part")]
