@@ -39,4 +39,9 @@ def test_the_metrics_example_of_analysis_md_is_the_ellipse_runs(tmp_path: Path) 
     log = tmp_path / "ellipse.mcap"
     simulate(compile_file(ROOT / "scenarios" / "living_room.hub"), variant="ellipse", log=log,
              writer_process=False)
-    assert compute_metrics(load_run(log)).to_dict()["humans"]["actor2"] == shown
+    metrics = compute_metrics(load_run(log))
+    assert metrics.to_dict()["humans"]["actor2"] == shown
+    # and the Python example's comments above it
+    closest = metrics.humans["actor2"].min_distance["actor1"]
+    assert f'min_distance["actor1"]   # {closest:.6f}...' in page
+    assert f'"actor1.duration": {metrics.flat()["actor1.duration"]:g}, ...' in page
