@@ -145,12 +145,13 @@ class Lowering:
         lowered = self.step(replace(step, human=ast.NameRef(member, step.human.span),
                                     label=None))
         group = step.human.name
-        if not isinstance(lowered, m.TaskStep) or group not in self.walking_groups:
+        if not isinstance(lowered, m.TaskStep):
             return lowered
         task = lowered.task
+        walking = group in self.walking_groups
         if task.kind in ("move_to", "run_to"):  # side by side: `behaviours._place_abreast`
-            task = replace(task, group=group)
-        elif task.kind == "talk" and "to" not in task.arguments:
+            task = replace(task, group=group if walking else None, together=True)
+        elif walking and task.kind == "talk" and "to" not in task.arguments:
             task = replace(task, arguments={**task.arguments, "to": group})  # face its centre
         return replace(lowered, task=task)
 

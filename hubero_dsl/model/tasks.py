@@ -157,6 +157,9 @@ class Task:
     arguments: Mapping[str, Any] = field(default_factory=dict)
     span: Span | None = None
     group: str | None = None  # the group whose task this is, given to each of its members
+    # given to a crowd or group: its members go there together (`reaches` counts where a
+    # member's walk there succeeded, `Engine.arrived_together`)
+    together: bool = False
 
     @property
     def spec(self) -> TaskKind:

@@ -47,6 +47,7 @@ class World(Protocol):
     def walk_to(self, index: int, goal: tuple[float, float], speed: float, stop_distance: float,
                 *, abort: bool = True, with_group: bool = False) -> str | None: ...
     def standing_at_goal(self, index: int) -> str | None: ...
+    def arrived_together(self, index: int, goal: tuple[float, float]) -> None: ...
     def halt(self, index: int) -> None: ...
     def face(self, index: int, heading: float) -> None: ...
     def face_point(self, index: int, point: tuple[float, float]) -> None: ...
@@ -278,13 +279,15 @@ class MoveTo(Behaviour):
     kind = "move_to"
 
     def __init__(self, target: Target, heading: float | None = None, speed: float | None = None,
-                 running: bool = False, group: str | None = None) -> None:
+                 running: bool = False, group: str | None = None,
+                 together: bool = False) -> None:
         super().__init__()
         self.target = target
         self.heading = heading
         self.speed = speed
         self.running = running
         self.group = group  # the group whose task this is: its members walk together
+        self.together = together  # a crowd's or group's task: the others go there too
 
     def start(self, engine: World) -> None:
         goal = engine.position_of(self.target)
@@ -306,13 +309,19 @@ class MoveTo(Behaviour):
 
     def on_arrived(self, engine: World) -> None:
         if self.heading is None:
-            engine.finish(self.index, TaskStatus.SUCCEEDED)
+            self._succeed(engine)
             return
         self.state = "aligning"
         engine.face(self.index, self.heading)
 
     def on_aligned(self, engine: World) -> None:
-        engine.finish(self.index, TaskStatus.SUCCEEDED)
+        self._succeed(engine)
+
+    def _succeed(self, engine: World, reason: str = "") -> None:
+        """The walk ends here; one of many sent to a point has reached it where it stops."""
+        if self.together and not isinstance(self.target, str):
+            engine.arrived_together(self.index, self.target)
+        engine.finish(self.index, TaskStatus.SUCCEEDED, reason)
 
     def on_held_at_goal(self, engine: World) -> None:
         # queued behind those standing on the goal: stop there, not after the stuck time
@@ -325,8 +334,7 @@ class MoveTo(Behaviour):
         if blocker is None:
             super().on_stuck(engine)
         elif self.heading is None:
-            engine.finish(self.index, TaskStatus.SUCCEEDED,
-                          f"stopped short of a goal taken by {blocker}")
+            self._succeed(engine, f"stopped short of a goal taken by {blocker}")
         else:
             engine.halt(self.index)
             self.on_arrived(engine)
@@ -517,14 +525,14 @@ def _stand(task: Task) -> Behaviour:
 def _move_to(task: Task) -> Behaviour:
     assert task.target is not None
     return MoveTo(task.target, task.get("heading"), task.get("speed"),
-                  group=task.group)
+                  group=task.group, together=task.together)
 
 
 @builds("run_to")
 def _run_to(task: Task) -> Behaviour:
     assert task.target is not None
     behaviour = MoveTo(task.target, task.get("heading"), running=True,
-                       group=task.group)
+                       group=task.group, together=task.together)
     behaviour.kind = "run_to"
     return behaviour
 

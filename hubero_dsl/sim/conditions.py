@@ -76,8 +76,9 @@ class Conditions:
                 name, book = label.name, self.labels.book(event)
                 return lambda: name in book
             case c.Reaches(subject=subject, target=target):
-                return self._within(subject, target, operator.le,
+                near = self._within(subject, target, operator.le,
                                     self.engine.goal_tolerance_of(subject) + GOAL_SLACK)
+                return self._or_arrived_together(subject, target, near)
             case c.FlowReaches(flow=flow, target=target, every=every):
                 return self._flow_reaches(flow, target, every)
             case c.DistanceTo(subject=subject, target=target, operator=op, threshold=threshold):
@@ -117,6 +118,17 @@ class Conditions:
             return a is not None and b is not None and compare(
                 math.hypot(b[0] - a[0], b[1] - a[1]), bound)
         return holds
+
+    def _or_arrived_together(self, subject: str, target: Target,
+                             near: Callable[[], bool]) -> Callable[[], bool]:
+        """`near`, or: `subject` was sent to the point `target` with its crowd or group and
+        its walk there succeeded (`Engine.arrived_together`): many cannot all stand on one
+        point."""
+        engine = self.engine
+        if isinstance(target, str) or subject not in engine.humans.names:
+            return near
+        row = engine.index_of(subject)
+        return lambda: near() or engine.together_at.get(row) == target
 
     def _flow_reaches(self, flow: str, target: Target, every: bool) -> Callable[[], bool]:
         """Whether all (`every`) or any of the people `flow` has brought are, or left the

@@ -46,6 +46,7 @@ ABREAST_CLOSE = 1.0     # s over which a lead is closed
 ABREAST_SLOWEST = 0.2   # of its desired speed, the slowest one waiting walks
 ABREAST_ROOM = 1.0      # m further on where there must still be room for two
 ABREAST_ONE_WAY = 0.8   # the mean of the members' unit ways at least this long: one way
+STAYING_TASKS = frozenset({"stand", "talk"})  # tasks after which one is still where one arrived
 WAY_MARGIN = 0.1        # m off walls beyond the body, for a member to walk straight on
 
 
@@ -109,6 +110,10 @@ class Engine:
         self.listeners: list[Callable[[TaskEvent], None]] = []
         self._goal_cells: dict[tuple[int, bytes], IntArray] = {}
         self.removed: set[str] = set()
+        # a crowd's or group's member -> the point they were sent to together, where its walk
+        # succeeded: it counts as having reached it (conditions' `reaches`) until it is given
+        # a task that is neither `stand` nor `talk`
+        self.together_at: dict[int, tuple[float, float]] = {}
         self.ways_round = WaysRound(self, LOOKAHEAD)  # for walkers held up near walls
         self._row_of = {name: row for row, name in enumerate(humans.names)}
 
@@ -277,6 +282,11 @@ class Engine:
             still = np.concatenate([still, physics.lengths(self.robots.velocity) < physics.STILL])
         return names, position, radius, still
 
+    def arrived_together(self, index: int, goal: tuple[float, float]) -> None:
+        """Human `index`, sent to `goal` with its crowd or group, stopped where the others let
+        it (its place abreast, short of those standing there): it has reached `goal`."""
+        self.together_at[index] = goal
+
     def fits(self, index: int, point: tuple[float, float]) -> bool:
         """Whether human `index`'s body fits at `point`, clear of walls."""
         return self.grid.clearance_at_point(*point) > float(self.humans.radius[index])
@@ -383,6 +393,8 @@ class Engine:
             self.finish(index, TaskStatus.PREEMPTED, f"replaced by {handle.kind}")
         if not behaviour.keeps_posture:
             self.humans.posture[index] = Posture.STANDING
+        if behaviour.kind not in STAYING_TASKS:
+            self.together_at.pop(index, None)
         behaviour.index = index
         self.behaviour[index] = behaviour
         self.handle[index] = handle

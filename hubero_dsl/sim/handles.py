@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -59,7 +60,7 @@ class _Actor:
         target = self._task_target(kind, task.target)
         arguments = {name: self._argument(kind, name, value)
                      for name, value in task.arguments.items()}
-        resolved = Task(kind.name, target, arguments, task.span, task.group)
+        resolved = replace(task, kind=kind.name, target=target, arguments=arguments)
         handle = TaskHandle(next(self._ids), self.name, kind.name,
                             kind.describe(task.target, task.arguments), task.span)
         handle._cancel = self._engine.cancel

@@ -304,3 +304,21 @@ def test_a_group_drawn_off_its_plans_walks_on_instead_of_turning_back(
     ends = [sim.human(name).position for name in ("a", "b")]
     assert all(math.dist(end, goal) < 1.0 for end in ends)
     assert 0.5 < math.dist(*ends) < 1.0                  # side by side at the goal
+
+
+def test_all_of_a_group_reach_the_point_it_was_sent_to_though_they_stand_abreast() -> None:
+    # side by side at the point, neither stands on it: both have reached it as a group can,
+    # and stay there as they talk; the guard waiting for them goes
+    sim, result = _run(STATION, """time_limit 3 min
+human ann at (2.0, 7.0)
+human bob at (2.0, 8.0)
+human guard at (20.0, 12.0)
+group pair of (ann, bob)
+activity { pair move_to (10.0, 7.0); pair talk for 3 s }
+activity { wait until all pair reach (10.0, 7.0); guard move_to (25.0, 12.0) }
+expect any pair reaches (10.0, 7.0) eventually
+expect bob reaches (10.0, 7.0) eventually
+""")
+    assert result.state.name == "COMPLETED", result.reason
+    assert all(e.held for e in result.expectations)
+    assert min(math.dist(sim.human(n).position, (10.0, 7.0)) for n in ("ann", "bob")) > 0.25
