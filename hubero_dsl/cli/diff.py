@@ -85,6 +85,10 @@ def _pair(args: argparse.Namespace) -> int:
     from hubero_dsl.log.reader import load_run
 
     a, b = load_run(args.first), load_run(args.second)
+    if args.plot is not None:  # nor over the scenarios or maps they were run from
+        from hubero_dsl.cli.outputs import refuse_run_inputs
+
+        refuse_run_inputs(args.plot, a, b)
     diff = diff_runs(a, b, epsilon=args.epsilon)
     humans = _chosen(_expanded(args.human, a.metadata.members), sorted(diff.humans), diff.sets)
     if args.plot is not None:

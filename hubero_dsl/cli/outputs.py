@@ -7,6 +7,10 @@ import argparse
 import os
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from hubero_dsl.log.reader import LoggedRun
 
 
 def output_file(*suffixes: str) -> Callable[[str], Path]:
@@ -32,6 +36,25 @@ def named_file(text: str) -> Path:
 PNG = output_file(".png")
 GIF = output_file(".gif")
 YAML = output_file(".yaml", ".yml")
+
+
+def refuse_run_inputs(path: Path, *runs: LoggedRun) -> None:
+    """Refuse (InputError) to write over a file that holds the same bytes as one a run was
+    made from (its scenario, its map's YAML or image): a log names them but not where they
+    lie, so a picture named like the map's image (`room.png` beside `room.mcap`) is caught
+    by what it holds."""
+    import hashlib
+
+    from hubero_dsl.errors import InputError
+
+    digests = frozenset().union(*(run.metadata.input_sha256 for run in runs))
+    try:
+        held = hashlib.sha256(path.read_bytes()).hexdigest() if path.is_file() else None
+    except OSError:
+        return  # unreadable: writing it fails with its own message
+    if held in digests:
+        raise InputError(f"{path}: cannot be written (it holds the scenario or map a run "
+                         "it draws was made from)")
 
 
 def check_picture(path: Path, reads: tuple[Path, ...] = ()) -> None:

@@ -44,7 +44,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hubero_dsl.cli.outputs import check_picture
+    from hubero_dsl.cli.outputs import check_picture, refuse_run_inputs
     from hubero_dsl.errors import InputError
 
     defaulted = args.output is None and args.animate is None
@@ -65,6 +65,9 @@ def run(args: argparse.Namespace) -> int:
     from hubero_dsl.log.reader import load_run
 
     logged = load_run(args.log)
+    for out in (args.output, args.animate):  # nor over the scenario or map it was run from
+        if out is not None:
+            refuse_run_inputs(out, logged)
     if args.output is not None:
         from hubero_dsl.analysis.plot import plot_run
 

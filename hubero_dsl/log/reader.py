@@ -71,6 +71,9 @@ class RunMetadata:
     # per robot, its resolved parameters (radius, goal, goal_tolerance, limits, controller);
     # empty in logs written before robots' parameters were recorded
     robot_params: dict[str, dict[str, Any]] = field(default_factory=dict)
+    # the SHA-256 of the files the run was made from (scenario, map YAML, map image): what
+    # no output made from the log may be written over, wherever they lie now
+    input_sha256: frozenset[str] = frozenset()
 
     def robot_goal(self, robot: str) -> tuple[tuple[float, float] | None, float]:
         """The robot's declared goal (None without one) and how near counts as reaching it."""
@@ -268,6 +271,9 @@ def _unpacked_size(chunk: Chunk) -> int:
     return int(chunk.uncompressed_size)
 
 
+INPUT_DIGESTS = ("source_sha256", "map_sha256", "map_image_sha256")
+
+
 def _metadata(values: dict[str, str], attachments: dict[str, bytes]) -> RunMetadata:
     names = _json(values["attachments"])
     source = attachments.get(names["source"], b"").decode("utf-8")
@@ -279,6 +285,7 @@ def _metadata(values: dict[str, str], attachments: dict[str, bytes]) -> RunMetad
         format_version=int(values["format_version"]), hubero_version=values["hubero_version"],
         title=values["title"], source_path=values["source_path"],
         source_sha256=values["source_sha256"], source=source, map_path=values["map_path"],
+        input_sha256=frozenset(values[key] for key in INPUT_DIGESTS if key in values),
         seed=int(values["seed"]), variant=values["variant"] or None,
         variants=tuple(_json(values["variants"])), params=params,
         step=float(values["step"]), time_limit=float(values["time_limit"]),

@@ -79,3 +79,20 @@ def test_bench_never_writes_over_a_scenarios_map_image(cli: Callable[..., Outcom
     outcome = cli("bench", str(tmp_path), "-o", str(tmp_path), "--seeds", "1")
     assert outcome.status == 2 and "room.png" in outcome.err
     assert kept()
+
+
+def test_plot_and_diff_never_draw_over_the_map_image_the_run_was_made_from(
+        cli: Callable[..., Outcome], tmp_path: Path) -> None:
+    # the log `room.mcap` beside `room.png`: `plot` alone would name its picture room.png
+    scenario = _png_map(tmp_path)
+    log = tmp_path / "room.mcap"
+    assert cli("run", str(scenario), "-o", str(log), "-q").status == 0
+    kept = _unchanged(tmp_path)
+    image = str(tmp_path / "room.png")
+    for argv in (("plot", str(log)), ("plot", str(log), "-o", image),
+                 ("diff", str(log), str(log), "--plot", image)):
+        outcome = cli(*argv)
+        assert outcome.status == 2 and "room.png: cannot be written" in outcome.err, argv
+        assert "holds the scenario or map" in outcome.err or "input of" in outcome.err
+    assert kept()
+    assert cli("plot", str(log), "-o", str(tmp_path / "picture.png")).status == 0
