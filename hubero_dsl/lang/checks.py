@@ -29,7 +29,7 @@ from hubero_dsl.model.program import (
     flow_bound,
 )
 from hubero_dsl.model.tasks import TASKS, OptionSpec, TargetRule, TaskKind, ValueKind
-from hubero_dsl.model.units import Dimension, dimension_named
+from hubero_dsl.model.units import LARGEST, Dimension, dimension_named
 from hubero_dsl.planners.registry import global_planner_names, local_planner_names
 
 BODIES = (NameKind.HUMAN, NameKind.ROBOT)
@@ -760,9 +760,19 @@ class Checker:
         return (x, y)
 
     def _coordinate(self, value: ast.Coordinate) -> float | None:
-        if isinstance(value, ast.Number):
-            return coordinate(value)
-        return self.values.quantity(value, Dimension.LENGTH, "a coordinate")
+        """A coordinate in metres, a bare number or a length: finite and within LARGEST."""
+        if not isinstance(value, ast.Number):
+            return self.values.quantity(value, Dimension.LENGTH, "a coordinate")
+        number = coordinate(value)
+        farthest = LARGEST[Dimension.LENGTH]
+        if not math.isfinite(number):
+            self.report("E203", "a coordinate must be a finite number", value.span)
+        elif abs(number) > farthest:
+            self.report("E203", f"a coordinate is {number:g} m; the farthest it may be is "
+                        f"{farthest:g} m", value.span)
+        else:
+            return number
+        return None
 
     def _target(self, value: ast.Value, role: str) -> None:
         """A task target: a point, a place, or a human/robot (its position at the time)."""

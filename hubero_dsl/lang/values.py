@@ -61,7 +61,7 @@ def _range_problem(spec: ParamSpec, number: float) -> str | None:
 def _shown_as_written(value: object, dimension: Dimension) -> Callable[[float], str]:
     """SI values shown in the unit `value` was written in (`1001 /s` stays per second), else
     in the examples' unit."""
-    if isinstance(value, ast.Quantity) and value.known_unit and dimension is not Dimension.ANGLE:
+    if isinstance(value, ast.Quantity) and value.known_unit:
         unit, factor = value.unit, UNITS[value.unit][1]
         return lambda number: f"{number / factor:g} {unit}"
     return lambda number: format_si(number, dimension)

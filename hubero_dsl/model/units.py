@@ -22,7 +22,8 @@ class Dimension(StrEnum):
 # The largest magnitude a value of these dimensions may have in a scenario: beyond it a number
 # describes nothing physical, and would overflow tick counts and floating-point arithmetic.
 LARGEST: dict[Dimension, float] = {Dimension.TIME: 1e6, Dimension.LENGTH: 1e5,
-                                   Dimension.SPEED: 100.0, Dimension.RATE: 1000.0}
+                                   Dimension.SPEED: 100.0, Dimension.RATE: 1000.0,
+                                   Dimension.ANGLE: 1e4}  # rad: some 1,600 turns
 
 # unit -> (dimension, factor to SI)
 UNITS: dict[str, tuple[Dimension, float]] = {
