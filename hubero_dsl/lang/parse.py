@@ -360,7 +360,7 @@ def _heading_in(rest: list[Any]) -> Any:
     return next((r.value for r in rest if isinstance(r, _Heading)), None)
 
 
-_QUANTITY = re.compile(r"(-?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)[ \t]*(.+)")
+_QUANTITY = re.compile(r"(-?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?)[ \t]*(.+)")
 
 
 @v_args(meta=True)

@@ -202,6 +202,8 @@ SINGLE = {
                                ("W506", 5, 39, 42)),
     "a huge duration": ("activity { actor1 stand for 1e308 s }", ("E203", 5, 29, 36)),
     "a step too small": ("step 1e-12 s", ("E203", 5, 6, 13)),
+    "a digit of another script": ("activity { actor1 move_to (\u0669\u0669, 1.0) }",
+                                  ("E002", 5, 28, 29)),
     "an infinite coordinate": ("activity { actor1 move_to (1e999, 1.0) }", ("E203", 5, 28, 33)),
     "a coordinate too far": ("activity { actor1 move_to (2e5, 1.0) }", ("E203", 5, 28, 31)),
     "a heading of turns past counting": ("activity { actor1 move_to (5.5, 1.0) heading 1e17 rad }",
