@@ -49,11 +49,10 @@ def run(args: argparse.Namespace) -> int:
         run_bench,
         write_tables,
     )
-    from hubero_dsl.sweep.executors import available_cores, open_executor
+    from hubero_dsl.sweep.executors import available_cores, check_jobs, open_executor
     from hubero_dsl.sweep.plan import parse_seeds, variant_label
 
-    if args.jobs is not None and args.jobs < 1:
-        raise InputError(f"--jobs must be at least 1, got {args.jobs}")
+    check_jobs(args.jobs)
     seeds = parse_seeds(args.seeds) if args.seeds is not None else ()
     scenarios = find_suite(args.folder)
     controllers = handed_controllers(args)

@@ -37,7 +37,6 @@ if TYPE_CHECKING:
 DEFAULT_TRAIN = ("uo-050-180-180", "uo-145-180-180", "uo-180-180-120")
 DEFAULT_TEST = ("uo-100-180-180", "uo-180-180-070")
 MAX_EVALUATIONS = 10_000
-MAX_JOBS = 256  # worker processes: each holds a rebuild and PedPy (about 200 MB)
 MAX_SEEDS = 100
 
 
@@ -97,14 +96,14 @@ def _progress(evaluation: int, error: float) -> None:
 def run(args: argparse.Namespace) -> int:
     from hubero_dsl.errors import InputError
     from hubero_dsl.files import check_output
+    from hubero_dsl.sweep.executors import check_jobs
     from hubero_dsl.validation.experiments import experiment_for, pedpy, shipped_path
 
     if not 1 <= args.evaluations <= MAX_EVALUATIONS:
         raise InputError(f"--evaluations must be from 1 to {MAX_EVALUATIONS}, "
                          f"got {args.evaluations}")
     check_seeds(args.seed, args.seeds)
-    if args.jobs is not None and not 1 <= args.jobs <= MAX_JOBS:
-        raise InputError(f"--jobs must be from 1 to {MAX_JOBS}, got {args.jobs}")
+    check_jobs(args.jobs)
     train = args.train or [shipped_path(n) for n in DEFAULT_TRAIN]
     test = args.test if args.test is not None else (
         [] if args.train else [shipped_path(n) for n in DEFAULT_TEST])

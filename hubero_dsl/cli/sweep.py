@@ -84,9 +84,9 @@ def run(args: argparse.Namespace) -> int:
 
 def _check_options(args: argparse.Namespace) -> None:
     from hubero_dsl.errors import InputError
+    from hubero_dsl.sweep.executors import check_jobs
 
-    if args.jobs is not None and args.jobs < 1:
-        raise InputError(f"--jobs must be at least 1, got {args.jobs}")
+    check_jobs(args.jobs)
     if args.jobs is not None and args.executor != "process":
         raise InputError(f"--jobs is for --executor process, not {args.executor}")
     if args.executor == "dask" and not args.scheduler:

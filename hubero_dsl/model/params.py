@@ -43,6 +43,10 @@ def _q(name: str, dim: Dimension, default: float, doc: str, *, maximum: float = 
 # no seed anyone means (and int() of thousands of digits raises).
 SEED_DIGITS = 18
 
+# m: a person this far pushes with a force that decays over tenths of a metre (social force's
+# B), so nothing measurable, while a crowd's pairs within the range grow with its square
+INTERACTION_RANGE_MAX = 10.0
+
 # How a human reacts to robots, as HuNavSim's agents do (docs/language.md, "Robot reactions").
 REACTIONS = ("regular", "impassive", "surprised", "curious", "scared", "threatening")
 
@@ -61,7 +65,8 @@ HUMAN_PARAMS: dict[str, ParamSpec] = {spec.name: spec for spec in (
        positive=False),
     _q("obstacle_strength", Dimension.NUMBER, 1.0, "repulsion from walls and furniture (gain)",
        positive=False),
-    _q("interaction_range", Dimension.LENGTH, 3.0, "people further away are ignored"),
+    _q("interaction_range", Dimension.LENGTH, 3.0, "people further away are ignored",
+       maximum=INTERACTION_RANGE_MAX),
     _q("field_of_view", Dimension.ANGLE, math.radians(200.0), "angle people are seen within",
        maximum=2 * math.pi),
     _q("follow_replan", Dimension.TIME, 1.0, "how often follow re-plans its path"),

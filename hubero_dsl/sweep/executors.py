@@ -32,6 +32,7 @@ ExecutorKind = Literal["serial", "process", "dask"]
 EXECUTOR_KINDS: tuple[ExecutorKind, ...] = ("serial", "process", "dask")
 DEFAULT_CONNECT_TIMEOUT = 5.0  # s before an unreachable Dask scheduler is reported
 TERMINATE_TIMEOUT = 10.0  # s to wait for worker processes to end after SIGTERM
+MAX_JOBS = 256  # worker processes at most: each holds a simulator (some 50-200 MB)
 
 WORKER_MODULES = ("hubero_dsl.sweep.worker", "hubero_dsl.pipeline", "hubero_dsl.sim.loop",
                   "hubero_dsl.sim.simulation", "hubero_dsl.log.writer", "hubero_dsl.log.reader",
@@ -39,6 +40,14 @@ WORKER_MODULES = ("hubero_dsl.sweep.worker", "hubero_dsl.pipeline", "hubero_dsl.
 
 P = ParamSpec("P")
 T = TypeVar("T")
+
+
+def check_jobs(jobs: int | None) -> None:
+    """Refuse (InputError) a `--jobs` that is no number of worker processes to start."""
+    from hubero_dsl.errors import InputError
+
+    if jobs is not None and not 1 <= jobs <= MAX_JOBS:
+        raise InputError(f"--jobs must be from 1 to {MAX_JOBS}, got {jobs}")
 
 
 def available_cores() -> int:
@@ -240,8 +249,7 @@ def open_executor(kind: ExecutorKind, *, jobs: int = 1, scheduler: str | None = 
     if kind == "serial":
         executor = SerialExecutor()
     elif kind == "process":
-        if jobs < 1:
-            raise InputError(f"--jobs must be at least 1, got {jobs}")
+        check_jobs(jobs)
         executor = ProcessExecutor(jobs)
     elif kind == "dask":
         if not scheduler:

@@ -104,7 +104,8 @@ def test_a_scenario_without_variants_runs_as_written(cli: Run, tmp_path: Path) -
 @pytest.mark.parametrize(("options", "message"), [
     (["--seeds", "5..1"], "--seeds: the range 5..1 is empty"),
     (["--seeds", "1-3"], "--seeds: '1-3' is not a seed or a range"),
-    (["--jobs", "0"], "--jobs must be at least 1, got 0"),
+    (["--jobs", "0"], "--jobs must be from 1 to 256, got 0"),
+    (["--jobs", "1000"], "--jobs must be from 1 to 256, got 1000"),
     (["--variant", "nope"], "unknown variant 'nope' (variants: speed=1.0 m/s; speed=1.4 m/s)"),
     (["--variants", "speed=1.0 m/s,speed=1.4 m/s"], "unknown variant 'speed=1.0 m/s,speed=1.4"),
     (["--executor", "dask"], "--executor dask needs --scheduler ADDR"),
