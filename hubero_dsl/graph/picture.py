@@ -37,6 +37,7 @@ _CHAR_INCHES = 0.6 * FONT_SIZE / 72  # DejaVu Sans Mono advances 0.6 em per char
 _LINE_INCHES = 1.25 * FONT_SIZE / 72
 _WRAP = 34
 _MAX_PIXELS = 30_000
+_LEAST_DPI = 40  # below it, a drawing squeezed into _MAX_PIXELS cannot be read
 _DIAMOND_INCHES = 0.12  # half the diagonal of a decision/merge rhombus
 _BAR_HEIGHT = 0.07 / ROW_INCHES  # a fork or join bar, in rows
 SIGNAL_COLOUR = "steelblue"  # the arrows from a label's event to who waits for it
@@ -51,6 +52,12 @@ def to_png(graph: nx.DiGraph, path: str | Path, *, dpi: int = 110) -> Path:
              if graph.edges[edge].get("loop", False)}
     x0 = min([x0, *(left - 0.05 for left in loops.values())])
     width_in, height_in = max(1.0, x1 - x0) * COLUMN_INCHES, max(1.0, y1 - y0) * ROW_INCHES
+    if _MAX_PIXELS / max(width_in, height_in) < _LEAST_DPI:  # its words would be specks
+        from hubero_dsl.errors import InputError
+
+        raise InputError(f"the graph is too large to draw as a picture ({width_in:.0f} x "
+                         f"{height_in:.0f} inches at {FONT_SIZE} pt): give `--format mermaid` "
+                         "or `--format dot` (graphviz draws large graphs)")
     figure = Figure(figsize=(width_in, height_in))
     axes = figure.add_axes((0.0, 0.0, 1.0, 1.0))
     axes.set_xlim(x0, x1)

@@ -182,3 +182,12 @@ def test_png_of_no_activities(tmp_path: Path) -> None:
     written = to_png(graph_of(""), tmp_path / "empty.png")
     with Image.open(written) as image:
         assert image.size[0] > 0
+
+
+def test_a_graph_too_wide_to_read_as_a_picture_is_refused(tmp_path: Path) -> None:
+    from hubero_dsl.errors import InputError
+
+    branches = "; ".join(f"wait {i + 1} s" for i in range(1000))
+    with pytest.raises(InputError, match="too large to draw as a picture.*--format dot"):
+        to_png(graph_of(f"activity {{ parallel {{ {branches} }} }}"), tmp_path / "wide.png")
+    assert not (tmp_path / "wide.png").exists()
