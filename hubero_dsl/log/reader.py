@@ -220,8 +220,9 @@ def _read(path: Path, stream: Any) -> LoggedRun:
     _check_attachments(path, provenance, attachments)
     crowds = [name for name, entry in _json(provenance.get("sets", "{}")).items()
               if entry["kind"] != "group"]
-    collector = _Collector(_json(provenance["humans"]), _json(provenance["robots"]),
-                           crowds)
+    humans, robots = _json(provenance["humans"]), _json(provenance["robots"])
+    _check_names(humans, robots)
+    collector = _Collector(humans, robots, crowds)
     for _, channel, message in reader.iter_messages(log_time_order=False):
         collector.add(channel.topic, message.data)
     if collector.grid_message is None:
@@ -234,6 +235,17 @@ def _read(path: Path, stream: Any) -> LoggedRun:
         humans=collector.human_tracks(), robots=collector.robot_tracks(),
         events=collector.events, log=collector.log,
         result=_outcome(result) if result is not None else None, attachments=attachments)
+
+
+def _check_names(humans: object, robots: object) -> None:
+    """Humans and robots each a list of distinct names, none both (ValueError else: a log
+    hubero did not write so would make every reader of its tracks trip)."""
+    names = [*humans, *robots] if isinstance(humans, list) and isinstance(robots, list) \
+        else None
+    if names is None or not all(isinstance(name, str) for name in names):
+        raise ValueError("its humans and robots are not lists of names")
+    if len(set(names)) != len(names):
+        raise ValueError("a name is listed twice among its humans and robots")
 
 
 def _check_attachments(path: Path, provenance: dict[str, str],

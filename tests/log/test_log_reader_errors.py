@@ -174,6 +174,9 @@ FORGED = {
     "metadata nested 200 000 deep": ({"humans": "[" * 200_000 + "]" * 200_000}, _as_is),
     "parameters nested 200 000 deep": ({"params": '{"a":' * 200_000 + "1" + "}" * 200_000},
                                        _as_is),
+    "a human listed as a robot": ({"robots": '["alice"]'}, _as_is),
+    "a human listed twice": ({"humans": '["alice", "alice"]'}, _as_is),
+    "names that are no names": ({"humans": '[1, 2]'}, _as_is),
     "a /log time of 1e400 s": ({}, _stamped("1e400", ("/log",))),
     "every time 10**400 s": ({}, _stamped("1" + "0" * 400)),
 }
