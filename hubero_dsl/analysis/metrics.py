@@ -42,6 +42,7 @@ import numpy.typing as npt
 
 from hubero_dsl.analysis import pairs
 from hubero_dsl.analysis.socialnav_log import robot_outcome
+from hubero_dsl.errors import InputError
 from hubero_dsl.sim.status import TaskStatus
 from hubero_dsl.socialnav import CONTACT
 from hubero_dsl.world.personal_space import contains
@@ -166,8 +167,17 @@ class _Actor:
     radius: float
 
 
+MAX_PAIRED = 3000  # people and robots: every pair's closest approach is kept, N^2 of them
+
+
 def compute_metrics(run: LoggedRun) -> RunMetrics:
-    """Every human's and robot's metrics, from a log read by `load_run`."""
+    """Every human's and robot's metrics, from a log read by `load_run` (InputError for a
+    run of more than MAX_PAIRED bodies: their pairs' metrics would not fit in memory)."""
+    bodies = len(run.humans) + len(run.robots)
+    if bodies > MAX_PAIRED:
+        raise InputError(f"{run.path}: {bodies} people and robots are too many to compare "
+                         f"pair by pair (at most {MAX_PAIRED}: every pair's closest approach "
+                         "is kept); a sweep of such runs takes --no-metrics")
     outline = _outline(run)
     actors = _actors(run, outline)
     spans = _label_spans(outline)

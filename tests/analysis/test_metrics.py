@@ -249,3 +249,14 @@ def test_tracks_off_the_grid_are_compared_pair_by_pair(build_run: Callable,
     assert metrics.pairs.on_grid([a.time, b.time], [a.position, b.position]) is None
     assert compute_metrics(build_run([a, b])).humans["a"].min_distance["b"] == \
         pytest.approx(1.0)
+
+
+def test_a_run_of_more_bodies_than_can_be_paired_is_refused(
+        build_run: Factory, track: Factory, monkeypatch: pytest.MonkeyPatch) -> None:
+    from hubero_dsl.errors import InputError
+
+    run = build_run([track("a", [0, 1], [(0, 0), (1, 0)]), track("b", [0, 1], [(5, 0), (5, 1)])])
+    monkeypatch.setattr(metrics, "MAX_PAIRED", 1)  # two bodies, where a crowd has thousands
+    with pytest.raises(InputError, match="2 people and robots are too many to compare pair "
+                       "by pair .* a sweep of such runs takes --no-metrics"):
+        compute_metrics(run)
