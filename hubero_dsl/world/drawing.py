@@ -40,6 +40,8 @@ from hubero_dsl.world.mapfile import save_map, unsafe_yaml
 
 SHAPES_SUFFIX = ".shapes.yaml"
 MAX_SHAPES_BYTES = 4 << 20  # a description is a page or two of YAML
+# cells tested against obstacles, summed over each obstacle's window: some ten seconds' work
+MAX_CELL_TESTS = 200_000_000
 DRAWING_KEYS = ("description", "resolution", "origin", "size", "obstacles", "marks", "interior")
 SHAPE_KEYS = ("rect", "circle", "radius", "polygon")
 
@@ -215,6 +217,8 @@ def load_drawing(path: str | Path) -> MapDrawing:
             raise reader.fail(f"obstacle {index + 1}", "expected a mapping with a `name`", node)
         obstacles.append(Obstacle(entry["name"], _geometry(
             reader, entry, f"obstacle '{entry['name'][:60]}'", node, named=True)))
+    origin = _point(reader, spec.get("origin"), "origin", reader.node("origin"))
+    _bounded_work(reader, obstacles, cells, float(resolution), origin, obstacles_node)
     marks_value = spec.get("marks") or {}
     if not isinstance(marks_value, dict):
         raise reader.fail("marks", "expected a mapping of names to points", reader.node("marks"))
@@ -223,28 +227,52 @@ def load_drawing(path: str | Path) -> MapDrawing:
     interior = spec.get("interior")
     name = path.name.removesuffix(SHAPES_SUFFIX).removesuffix(".yaml").removesuffix(".yml")
     return MapDrawing(
-        name=name, source=path,
-        origin=_point(reader, spec.get("origin"), "origin", reader.node("origin")),
-        cells=cells, resolution=float(resolution),
+        name=name, source=path, origin=origin, cells=cells, resolution=float(resolution),
         interior=None if interior is None else _geometry(reader, interior, "interior",
                                                          reader.node("interior")),
         obstacles=tuple(obstacles), marks=marks,
         description=str(spec.get("description", "")).strip())
 
 
-def _cells_covered(geometry: BaseGeometry, cells: tuple[int, int], resolution: float,
-                   origin: tuple[float, float]) -> tuple[slice, slice, npt.NDArray[np.bool_]]:
-    """The window of cells around `geometry` and which of them have their centre in it."""
+def _bounded_work(reader: _Reader, obstacles: list[Obstacle], cells: tuple[int, int],
+                  resolution: float, origin: tuple[float, float],
+                  node: yaml.Node | None) -> None:
+    """MapError when drawing the obstacles would test more than MAX_CELL_TESTS cells (each
+    obstacle's cells are those of its bounding box on the map): many large obstacles on fine
+    cells would take hours."""
+    tests = sum(_window_cells(o.geometry, cells, resolution, origin) for o in obstacles)
+    if tests > MAX_CELL_TESTS:
+        raise reader.fail("obstacles", f"drawing these {len(obstacles):,} obstacles tests "
+                          f"{tests:,} cells, more than {MAX_CELL_TESTS:,}: use fewer or "
+                          "smaller obstacles, or larger cells", node)
+
+
+def _window_cells(geometry: BaseGeometry, cells: tuple[int, int], resolution: float,
+                  origin: tuple[float, float]) -> int:
+    rows, cols, _ = _window(geometry, cells, resolution, origin)
+    return max(0, rows.stop - rows.start) * max(0, cols.stop - cols.start)
+
+
+def _window(geometry: BaseGeometry, cells: tuple[int, int], resolution: float,
+            origin: tuple[float, float]) -> tuple[slice, slice, tuple[float, float]]:
+    """The rows and columns of the map's cells within `geometry`'s bounding box."""
     rows, cols = cells
     res, (ox, oy) = resolution, origin
     xmin, ymin, xmax, ymax = geometry.bounds
     col0, col1 = max(0, math.floor((xmin - ox) / res)), min(cols, math.ceil((xmax - ox) / res))
     row0, row1 = max(0, math.floor((ymin - oy) / res)), min(rows, math.ceil((ymax - oy) / res))
-    xs = ox + (np.arange(col0, col1) + 0.5) * res
-    ys = oy + (np.arange(row0, row1) + 0.5) * res
+    return slice(row0, row1), slice(col0, col1), (ox, oy)
+
+
+def _cells_covered(geometry: BaseGeometry, cells: tuple[int, int], resolution: float,
+                   origin: tuple[float, float]) -> tuple[slice, slice, npt.NDArray[np.bool_]]:
+    """The window of cells around `geometry` and which of them have their centre in it."""
+    rows, cols, (ox, oy) = _window(geometry, cells, resolution, origin)
+    xs = ox + (np.arange(cols.start, cols.stop) + 0.5) * resolution
+    ys = oy + (np.arange(rows.start, rows.stop) + 0.5) * resolution
     grid_x, grid_y = np.meshgrid(xs, ys)
     inside = shapely.intersects_xy(geometry, grid_x, grid_y)
-    return slice(row0, row1), slice(col0, col1), np.asarray(inside, dtype=np.bool_)
+    return rows, cols, np.asarray(inside, dtype=np.bool_)
 
 
 def centres_in(geometry: BaseGeometry, cells: tuple[int, int], resolution: float,
@@ -261,8 +289,9 @@ def rasterise(drawing: MapDrawing) -> OccupancyGrid:
     """The occupancy grid of a drawing (grid row 0 = lowest y)."""
     frame = (drawing.cells, drawing.resolution, drawing.origin)
     occupied = np.zeros(drawing.cells, dtype=np.bool_)
-    for obstacle in drawing.obstacles:
-        occupied |= centres_in(obstacle.geometry, *frame)
+    for obstacle in drawing.obstacles:  # each within its own window: not the whole map each
+        rows, cols, inside = _cells_covered(obstacle.geometry, *frame)
+        occupied[rows, cols] |= inside
     unknown = None
     if drawing.interior is not None:
         unknown = ~centres_in(drawing.interior, *frame) & ~occupied

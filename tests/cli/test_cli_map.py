@@ -77,6 +77,10 @@ def test_show_draws_any_map_next_to_it(tmp_path: Path, cli: Any) -> None:
      "`obstacles`?)", 4),
     ("resolution: 0.001\norigin: [0, 0]\nsize: [100, 100]\n", "the most a map may have", 3),
     ("resolution: 0.05\norigin: &o [0, 0]\nsize: *o\n", "anchors and aliases", 2),
+    # twenty obstacles as large as a fine-celled map: hours of drawing, refused at once
+    ("resolution: 0.002\norigin: [0, 0]\nsize: [8, 8]\nobstacles:\n"
+     + "".join(f"  - {{name: c{i}, circle: [4, 4], radius: 3.9}}\n" for i in range(20)),
+     "more than 200,000,000: use fewer or smaller obstacles, or larger cells", 5),
 ])
 def test_bad_descriptions_are_errors_at_their_line(tmp_path: Path, cli: Any, text: str,
                                                    message: str, line: int) -> None:
