@@ -17,7 +17,7 @@ from hubero_dsl.diagnostics import Diagnostic, Related, Span, error, warning
 from hubero_dsl.errors import InputError
 from hubero_dsl.lang import ast
 from hubero_dsl.lang.lower import area_polygon, coordinate
-from hubero_dsl.lang.symbols import MANY, NameKind, SymbolTable, alias_depths
+from hubero_dsl.lang.symbols import MANY, MEMBER_NAME, NameKind, SymbolTable, alias_depths
 from hubero_dsl.lang.values import ValueReader, did_you_mean, field_dimension
 from hubero_dsl.model.params import HUMAN_PARAMS, KINEMATICS, ROBOT_PARAMS, SEED_DIGITS
 from hubero_dsl.model.program import (
@@ -40,7 +40,6 @@ MAX_TICKS = 1e8  # ticks in a run (time_limit / step): about 14 h of computing a
 MAX_VARIANTS = 10_000  # variants of a scenario (named variants times sweep values)
 MAX_HUMANS = 20_000    # humans of a scenario, crowds included (a log has 65,535 channels)
 TARGETS = (NameKind.PLACE, NameKind.HUMAN, NameKind.ROBOT, NameKind.GROUP)
-_MEMBER_NAME = re.compile(r"(\w+)_([1-9][0-9]*)")  # a crowd's or flow's member: NAME_N
 
 @dataclass(frozen=True)
 class CrowdFacts:
@@ -394,7 +393,7 @@ class Checker:
     def _group(self, group: ast.GroupDecl) -> None:
         members: list[str] = []
         for ref in group.members:
-            flow = self._flow_of_member(ref.name)
+            flow = self.symbols.flow_of_member(ref.name)
             if flow is not None and self.symbols.kind_of(ref.name) is None:
                 self.report("E103", f"'{ref.name}' is one of the people flow '{flow}' brings, "
                             "who come and go: a group is of humans and crowd members", ref.span,
@@ -471,7 +470,7 @@ class Checker:
         later of the two definitions."""
         members = f"{flow.name}_1 ... {flow.name}_{count}"
         for symbol in list(self.symbols.symbols.values()):
-            found = _MEMBER_NAME.fullmatch(symbol.name)
+            found = MEMBER_NAME.fullmatch(symbol.name)
             if found is None or found.group(1) != flow.name or int(found.group(2)) > count:
                 continue
             if (symbol.span.line, symbol.span.column) > (flow.span.line, flow.span.column):
@@ -664,7 +663,7 @@ class Checker:
             self.report("E105", exc.message, param.name_span)
             return None
         if model is None:
-            flow = self._flow_of_member(planner)
+            flow = self.symbols.flow_of_member(planner)
             if flow is not None:
                 self.report("E105", f"'{planner}' is a member of flow '{flow}': a flow's "
                             "members take their parameters from the flow", param.name_span,
@@ -993,12 +992,6 @@ class Checker:
         if symbol.kind is NameKind.HUMAN:
             return f"set it in human {name}'s own block as `{param}`"
         return f"set it for all of {symbol.kind.value} '{name}' in its block as `{param}`"
-
-    def _flow_of_member(self, name: str) -> str | None:
-        """The flow whose member `name` would be (`NAME_N`), or None."""
-        found = _MEMBER_NAME.fullmatch(name)
-        flow = found.group(1) if found is not None else None
-        return flow if flow is not None and self.symbols.kind_of(flow) is NameKind.FLOW else None
 
     def _members_of(self, name: str) -> tuple[str, ...]:
         """The members of crowd or group `name` (none for anyone else)."""

@@ -33,6 +33,7 @@ class NameKind(StrEnum):
 
 
 MANY = (NameKind.CROWD, NameKind.GROUP, NameKind.FLOW)  # names of sets of humans
+MEMBER_NAME = re.compile(r"(\w+)_([1-9][0-9]*)")  # a crowd's or flow's member: NAME_N
 
 
 @dataclass(frozen=True, slots=True)
@@ -98,6 +99,14 @@ class SymbolTable:
         with NAME for its name)."""
         symbol = self.symbols.get(ref.name)
         wanted = " or ".join(k.value for k in kinds)
+        if symbol is None and (flow := self.flow_of_member(ref.name)) is not None:
+            self.used.add(flow)
+            self.diagnostics.append(error(
+                "E103", f"'{ref.name}' is one of the people flow '{flow}' brings, who come and "
+                f"go: they are not named one by one ({role})", ref.span,
+                f"name the flow: `all {flow} reach P`, `any {flow} reaches P`, "
+                f"`count({flow} in AREA)`"))
+            return None
         if symbol is None:
             # a crowd's name is closer to a slip of it than any of its members' (`shopers`)
             sets = MANY if NameKind.HUMAN in kinds else ()
@@ -116,6 +125,13 @@ class SymbolTable:
                 ref.span, hint, (Related(f"'{ref.name}' is defined here", symbol.span),)))
             return None
         return symbol
+
+
+    def flow_of_member(self, name: str) -> str | None:
+        """The flow whose member `name` would be (`NAME_N`), or None."""
+        found = MEMBER_NAME.fullmatch(name)
+        flow = found.group(1) if found is not None else None
+        return flow if flow is not None and self.kind_of(flow) is NameKind.FLOW else None
 
 
 def _a(noun: str) -> str:
