@@ -229,7 +229,7 @@ def _crowd_members(facts: Facts, grid: OccupancyGrid, lowering: Lowering,
     for crowd in facts.crowds:
         spec = CrowdSpec(crowd.name, lowering.area(crowd.area),
                          facts.largest_radius(crowd.name, crowd.layer)[0],
-                         crowd.heading, crowd.members)
+                         crowd.heading, crowd.members, crowd.span)
         places = place_crowd(grid, crowd.name, len(crowd.members), spec.area, spec.radius,
                              taken, seed, crowd.span, diagnostics)
         members += [HumanSpec(member, Pose(x, y, crowd.heading), crowd.layer, crowd.span,

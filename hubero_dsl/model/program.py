@@ -92,6 +92,7 @@ class CrowdSpec:
     radius: float
     heading: float
     members: tuple[str, ...]
+    span: Span | None = None  # the `crowd` statement, for errors of a run with another seed
 
 
 @dataclass(frozen=True, slots=True)

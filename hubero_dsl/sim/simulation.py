@@ -316,7 +316,7 @@ def crowds_placed(program: Program, seed: int) -> Program:
             raise SimulationError(
                 f"with seed {seed} only {len(places)} of the {len(crowd.members)} people of "
                 f"crowd '{crowd.name}' fit in its area (they all fit with the scenario's seed "
-                f"{program.seed}): make the area larger, or the crowd smaller")
+                f"{program.seed})", crowd.span, "make the area larger, or the crowd smaller")
         starts.update((name, Pose(x, y, crowd.heading))
                       for name, (x, y) in zip(crowd.members, places, strict=True))
     humans = tuple(dataclasses.replace(h, start=starts[h.name]) if h.name in starts else h

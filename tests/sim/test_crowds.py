@@ -75,8 +75,10 @@ def test_a_seed_whose_crowd_does_not_fit_is_a_clear_simulation_error(room_map: P
     assert fitting and failing
     program = compile_source(_text(room_map, body, fitting[0]), "t.hub")
     with pytest.raises(SimulationError, match=rf"with seed {failing[0]} only \d+ of the 22 "
-                       r"people of crowd 'c' fit in its area"):
+                       r"people of crowd 'c' fit in its area") as raised:
         Simulation(program, seed=failing[0])
+    span = raised.value.span  # the command line shows it at the crowd's statement
+    assert span is not None and (span.file, span.line, span.column) == ("t.hub", 4, 1)
 
 
 def test_a_task_given_to_a_crowd_is_given_to_every_member(room_map: Path) -> None:
