@@ -102,10 +102,12 @@ def _pair(args: argparse.Namespace) -> int:
         return 0
     # with neither --human nor --members a crowd's or flow's members are its table
     sets = {} if args.human or args.members else set_diffs(diff)
-    # a flow's members who came in neither run have no table, unless named one by one
-    absent = never_came(diff) - set(args.human or ())
+    # a flow's members who came in neither run have no table; named one by one, a line says so
+    absent = never_came(diff)
     listed = [h for h in humans if a.metadata.set_of(h) not in sets and h not in absent]
-    _print_pair(diff, listed, list(sets.values()), a.metadata.set_of, _console())
+    named_absent = [h for h in args.human or () if h in absent]
+    _print_pair(diff, listed, list(sets.values()), a.metadata.set_of, _console(),
+                named_absent)
     return 0
 
 
@@ -217,7 +219,8 @@ def _side(label: str, side: Any) -> str:
 
 
 def _print_pair(diff: RunDiff, humans: list[str], sets: list[SetDiff],
-                set_of: Callable[[str], str | None], console: Console) -> None:
+                set_of: Callable[[str], str | None], console: Console,
+                came_in_neither: list[str] | None = None) -> None:
     from rich.markup import escape
 
     from hubero_dsl.analysis.diff import came_in_one_run
@@ -227,6 +230,10 @@ def _print_pair(diff: RunDiff, humans: list[str], sets: list[SetDiff],
     console.print(_side("B", diff.b))
     for note in diff.notes:
         console.print(f"[yellow]note:[/] {escape(printable(note))}")
+    for name in came_in_neither or ():
+        flow = escape(printable(set_of(name) or ""))
+        console.print(f"{escape(printable(name))} (of flow {flow}) came in neither run: "
+                      "nothing to compare")
     absent = came_in_one_run(diff)
     for name in humans:
         console.print(_human_table(diff.humans[name], diff.epsilon, set_of,

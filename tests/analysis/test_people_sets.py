@@ -224,6 +224,12 @@ def test_diff_lists_a_flows_members_who_came(tmp_path: Path,
         human = diff.humans[name]
         assert all(getattr(m, absent) is None and m.delta is None for m in human.metrics)
         assert (human.frechet, human.diverged_at) == (None, None)
+    # and one named who came in neither run is said so, not a table of zeros
+    nobody = sorted(set(members) - came)[0]
+    assert main(["diff", *map(str, logs), "--human", nobody]) == 0
+    out = capsys.readouterr().out
+    assert f"{nobody} (of flow walkers) came in neither run: nothing to compare" in out
+    assert "path length" not in out
 
 
 def test_a_sweeps_table_gives_a_crowd_one_row(lounge: Path, reseeded: Path, tmp_path: Path,
