@@ -151,6 +151,8 @@ class Lowering:
         walking = group in self.walking_groups
         if task.kind in ("move_to", "run_to"):  # side by side: `behaviours._place_abreast`
             task = replace(task, group=group if walking else None, together=True)
+        elif walking and task.kind == "move_around":  # a stroll: shared goals, abreast
+            task = replace(task, group=group)
         elif walking and task.kind == "talk" and "to" not in task.arguments:
             task = replace(task, arguments={**task.arguments, "to": group})  # face its centre
         return replace(lowered, task=task)

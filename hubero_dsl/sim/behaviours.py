@@ -55,6 +55,8 @@ class World(Protocol):
     def set_timer(self, index: int, seconds: float) -> None: ...
     def set_timer_tick(self, index: int, tick: int) -> None: ...
     def random_goal(self, index: int, area: Polygon | None) -> tuple[float, float] | None: ...
+    def group_goal(self, group: str, leg: int, index: int, area: Polygon | None
+                   ) -> tuple[float, float] | None: ...
     def fits(self, index: int, point: tuple[float, float]) -> bool: ...
     def in_sight(self, a: tuple[float, float], b: tuple[float, float]) -> bool: ...
     def finish(self, index: int, status: TaskStatus, reason: str = "") -> None: ...
@@ -390,25 +392,36 @@ class MoveAround(Behaviour):
 
     kind = "move_around"
 
-    def __init__(self, timing: Timing, area: Polygon | None, times: int | None) -> None:
+    def __init__(self, timing: Timing, area: Polygon | None, times: int | None,
+                 group: str | None = None) -> None:
         super().__init__(timing)
         self.area = area
         self.times = times
         self.reached = 0
+        self.group = group  # a group's stroll: its members share each goal, walking abreast
+        self.leg = 0        # goals drawn so far
 
     def start(self, engine: World) -> None:
         self._start_timer(engine)
         self._next_goal(engine)
 
     def _next_goal(self, engine: World) -> None:
-        goal = engine.random_goal(self.index, self.area)
+        goal = engine.random_goal(self.index, self.area) if self.group is None else \
+            engine.group_goal(self.group, self.leg, self.index, self.area)
+        self.leg += 1
         if goal is None:
             engine.finish(self.index, TaskStatus.ABORTED,
                           "no reachable free point in the area to walk to")
             return
         self.state = "wandering"
-        engine.walk_to(self.index, goal, engine.walking_speed(self.index),
-                       float(engine.humans.goal_tolerance[self.index]))
+        speed = engine.walking_speed(self.index)
+        tolerance = float(engine.humans.goal_tolerance[self.index])
+        if self.group is not None:  # its place beside the others, as a group's move_to
+            place = _place_abreast(engine, self.group, self.index, goal)
+            if place != goal and engine.walk_to(self.index, place, speed, tolerance,
+                                                abort=False, with_group=True) is None:
+                return
+        engine.walk_to(self.index, goal, speed, tolerance, with_group=self.group is not None)
 
     def on_arrived(self, engine: World) -> None:
         self.reached += 1
@@ -416,6 +429,10 @@ class MoveAround(Behaviour):
             engine.finish(self.index, TaskStatus.SUCCEEDED)
         else:
             self._next_goal(engine)
+
+    def on_held_at_goal(self, engine: World) -> None:
+        if self.group is not None:  # a companion stands on the shared goal: as good as there
+            self.on_arrived(engine)
 
     def on_stuck(self, engine: World) -> None:
         self._next_goal(engine)  # wandering has no fixed goal: pick another one
@@ -539,7 +556,8 @@ def _run_to(task: Task) -> Behaviour:
 
 @builds("move_around")
 def _move_around(task: Task) -> Behaviour:
-    return MoveAround(Timing(task.get("duration")), task.get("area"), task.get("times"))
+    return MoveAround(Timing(task.get("duration")), task.get("area"), task.get("times"),
+                      group=task.group)
 
 
 @builds("follow")

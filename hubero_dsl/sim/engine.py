@@ -114,6 +114,7 @@ class Engine:
         # succeeded: it counts as having reached it (conditions' `reaches`) until it is given
         # a task that is neither `stand` nor `talk`
         self.together_at: dict[int, tuple[float, float]] = {}
+        self._group_goals: dict[tuple[str, int], tuple[float, float] | None] = {}
         self.ways_round = WaysRound(self, LOOKAHEAD)  # for walkers held up near walls
         self._row_of = {name: row for row, name in enumerate(humans.names)}
 
@@ -337,6 +338,15 @@ class Engine:
         if key not in self._rngs:
             self._rngs[key] = self._rng_for(purpose, index)
         return self._rngs[key]
+
+    def group_goal(self, group: str, leg: int, index: int, area: Polygon | None
+                   ) -> tuple[float, float] | None:
+        """Leg `leg` of group `group`'s wander: drawn by the first member who needs it (its
+        `random_goal`), then the same for every member, so that they stroll together."""
+        key = (group, leg)
+        if key not in self._group_goals:
+            self._group_goals[key] = self.random_goal(index, area)
+        return self._group_goals[key]
 
     def random_goal(self, index: int, area: Polygon | None) -> tuple[float, float] | None:
         """A random free point the human can reach, inside `area` (if given)."""

@@ -322,3 +322,20 @@ expect bob reaches (10.0, 7.0) eventually
     assert result.state.name == "COMPLETED", result.reason
     assert all(e.held for e in result.expectations)
     assert min(math.dist(sim.human(n).position, (10.0, 7.0)) for n in ("ann", "bob")) > 0.25
+
+
+def test_a_group_told_to_wander_strolls_together() -> None:
+    # each leg's goal is drawn once for the group: they walk it abreast, not each its own way
+    sim = Simulation(compile_source(_text(STATION, """seed 5
+human mia at (10.0, 7.0)
+human leo at (10.0, 7.7)
+group couple of (mia, leo)
+activity { couple move_around in rect((2.0, 2.0), (28.0, 12.0)) for 30 s }
+"""), "t.hub"))
+    apart: list[float] = []
+    result = run_program(sim, [lambda s: apart.append(
+        math.dist(s.human("mia").position, s.human("leo").position))])
+    assert result.state.name == "COMPLETED"
+    assert max(apart) < 2.5 and np.mean(apart) < 1.2
+    walked = {e.human for e in result.events if e.status is TaskStatus.SUCCEEDED}
+    assert walked == {"mia", "leo"}
