@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from hubero_dsl.errors import MapError, SimulationError
 from hubero_dsl.planners.base import Crowd, Drive, NoPath
@@ -268,6 +269,23 @@ class Engine:
         if not len(rows):
             return None
         return names[int(rows[np.argmin(distance[rows])])]
+
+    def at_rest_beside(self, rows: IntArray, gap: float) -> BoolArray:
+        """Which humans of `rows` have a body at rest (`_bodies_at_rest`) within `gap` of
+        theirs, surface to surface."""
+        _, position, radius, still = self._bodies_at_rest()
+        beside = np.zeros(len(rows), dtype=bool)
+        if not still.any():
+            return beside
+        reach = float(self.humans.radius[rows].max()) + float(radius[still].max()) + gap
+        near = cKDTree(position[still]).query_ball_point(self.humans.position[rows], reach)
+        here, own = self.humans.position[rows], self.humans.radius[rows]
+        at, size = position[still], radius[still]
+        for k, found in enumerate(near):
+            if found:
+                surface = physics.lengths(at[found] - here[k]) - size[found] - own[k]
+                beside[k] = bool((surface <= gap).any())
+        return beside
 
     def _bodies_at_rest(self) -> tuple[list[str], FloatArray, FloatArray, BoolArray]:
         """Every body's name, position and radius, humans' then robots', and which stand still

@@ -34,8 +34,10 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 from scipy.spatial import cKDTree
 
+from hubero_dsl.sim import physics
+
 if TYPE_CHECKING:
-    from hubero_dsl.sim.arrays import FloatArray, HumanArrays, IntArray, PathPool
+    from hubero_dsl.sim.arrays import BoolArray, FloatArray, HumanArrays, IntArray, PathPool
     from hubero_dsl.world.grid import OccupancyGrid
 
 STALLED = 3.0       # s without progress
@@ -66,6 +68,8 @@ class Walkers(Protocol):
     def in_sight(self, a: tuple[float, float], b: tuple[float, float]) -> bool: ...
 
     def hold_short(self, index: int) -> None: ...
+
+    def at_rest_beside(self, rows: IntArray, gap: float) -> BoolArray: ...
 
 
 class WaysRound:
@@ -100,6 +104,13 @@ class WaysRound:
         engine, humans = self.engine, self.engine.humans
         stalled = rows[engine.tick - engine.anchor_tick[rows] >= engine.ticks(STALLED)]
         stalled = stalled[np.isfinite(humans.goal[stalled]).all(axis=1)]
+        # beyond the goal's ring only one with someone at rest beside it can be queued (in a
+        # jam far from every goal, that leaves nobody to look at one by one)
+        far = physics.lengths(humans.goal[stalled] - humans.position[stalled]) \
+            > physics.CROWDED_GOAL + humans.stop_distance[stalled]
+        if far.any():
+            far[far] = ~engine.at_rest_beside(stalled[far], physics.QUEUE_GAP)
+            stalled = stalled[~far]
         for index in stalled.tolist():
             engine.hold_short(index)
         return rows[humans.moving[rows]] if stalled.size else rows
