@@ -32,6 +32,7 @@ from hubero_dsl.model.tasks import TASKS, OptionSpec, TargetRule, TaskKind, Valu
 from hubero_dsl.model.units import LARGEST, Dimension, dimension_named
 from hubero_dsl.planners.registry import global_planner_names, local_planner_names
 
+MAX_CONDITION_PARTS = 1000  # conditions, `and`s, `or`s and `not`s in one condition
 BODIES = (NameKind.HUMAN, NameKind.ROBOT)
 DEFAULT_STEP = 0.05  # s, the language's default `step`
 DEFAULT_TIME_LIMIT = 600.0  # s, the language's default `time_limit`
@@ -1054,7 +1055,13 @@ class Checker:
     # ---- conditions ------------------------------------------------------------------------
 
     def _condition(self, condition: ast.Condition) -> None:
-        for part in ast.walk_conditions(condition):
+        parts = ast.walk_conditions(condition)
+        if len(parts) > MAX_CONDITION_PARTS:  # each is judged every tick the condition waits
+            self.report("E203", f"a condition of {len(parts):,} parts; the most one may have "
+                        f"is {MAX_CONDITION_PARTS:,}", condition.span,
+                        "name what it waits for with labels, areas or `count(...)`")
+            return
+        for part in parts:
             match part:
                 case ast.LabelCondition(label=label):
                     self.symbols.resolve(label, NameKind.LABEL,

@@ -689,3 +689,11 @@ def test_a_flows_member_named_one_by_one_is_told_why_not(check: Check) -> None:
     first = result.diagnostics[0]
     assert first.message.startswith("'f_1' is one of the people flow 'f' brings")
     assert first.hint is not None and "count(f in AREA)" in first.hint
+
+
+def test_a_condition_of_more_parts_than_anyone_writes_is_refused(check: Check) -> None:
+    terms = " or ".join(["time > 1 h"] * 1001)   # judged every tick the wait lasts
+    result = check(f"activity {{ wait until {terms}; actor1 stand for 1 s }}")
+    assert [d.code for d in result.diagnostics] == ["E203"]
+    assert "a condition of 2,001 parts; the most one may have is 1,000" in \
+        result.diagnostics[0].message
