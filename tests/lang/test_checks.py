@@ -695,5 +695,5 @@ def test_a_condition_of_more_parts_than_anyone_writes_is_refused(check: Check) -
     terms = " or ".join(["time > 1 h"] * 1001)   # judged every tick the wait lasts
     result = check(f"activity {{ wait until {terms}; actor1 stand for 1 s }}")
     assert [d.code for d in result.diagnostics] == ["E203"]
-    assert "a condition of 2,001 parts; the most one may have is 1,000" in \
+    assert "a condition of 1,002 parts; the most one may have is 1,000" in \
         result.diagnostics[0].message
