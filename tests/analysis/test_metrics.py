@@ -257,6 +257,6 @@ def test_a_run_of_more_bodies_than_can_be_paired_is_refused(
 
     run = build_run([track("a", [0, 1], [(0, 0), (1, 0)]), track("b", [0, 1], [(5, 0), (5, 1)])])
     monkeypatch.setattr(metrics, "MAX_PAIRED", 1)  # two bodies, where a crowd has thousands
-    with pytest.raises(InputError, match="2 people and robots are too many to compare pair "
-                       "by pair .* a sweep of such runs takes --no-metrics"):
+    with pytest.raises(InputError, match=r"2 people and robots are too many to compare pair "
+                       r"by pair .* a sweep of such runs takes --no-metrics"):
         compute_metrics(run)

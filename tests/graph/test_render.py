@@ -188,6 +188,6 @@ def test_a_graph_too_wide_to_read_as_a_picture_is_refused(tmp_path: Path) -> Non
     from hubero_dsl.errors import InputError
 
     branches = "; ".join(f"wait {i + 1} s" for i in range(1000))
-    with pytest.raises(InputError, match="too large to draw as a picture.*--format dot"):
+    with pytest.raises(InputError, match=r"too large to draw as a picture.*--format dot"):
         to_png(graph_of(f"activity {{ parallel {{ {branches} }} }}"), tmp_path / "wide.png")
     assert not (tmp_path / "wide.png").exists()

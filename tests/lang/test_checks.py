@@ -684,7 +684,8 @@ def test_a_metrics_expectation_with_a_mode_says_it_takes_none(check: Check) -> N
 
 def test_a_flows_member_named_one_by_one_is_told_why_not(check: Check) -> None:
     result = check("flow f from rect((4.0, 1.0), (7.0, 3.0)) to (5.5, 1.0) rate 1 /s for 5 s\n"
-                   "activity { actor1 follow f_1 for 2 s }\nexpect f_2 reaches (5.5, 1.0) eventually")
+                   "activity { actor1 follow f_1 for 2 s }\n"
+                   "expect f_2 reaches (5.5, 1.0) eventually")
     assert [d.code for d in result.diagnostics] == ["E103", "E103"]
     first = result.diagnostics[0]
     assert first.message.startswith("'f_1' is one of the people flow 'f' brings")
