@@ -49,6 +49,7 @@ ABREAST_ROOM = 1.0      # m further on where there must still be room for two
 ABREAST_ONE_WAY = 0.8   # the mean of the members' unit ways at least this long: one way
 STAYING_TASKS = frozenset({"stand", "talk"})  # tasks after which one is still where one arrived
 WAY_MARGIN = 0.1        # m off walls beyond the body, for a member to walk straight on
+SEE_PAST_EVERY = 0.25   # s between looks past a group walker's next waypoint
 
 
 @dataclass(frozen=True, slots=True)
@@ -117,6 +118,7 @@ class Engine:
         self.together_at: dict[int, tuple[float, float]] = {}
         self._group_goals: dict[tuple[str, int], tuple[float, float] | None] = {}
         self.ways_round = WaysRound(self, LOOKAHEAD)  # for walkers held up near walls
+        self._look_again = max(1, self.ticks(SEE_PAST_EVERY))
         self._row_of = {name: row for row, name in enumerate(humans.names)}
 
     # ---- time ----------------------------------------------------------------------------
@@ -500,7 +502,8 @@ class Engine:
         if not len(rows):
             return None
         self.paths.advance(humans.position, LOOKAHEAD, self.grid.crosses_obstacle)
-        if self.groups:  # kept together, members leave their own plans' lines
+        if self.groups and not self.tick % self._look_again:
+            # kept together, members leave their own plans' lines: a look now and then
             self.paths.see_past(rows[humans.with_group[rows]], humans.position, self._way_clear)
         self.ways_round.look(rows)
         if self._only_local is not None:
