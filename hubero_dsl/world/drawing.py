@@ -249,27 +249,27 @@ def _bounded_work(reader: _Reader, obstacles: list[Obstacle], cells: tuple[int, 
 
 def _window_cells(geometry: BaseGeometry, cells: tuple[int, int], resolution: float,
                   origin: tuple[float, float]) -> int:
-    rows, cols, _ = _window(geometry, cells, resolution, origin)
+    rows, cols = _window(geometry, cells, resolution, origin)
     return max(0, rows.stop - rows.start) * max(0, cols.stop - cols.start)
 
 
 def _window(geometry: BaseGeometry, cells: tuple[int, int], resolution: float,
-            origin: tuple[float, float]) -> tuple[slice, slice, tuple[float, float]]:
+            origin: tuple[float, float]) -> tuple[slice, slice]:
     """The rows and columns of the map's cells within `geometry`'s bounding box."""
     rows, cols = cells
     res, (ox, oy) = resolution, origin
     xmin, ymin, xmax, ymax = geometry.bounds
     col0, col1 = max(0, math.floor((xmin - ox) / res)), min(cols, math.ceil((xmax - ox) / res))
     row0, row1 = max(0, math.floor((ymin - oy) / res)), min(rows, math.ceil((ymax - oy) / res))
-    return slice(row0, row1), slice(col0, col1), (ox, oy)
+    return slice(row0, row1), slice(col0, col1)
 
 
 def _cells_covered(geometry: BaseGeometry, cells: tuple[int, int], resolution: float,
                    origin: tuple[float, float]) -> tuple[slice, slice, npt.NDArray[np.bool_]]:
     """The window of cells around `geometry` and which of them have their centre in it."""
-    rows, cols, (ox, oy) = _window(geometry, cells, resolution, origin)
-    xs = ox + (np.arange(cols.start, cols.stop) + 0.5) * resolution
-    ys = oy + (np.arange(rows.start, rows.stop) + 0.5) * resolution
+    rows, cols = _window(geometry, cells, resolution, origin)
+    xs = origin[0] + (np.arange(cols.start, cols.stop) + 0.5) * resolution
+    ys = origin[1] + (np.arange(rows.start, rows.stop) + 0.5) * resolution
     grid_x, grid_y = np.meshgrid(xs, ys)
     inside = shapely.intersects_xy(geometry, grid_x, grid_y)
     return rows, cols, np.asarray(inside, dtype=np.bool_)
