@@ -23,17 +23,21 @@ from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from shapely.geometry import Polygon
 
 from hubero_dsl.errors import SimulationError
 from hubero_dsl.model.tasks import TASKS, Target, TargetRule, Task, TaskKind, ValueKind
+from hubero_dsl.model.units import LARGEST, Dimension
 from hubero_dsl.sim.behaviours import BEHAVIOURS, Behaviour
 from hubero_dsl.sim.status import Posture, TaskHandle
 
 if TYPE_CHECKING:
-    from shapely.geometry import Polygon
-
     from hubero_dsl.diagnostics import Span
     from hubero_dsl.sim.engine import Engine
+
+# the units the API takes values in (SI: an angle in radians)
+SI_UNIT = {Dimension.TIME: "s", Dimension.LENGTH: "m", Dimension.SPEED: "m/s",
+           Dimension.ANGLE: "rad"}
 
 
 
@@ -56,6 +60,8 @@ class _Actor:
 
     def give(self, task: Task) -> TaskHandle:
         """Give `task` (checked against the registry), preempting the current one."""
+        if self.name in self._engine.removed:
+            raise SimulationError(f"{self.name} was removed: it takes no more tasks")
         kind = self._kind(task.kind)
         target = self._task_target(kind, task.target)
         arguments = {name: self._argument(kind, name, value)
@@ -85,8 +91,9 @@ class _Actor:
         if target is None:
             raise SimulationError(f"{kind.name} needs a target")
         if kind.target is TargetRule.BODY:
-            if not isinstance(target, str):
-                raise SimulationError(f"{kind.name} needs a human or robot, not a point")
+            if not isinstance(target, str) or target in self._places:
+                what = "a place" if isinstance(target, str) else "a point"
+                raise SimulationError(f"{kind.name} needs a human or robot, not {what}")
             if target == self.name:
                 raise SimulationError(f"{self.name} cannot {kind.name} itself")
             self._required_target(target)
@@ -94,24 +101,43 @@ class _Actor:
         return self._required_target(target)
 
     def _argument(self, kind: TaskKind, name: str, value: Any) -> Any:
+        """An option's value checked as a scenario file's is: of its kind, finite, within the
+        language's bounds (`units.LARGEST`); SimulationError, when given, where it is not."""
         spec = kind.argument(name)
         if spec is None:
             takes = ", ".join(o.argument for o in kind.options) or "nothing"
             raise SimulationError(f"{kind.name} takes no '{name}' (it takes {takes})")
         if spec.value is ValueKind.TARGET:
             return self._required_target(value)
-        if spec.value is ValueKind.COUNT and value < 1:
-            raise SimulationError(f"{kind.name}: {name} must be at least 1")
-        if spec.value in (ValueKind.SPEED, ValueKind.LENGTH, ValueKind.TIME) and not value > 0:
+        if spec.value is ValueKind.AREA:
+            if not isinstance(value, Polygon):
+                raise SimulationError(f"{kind.name}: {name} must be a shapely Polygon, not "
+                                      f"{value!r:.60}")
+            return value
+        if spec.value is ValueKind.COUNT:
+            if not isinstance(value, int | np.integer) or isinstance(value, bool) or value < 1:
+                raise SimulationError(f"{kind.name}: {name} must be a whole number of at least "
+                                      f"1, not {value!r:.60}")
+            return int(value)
+        dimension = spec.value.dimension
+        number = _real(value)
+        largest = LARGEST.get(dimension, math.inf) if dimension is not None else math.inf
+        if number is None or not math.isfinite(number) or abs(number) > largest:
+            unit = SI_UNIT.get(dimension, "") if dimension is not None else ""
+            raise SimulationError(f"{kind.name}: {name} must be a finite number of at most "
+                                  f"{largest:g} {unit}, not {value!r:.60}".replace("  ", " "))
+        if spec.value is not ValueKind.ANGLE and number <= 0:
             raise SimulationError(f"{name} must be greater than zero")
-        return value
+        return number
 
     def _required_target(self, target: Target) -> Target:
         if not isinstance(target, str):
-            x, y = float(target[0]), float(target[1])
-            if not (math.isfinite(x) and math.isfinite(y)):
-                raise SimulationError(f"{self.name}: a point must be finite, got {target!r}")
-            return (x, y)
+            point = _point(target)
+            if point is None:
+                raise SimulationError(f"{self.name}: a target is a place, human or robot name "
+                                      f"or a point (x, y) of finite numbers within "
+                                      f"{LARGEST[Dimension.LENGTH]:g} m, not {target!r:.60}")
+            return point
         if target in self._places:
             return self._places[target]
         if self._engine.position_of(target) is None:
@@ -198,8 +224,7 @@ class HumanHandle(_Actor):
 
     def set_velocity(self, vx: float, vy: float) -> None:
         """The velocity a `teleop` task applies (walls still stop the human)."""
-        if not (np.isfinite(vx) and np.isfinite(vy)):
-            raise SimulationError(f"{self.name}: a velocity must be finite, got ({vx}, {vy})")
+        vx, vy = _pair(self.name, "a velocity", vx, vy)
         speed = float(np.hypot(vx, vy))
         limit = float(self._engine.humans.run_speed[self._index])
         scale = 1.0 if speed <= limit else limit / speed
@@ -254,18 +279,13 @@ class RobotHandle(_Actor):
     def set_velocity(self, vx: float, vy: float) -> None:
         """Drive the robot at (vx, vy) m/s from now on, whatever its controller says (its
         limits and the walls still apply); `release()` hands it back to its controller."""
-        if not (np.isfinite(vx) and np.isfinite(vy)):
-            raise SimulationError(f"{self.name}: a velocity must be finite, got ({vx}, {vy})")
-        self._engine.robots.set_velocity(self.name, (float(vx), float(vy)))
+        self._engine.robots.set_velocity(self.name, _pair(self.name, "a velocity", vx, vy))
 
     def drive(self, first: float, second: float) -> None:
         """Give the robot the command its controller would give, from now on: (vx, vy) m/s
         for a holonomic robot, (v m/s, omega rad/s) for a unicycle. Its kinematics, limits and
         the walls apply as to a controller's command; `release()` hands it back."""
-        if not (math.isfinite(first) and math.isfinite(second)):
-            raise SimulationError(f"{self.name}: a command must be finite, got "
-                                  f"({first}, {second})")
-        self._engine.robots.drive(self.name, (float(first), float(second)))
+        self._engine.robots.drive(self.name, _pair(self.name, "a command", first, second))
 
     def release(self) -> None:
         """Back to the robot's controller: undo `set_velocity` and `drive`."""
@@ -281,3 +301,31 @@ class RobotHandle(_Actor):
 
     def _start(self, task: Task, handle: TaskHandle) -> None:
         self._engine.command_robot(self._index, task, handle)
+
+
+def _real(value: object) -> float | None:
+    """`value` as a float when it is a real number (not a bool, a string or a complex)."""
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        return None
+    return float(value)
+
+
+def _point(value: object) -> tuple[float, float] | None:
+    """`value` as a point: two real numbers, finite and within the language's lengths."""
+    if not isinstance(value, tuple | list | np.ndarray) or len(value) != 2:
+        return None
+    x, y = (_real(v) for v in value)
+    largest = LARGEST[Dimension.LENGTH]
+    if x is None or y is None or not all(math.isfinite(v) and abs(v) <= largest
+                                         for v in (x, y)):
+        return None
+    return (x, y)
+
+
+def _pair(actor: str, what: str, first: object, second: object) -> tuple[float, float]:
+    """Two finite real numbers (a velocity, a command), or SimulationError naming `actor`."""
+    a, b = _real(first), _real(second)
+    if a is None or b is None or not (math.isfinite(a) and math.isfinite(b)):
+        raise SimulationError(f"{actor}: {what} must be two finite numbers, got "
+                              f"({first!r:.30}, {second!r:.30})")
+    return (a, b)

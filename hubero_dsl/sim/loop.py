@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from hubero_dsl.errors import SimulationError
 from hubero_dsl.sim.judge import Judge, Verdict
 from hubero_dsl.sim.scheduler import RunState
 from hubero_dsl.sim.simulation import Simulation
@@ -60,7 +61,9 @@ class RunResult:
 def run_program(sim: Simulation, observers: Sequence[Observer] = ()) -> RunResult:
     """Run to the end: every activity done, the time limit, or a stopping failure."""
     scheduler = sim.scheduler
-    assert scheduler is not None, "run_program needs a simulation with activities"
+    if scheduler is None:
+        raise SimulationError("run_program runs a scenario's activities: this simulation was "
+                              "made with activities=False (step it, or run_until, yourself)")
     # robots' social-navigation metrics go in the summary; a crowd is too large to record
     record = sim.engine.robots.count > 0 and sim.engine.humans.count <= MAX_RECORDED_HUMANS
     judge = Judge(sim, record_tracks=record)

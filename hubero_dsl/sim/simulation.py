@@ -25,7 +25,7 @@ import numpy.typing as npt
 from pydantic import ValidationError
 
 from hubero_dsl.errors import OUTSIDE_STOPS, InputError, SimulationError, failure_of
-from hubero_dsl.model.params import HUMAN_PARAMS, REACTIONS, ParamKind
+from hubero_dsl.model.params import HUMAN_PARAMS, REACTIONS, SEED_DIGITS, ParamKind
 from hubero_dsl.model.program import Distribution, ParamValue, Pose, Program, unknown_variants
 from hubero_dsl.planners.base import GlobalPlanner, LocalPlanner, PlannerParams
 from hubero_dsl.planners.registry import global_planner, local_planner
@@ -120,7 +120,11 @@ class Simulation:
                  planners: GlobalPlanners | None = None) -> None:
         if variant is not None and variant not in program.variants:
             raise SimulationError(unknown_variants([variant], program.variants))
-        self.seed = program.seed if seed is None else seed
+        if seed is not None and (not isinstance(seed, int | np.integer)
+                                 or isinstance(seed, bool) or not 0 <= seed < 10 ** SEED_DIGITS):
+            raise SimulationError(f"a seed is a whole number from 0 to {SEED_DIGITS} digits, "
+                                  f"not {seed!r:.40}")
+        self.seed = program.seed if seed is None else int(seed)
         self.program = program = crowds_placed(program, self.seed)
         self.variant = variant
         self.params = draw_params(program, variant, self.seed)
@@ -185,8 +189,10 @@ class Simulation:
     def remove(self, name: str) -> None:
         """Make a human or robot unknown as a target: tasks that face or follow it lose it
         (they are aborted as 'disappeared'; a `move_to` under way walks on to where it was
-        when it began). Its body stays where it is, an obstacle to the others; taking bodies
-        out of the physics comes with flows of people."""
+        when it began). Its body stays where it is, an obstacle to the others, and it takes no
+        more tasks; taking bodies out of the physics comes with flows of people."""
+        if name not in self._humans and name not in self._robots:
+            raise SimulationError(f"no human or robot named '{name}' to remove")
         self.engine.removed.add(name)
 
     def _command(self, actor: str, task: Task, span: Span | None) -> TaskHandle:
@@ -339,6 +345,10 @@ def build_controllers(program: Program, given: Mapping[str, type | RobotControll
         body = robot_body(spec, program.grid, program.step)
         chosen = given.get(spec.name)
         if chosen is not None and not isinstance(chosen, type):
+            if not callable(getattr(chosen, "command", None)):  # told now, not at a tick
+                raise InputError(f"robot '{spec.name}': its controller must be a class or an "
+                                 f"object with a command(observation) method, not "
+                                 f"{chosen!r:.60}")
             built[spec.name] = chosen
             continue
         cls = chosen or controller_class(spec.controller)

@@ -122,5 +122,5 @@ def test_a_target_that_is_no_finite_point_is_refused_when_given(
     sim = Simulation(scenario("robot r at (2, 2) { controller navigator }\n"
                               "human h at (5, 5)\n"), activities=False)
     for actor in (sim.robot("r"), sim.human("h")):
-        with pytest.raises(SimulationError, match="a point must be finite"):
+        with pytest.raises(SimulationError, match=r"a point \(x, y\) of finite numbers"):
             actor.move_to(point)

@@ -163,7 +163,7 @@ def test_a_driven_robot_moves_as_its_controller_would_and_release_hands_it_back(
     driven.robot("r").release()
     driven.step()
     assert len(recorder_unused.seen) == 1
-    with pytest.raises(SimulationError, match="must be finite"):
+    with pytest.raises(SimulationError, match="must be two finite numbers"):
         driven.robot("r").drive(math.nan, 0.0)
 
 
