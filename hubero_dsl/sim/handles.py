@@ -40,7 +40,6 @@ SI_UNIT = {Dimension.TIME: "s", Dimension.LENGTH: "m", Dimension.SPEED: "m/s",
            Dimension.ANGLE: "rad"}
 
 
-
 class _Actor:
     """What humans and robots share: tasks given by kind, checked against the registry."""
 
