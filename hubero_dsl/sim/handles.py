@@ -107,6 +107,8 @@ class _Actor:
             takes = ", ".join(o.argument for o in kind.options) or "nothing"
             raise SimulationError(f"{kind.name} takes no '{name}' (it takes {takes})")
         if spec.value is ValueKind.TARGET:
+            if value == self.name:  # as a file's checker says (E203): not at oneself
+                raise SimulationError(f"{self.name} cannot {kind.name} {name} itself")
             return self._required_target(value)
         if spec.value is ValueKind.AREA:
             if not isinstance(value, Polygon):

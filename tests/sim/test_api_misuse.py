@@ -47,6 +47,7 @@ MISUSES: dict[str, tuple[Callable[[HumanHandle], object], str]] = {
     "times of 2.5": (lambda a: a.move_around(times=2.5), "whole number"),
     "a velocity in words": (lambda a: a.set_velocity("1", 0), "two finite numbers"),
     "a place to follow": (lambda a: a.follow("sofa"), "needs a human or robot, not a place"),
+    "talking to oneself": (lambda a: a.talk(to="actor1"), "actor1 cannot talk to itself"),
 }
 
 
