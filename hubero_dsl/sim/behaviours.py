@@ -22,7 +22,7 @@ import numpy as np
 
 from hubero_dsl.model.tasks import Target, Task
 from hubero_dsl.sim.physics import STILL
-from hubero_dsl.sim.status import Posture, TaskStatus
+from hubero_dsl.sim.status import Posture, TaskStatus, stuck_reason
 
 if TYPE_CHECKING:
     from shapely.geometry import Polygon
@@ -109,8 +109,7 @@ class Behaviour:
         """The human finished turning to its heading goal."""
 
     def on_stuck(self, engine: World) -> None:
-        engine.finish(self.index, TaskStatus.ABORTED,
-                      f"stuck: no progress for {engine.stuck_time:g} s")
+        engine.finish(self.index, TaskStatus.ABORTED, stuck_reason(engine.stuck_time))
 
     def on_held_at_goal(self, engine: World) -> None:
         """The human has made no progress for a while near its goal, and someone stands
@@ -362,10 +361,8 @@ class Posed(MoveTo):
 
     def on_stuck(self, engine: World) -> None:
         # a seat someone else takes is not taken beside it: stuck, and who sits there said
-        blocker = engine.standing_at_goal(self.index)
-        taken = f", its goal taken by {blocker}" if blocker is not None else ""
         engine.finish(self.index, TaskStatus.ABORTED,
-                      f"stuck: no progress for {engine.stuck_time:g} s{taken}")
+                      stuck_reason(engine.stuck_time, engine.standing_at_goal(self.index)))
 
     def on_held_at_goal(self, engine: World) -> None:
         Behaviour.on_held_at_goal(self, engine)  # a taken seat: its stuck time, as above

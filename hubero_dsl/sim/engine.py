@@ -160,7 +160,7 @@ class Engine:
             vx, vy = self.humans.velocity[self.groups[name]].mean(axis=0)
             return (float(vx), float(vy))
         if name in self.robots.names:
-            vx, vy = self.robots.velocity[self.robots.names.index(name)]
+            vx, vy = self.robots.velocity[self.robots.index_of(name)]
             return (float(vx), float(vy))
         return (0.0, 0.0)
 

@@ -29,7 +29,7 @@ from hubero_dsl.errors import OUTSIDE_STOPS, SimulationError, failure_of
 from hubero_dsl.model.tasks import Target, Task
 from hubero_dsl.sim import physics
 from hubero_dsl.sim.arrays import BoolArray, FloatArray, HumanArrays, IntArray
-from hubero_dsl.sim.status import TaskHandle, TaskStatus
+from hubero_dsl.sim.status import TaskHandle, TaskStatus, stuck_reason
 from hubero_dsl.world.shapes import Circle, ShapeArrays
 
 if TYPE_CHECKING:
@@ -304,16 +304,9 @@ class Robots:
             elif kind == "move_to" and (problem := self._problem(i)) is not None:
                 finish(name, TaskStatus.ABORTED, problem)  # its controller cannot get there
             elif kind == "move_to" and self._stuck(i, tick, stuck_ticks):
-                finish(name, TaskStatus.ABORTED, f"stuck: no progress for {stuck_ticks * dt:g} s"
-                       + self._taken(i, task, goal, standing_at))
-
-    def _taken(self, i: int, task: RobotTask, goal: tuple[float, float] | None,
-               standing_at: Callable[[tuple[float, float], FloatArray, float], str | None]
-               ) -> str:
-        """`, its goal taken by NAME` when someone stands nearer the goal, close to it."""
-        blocker = None if goal is None else standing_at(goal, self.position[i],
-                                                         task.stop_distance)
-        return f", its goal taken by {blocker}" if blocker is not None else ""
+                taker = None if goal is None else standing_at(goal, self.position[i],
+                                                              task.stop_distance)
+                finish(name, TaskStatus.ABORTED, stuck_reason(stuck_ticks * dt, taker))
 
     def _problem(self, i: int) -> str | None:
         """Why the controller cannot reach the goal, if it says (the navigator's `problem`)."""

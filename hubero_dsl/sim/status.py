@@ -84,3 +84,10 @@ def describe_target(target: Any) -> str:
         return target
     x, y = target
     return f"({x:g}, {y:g})"
+
+
+def stuck_reason(seconds: float, taken_by: str | None = None) -> str:
+    """Why a walk was given up: no progress for `seconds`, and who stands on its goal, if
+    someone does (a human's or a robot's task alike)."""
+    taken = f", its goal taken by {taken_by}" if taken_by is not None else ""
+    return f"stuck: no progress for {seconds:g} s{taken}"
