@@ -237,6 +237,10 @@ def _read(path: Path, stream: Any) -> LoggedRun:
         result=_outcome(result) if result is not None else None, attachments=attachments)
 
 
+# the files a log attaches, each with its checksum (`KEY_sha256`) in the provenance record
+ATTACHED = ("source", "map", "map_image")
+
+
 def _check_names(humans: object, robots: object) -> None:
     """Humans and robots each a list of distinct names, none both (ValueError else: a log
     hubero did not write so would make every reader of its tracks trip)."""
@@ -253,7 +257,7 @@ def _check_attachments(path: Path, provenance: dict[str, str],
     """LogError for an attached scenario or map whose bytes are not those the provenance
     record's checksum names (the MCAP library checks the chunks' CRCs, not attachments')."""
     names = _json(provenance.get("attachments", "{}"))
-    for key in ("source", "map", "map_image"):
+    for key in ATTACHED:
         name, expected = names.get(key), provenance.get(f"{key}_sha256")
         if name in attachments and expected is not None \
                 and hashlib.sha256(attachments[name]).hexdigest() != expected:
@@ -283,9 +287,6 @@ def _unpacked_size(chunk: Chunk) -> int:
     return int(chunk.uncompressed_size)
 
 
-INPUT_DIGESTS = ("source_sha256", "map_sha256", "map_image_sha256")
-
-
 def _metadata(values: dict[str, str], attachments: dict[str, bytes]) -> RunMetadata:
     names = _json(values["attachments"])
     source = attachments.get(names["source"], b"").decode("utf-8")
@@ -297,7 +298,8 @@ def _metadata(values: dict[str, str], attachments: dict[str, bytes]) -> RunMetad
         format_version=int(values["format_version"]), hubero_version=values["hubero_version"],
         title=values["title"], source_path=values["source_path"],
         source_sha256=values["source_sha256"], source=source, map_path=values["map_path"],
-        input_sha256=frozenset(values[key] for key in INPUT_DIGESTS if key in values),
+        input_sha256=frozenset(values[f"{key}_sha256"] for key in ATTACHED
+                               if f"{key}_sha256" in values),
         seed=int(values["seed"]), variant=values["variant"] or None,
         variants=tuple(_json(values["variants"])), params=params,
         step=float(values["step"]), time_limit=float(values["time_limit"]),

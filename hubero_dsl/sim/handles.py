@@ -121,12 +121,11 @@ class _Actor:
                                       f"1, not {value!r:.60}")
             return int(value)
         dimension = spec.value.dimension
-        number = _real(value)
-        largest = LARGEST.get(dimension, math.inf) if dimension is not None else math.inf
+        assert dimension is not None  # what is left is a time, a length, a speed or an angle
+        number, largest = _real(value), LARGEST[dimension]
         if number is None or not math.isfinite(number) or abs(number) > largest:
-            unit = SI_UNIT.get(dimension, "") if dimension is not None else ""
             raise SimulationError(f"{kind.name}: {name} must be a finite number of at most "
-                                  f"{largest:g} {unit}, not {value!r:.60}".replace("  ", " "))
+                                  f"{largest:g} {SI_UNIT[dimension]}, not {value!r:.60}")
         if spec.value is not ValueKind.ANGLE and number <= 0:
             raise SimulationError(f"{name} must be greater than zero")
         return number
