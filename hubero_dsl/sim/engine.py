@@ -117,6 +117,8 @@ class Engine:
         # a task that is neither `stand` nor `talk`
         self.together_at: dict[int, tuple[float, float]] = {}
         self._group_goals: dict[tuple[str, int], tuple[float, float] | None] = {}
+        self._gathered_tick = -1  # `_gathered_round`'s answers, for this tick only
+        self._gathered: dict[tuple[tuple[float, float], bytes], BoolArray] = {}
         self.ways_round = WaysRound(self, LOOKAHEAD)  # for walkers held up near walls
         self._look_again = max(1, self.ticks(SEE_PAST_EVERY))
         self._row_of = {name: row for row, name in enumerate(humans.names)}
@@ -266,11 +268,23 @@ class Engine:
             gap = physics.lengths(position - here) - size - (radius or 0.0)
             ahead &= gap <= physics.QUEUE_GAP
             if ahead.any():
-                ahead &= physics.gathered_round(goal, position, size, still)
+                ahead &= self._gathered_round(goal, position, size, still)
         rows = ahead.nonzero()[0]
         if not len(rows):
             return None
         return names[int(rows[np.argmin(distance[rows])])]
+
+    def _gathered_round(self, goal: tuple[float, float], position: FloatArray,
+                        radius: FloatArray, still: BoolArray) -> BoolArray:
+        """`physics.gathered_round`, once a tick for a goal and who stands still: every
+        walker queued for one goal asks it, and within a tick nobody moves (one who stops
+        short changes who stands still, and so the answer)."""
+        key = (goal, np.packbits(still).tobytes())
+        if self._gathered_tick != self.tick:
+            self._gathered_tick, self._gathered = self.tick, {}
+        if key not in self._gathered:
+            self._gathered[key] = physics.gathered_round(goal, position, radius, still)
+        return self._gathered[key]
 
     def at_rest_beside(self, rows: IntArray, gap: float) -> BoolArray:
         """Which humans of `rows` have a body at rest (`_bodies_at_rest`) within `gap` of
