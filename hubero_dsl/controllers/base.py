@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, ClassVar, Literal, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, ClassVar, Literal, Protocol, runtime_checkable
 
 from pydantic import BaseModel, ConfigDict
 
@@ -30,6 +30,12 @@ class ControllerParams(BaseModel):
     """Base of every controller's parameter model: unknown fields are errors, values frozen."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+def params_of(controller: type) -> Any:
+    """A controller class's parameter model: its `Params`, or none (`ControllerParams`
+    itself, which takes no field) when it declares none."""
+    return getattr(controller, "Params", ControllerParams)
 
 
 @dataclass(frozen=True, slots=True)

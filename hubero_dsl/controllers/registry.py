@@ -51,9 +51,9 @@ def controller_params(name: str) -> type[ControllerParams] | None:
     """The parameter model of a registered controller, or None when there is no such name."""
     if name not in _entry_points():
         return None
-    from hubero_dsl.controllers.base import ControllerParams
+    from hubero_dsl.controllers.base import params_of
 
-    params: type[ControllerParams] = getattr(controller_class(name), "Params", ControllerParams)
+    params: type[ControllerParams] = params_of(controller_class(name))
     return params
 
 
@@ -74,13 +74,13 @@ def import_controller(target: str) -> type:
 
 
 def _checked(loaded: object, what: str) -> type:
-    from hubero_dsl.controllers.base import ControllerParams
+    from hubero_dsl.controllers.base import ControllerParams, params_of
 
     if not isinstance(loaded, type):
         raise InputError(f"{what} is not a class")
     if not callable(getattr(loaded, "command", None)):
         raise InputError(f"{what} has no command(observation) method")
-    params = getattr(loaded, "Params", ControllerParams)  # none declared: no parameters
+    params = params_of(loaded)
     if not (isinstance(params, type) and issubclass(params, ControllerParams)):
         raise InputError(f"{what}: its `Params` must be a subclass of "
                          "hubero_dsl.controllers.base.ControllerParams (or left out, for a "

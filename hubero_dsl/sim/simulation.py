@@ -334,7 +334,7 @@ def build_controllers(program: Program, given: Mapping[str, type | RobotControll
                       ) -> dict[str, RobotController]:
     """Each robot's controller: the caller's (a class is built with the robot and default
     parameters), else the registered one its declaration names, with its parameters."""
-    from hubero_dsl.controllers.base import ControllerParams
+    from hubero_dsl.controllers.base import ControllerParams, params_of
     from hubero_dsl.controllers.registry import controller_class
 
     unknown = sorted(set(given) - {spec.name for spec in program.robots})
@@ -352,7 +352,7 @@ def build_controllers(program: Program, given: Mapping[str, type | RobotControll
             built[spec.name] = chosen
             continue
         cls = chosen or controller_class(spec.controller)
-        params_model = getattr(cls, "Params", ControllerParams)
+        params_model = params_of(cls)
         # a class handed over takes the scenario's parameters when it declares its own
         # (validated by them); one that declares none is built with none
         values = (spec.controller_params
