@@ -17,7 +17,9 @@ from __future__ import annotations
 import contextlib
 import math
 import re
+import struct
 import warnings
+import zlib
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
@@ -319,6 +321,8 @@ def _read_image(path: Path, document: _Document) -> tuple[UInt8Array, bool]:
                                          f"most {MAX_MAP_CELLS:,} (for example 4000 x 4000)",
                                          hint=_SMALLER_MAP)
                 image.load()
+                if image.format == "PNG":
+                    _check_png_complete(path, document)
                 return _channels(image, path, document)
     except MapError:
         raise
@@ -327,6 +331,51 @@ def _read_image(path: Path, document: _Document) -> tuple[UInt8Array, bool]:
                              f"example 4000 x 4000): {path}", hint=_SMALLER_MAP) from None
     except (OSError, ValueError, SyntaxError, EOFError) as exc:
         raise document.error("image", f"cannot be read: {path}: {exc}") from None
+
+
+# Adam7's passes: (first column, first row, column step, row step).
+_ADAM7 = ((0, 0, 8, 8), (4, 0, 8, 8), (0, 4, 4, 8), (2, 0, 4, 4), (0, 2, 2, 4), (1, 0, 2, 2),
+          (0, 1, 1, 2))
+_PNG_CHANNELS = {0: 1, 2: 3, 3: 1, 4: 2, 6: 4}   # by colour type
+
+
+def _check_png_complete(path: Path, document: _Document) -> None:
+    """Refuse a PNG whose compressed rows end early.
+
+    Pillow fills the rows missing from a stream that ends cleanly with zeros, which a map
+    reads as walls: a map cut short in a download would load, its lower part all occupied.
+    The rows' bytes are counted here, from the header's size, up to the first byte too many.
+    """
+    data = path.read_bytes()
+    position, width, height, expected, found = 8, 0, 0, 0, 0
+    stream = zlib.decompressobj()
+    while position + 8 <= len(data) and found <= expected:
+        length, kind = struct.unpack(">I4s", data[position:position + 8])
+        body = data[position + 8:position + 8 + length]
+        position += 12 + length
+        if kind == b"IHDR" and len(body) == 13:
+            width, height, depth, colour, _, _, interlace = struct.unpack(">IIBBBBB", body)
+            expected = _png_data_bytes(width, height, depth * _PNG_CHANNELS.get(colour, 1),
+                                       interlaced=interlace == 1)
+        elif kind == b"IDAT":
+            with contextlib.suppress(zlib.error):   # Pillow has read what it could: count it
+                found += len(stream.decompress(body, expected - found + 1))
+    if found < expected:
+        raise document.error("image", f"is cut short: its pixel data ends before its last "
+                             f"rows ({found:,} of {expected:,} bytes of a {width} x {height} "
+                             f"image): {path}")
+
+
+def _png_data_bytes(width: int, height: int, bits: int, *, interlaced: bool) -> int:
+    """Bytes of a PNG's filtered rows: a filter byte and the packed pixels, pass by pass."""
+    passes = _ADAM7 if interlaced else ((0, 0, 1, 1),)
+    total = 0
+    for column, row, column_step, row_step in passes:
+        columns = -(-(width - column) // column_step) if width > column else 0
+        rows = -(-(height - row) // row_step) if height > row else 0
+        if columns and rows:
+            total += rows * (1 + -(-columns * bits // 8))
+    return total
 
 
 def _channels(image: Image.Image, path: Path, document: _Document) -> tuple[UInt8Array, bool]:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import struct
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -267,6 +269,58 @@ def test_corrupt_images(tmp_path: Path, content: bytes) -> None:
     yaml_path = tmp_path / "map.yaml"
     yaml_path.write_text(yaml_text({"image": "map.pgm", **FIELDS}))
     expect_map_error(yaml_path, "'image'", "map.pgm", "cannot be read")
+
+
+def png_bytes(pixels: np.ndarray, *, rows_kept: int | None = None,
+              interlaced: bool = False) -> bytes:
+    """An 8-bit grey PNG written by hand: optionally Adam7-interlaced, or with its compressed
+    data ending cleanly after `rows_kept` rows (what a cut download or a faulty writer gives)."""
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return (struct.pack(">I", len(body)) + kind + body
+                + struct.pack(">I", zlib.crc32(kind + body) & 0xFFFFFFFF))
+
+    passes = ([(0, 0, 8, 8), (4, 0, 8, 8), (0, 4, 4, 8), (2, 0, 4, 4), (0, 2, 2, 4),
+               (1, 0, 2, 2), (0, 1, 1, 2)] if interlaced else [(0, 0, 1, 1)])
+    rows = [row for column, first, column_step, row_step in passes
+            for row in pixels[first::row_step, column::column_step].astype(np.uint8) if row.size]
+    data = b"".join(b"\x00" + row.tobytes() for row in rows[:rows_kept])
+    header = struct.pack(">IIBBBBB", pixels.shape[1], pixels.shape[0], 8, 0, 0, 0,
+                         int(interlaced))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(data))
+            + chunk(b"IEND", b""))
+
+
+def a_floor_plan() -> np.ndarray:
+    pixels = np.full((13, 11), 254)
+    pixels[0], pixels[:, 0], pixels[5, 3:9] = 0, 0, 0
+    return pixels
+
+
+def test_a_png_cut_short_is_refused_not_read_as_walls(tmp_path: Path) -> None:
+    # Pillow reads the missing rows as black (occupied) without a word
+    (tmp_path / "map.png").write_bytes(png_bytes(a_floor_plan(), rows_kept=4))
+    yaml_path = tmp_path / "map.yaml"
+    yaml_path.write_text(yaml_text({"image": "map.png", **FIELDS}))
+    expect_map_error(yaml_path, "'image'", "map.png", "cut short", "48 of 156 bytes",
+                     "11 x 13")
+
+
+@pytest.mark.parametrize("interlaced", [False, True])
+def test_whole_pngs_read_interlaced_or_not(tmp_path: Path, interlaced: bool) -> None:
+    (tmp_path / "map.png").write_bytes(png_bytes(a_floor_plan(), interlaced=interlaced))
+    yaml_path = tmp_path / "map.yaml"
+    yaml_path.write_text(yaml_text({"image": "map.png", **FIELDS}))
+    expected = load_map(write_map(tmp_path / "pgm", a_floor_plan()))
+    assert np.array_equal(load_map(yaml_path).occupied, expected.occupied)
+
+
+@pytest.mark.parametrize("mode", ["1", "L", "LA", "P", "RGB", "RGBA", "I;16"])
+def test_pngs_of_every_mode_pillow_writes_are_whole(tmp_path: Path, mode: str) -> None:
+    image = Image.fromarray(a_floor_plan().astype(np.uint8)).convert(mode)
+    image.save(tmp_path / "map.png")
+    yaml_path = tmp_path / "map.yaml"
+    yaml_path.write_text(yaml_text({"image": "map.png", **FIELDS}))
+    assert load_map(yaml_path).occupied[-1].all()       # the top row is a wall in every mode
 
 
 # --- saving ---------------------------------------------------------------------------------
