@@ -40,6 +40,10 @@ MIN_STEP, MAX_STEP = 1e-3, 1.0  # s: the range of `step`
 MAX_TICKS = 1e8  # ticks in a run (time_limit / step): about 14 h of computing at 2000 ticks/s
 MAX_VARIANTS = 10_000  # variants of a scenario (named variants times sweep values)
 MAX_HUMANS = 20_000    # humans of a scenario, crowds included (a log has 65,535 channels)
+# People and robots times ticks: what a run computes and logs grows with both, and each bound
+# alone lets their product run for days (10,000 people for 27 h at a 1 s step, a log of about
+# 145 GB). 5e8 is 10,000 people for 42 min at the default step, or 1,000 for 7 h.
+MAX_BODY_TICKS = 5e8
 TARGETS = (NameKind.PLACE, NameKind.HUMAN, NameKind.ROBOT, NameKind.GROUP)
 
 @dataclass(frozen=True)
@@ -200,21 +204,40 @@ class Checker:
                                 statement.span, "a flow counts as many people as it may "
                                 "bring: its rate times its duration (or the time limit), "
                                 "and a margin" if isinstance(statement, ast.FlowDecl) else None)
-                    break
+                    return
+        self._body_ticks(people + len(self.module.of_type(ast.RobotDecl)))
+
+    def _step_and_limit(self) -> tuple[float, float]:
+        """The run's step and time limit (s), the language's defaults where not set."""
+        settings = self.facts.settings
+        step, limit = settings.get("step"), settings.get("time_limit")
+        return (step if isinstance(step, float) else DEFAULT_STEP,
+                limit if isinstance(limit, float) else DEFAULT_TIME_LIMIT)
+
+    def _timing_span(self) -> Span | None:
+        return next((s.value.span for s in self.module.of_type(ast.SettingDecl)
+                     if s.keyword in ("time_limit", "step")), None)
+
+    def _body_ticks(self, bodies: int) -> None:
+        """A run's people and robots times its ticks are bounded by MAX_BODY_TICKS (the
+        defaults' 12,000 ticks never exceed it, so a time limit or a step is written)."""
+        step, limit = self._step_and_limit()
+        ticks = limit / step
+        if bodies * ticks > MAX_BODY_TICKS and ticks <= MAX_TICKS:  # else E203 says so
+            self.report("E203", f"{bodies:,} people and robots for {ticks:,.0f} ticks (a time "
+                        f"limit of {limit:g} s at a step of {step:g} s) is "
+                        f"{bodies * ticks:.3g} body-ticks; a run has at most "
+                        f"{MAX_BODY_TICKS:.0e}", self._timing_span(),
+                        "shorten the time limit, lengthen the step or simulate fewer people "
+                        "(a flow counts as many as it may bring)")
 
     def _tick_count(self) -> None:
         """A run's ticks are bounded: time_limit / step at most MAX_TICKS."""
-        settings = self.facts.settings
-        step = settings.get("step") if isinstance(settings.get("step"), float) else DEFAULT_STEP
-        limit = settings.get("time_limit")
-        limit = limit if isinstance(limit, float) else DEFAULT_TIME_LIMIT
-        assert isinstance(step, float)
+        step, limit = self._step_and_limit()
         if limit / step > MAX_TICKS:
-            span = next((s.value.span for s in self.module.of_type(ast.SettingDecl)
-                         if s.keyword in ("time_limit", "step")), None)
             self.report("E203", f"a time limit of {limit:g} s at a step of {step:g} s is "
-                        f"{limit / step:.3g} ticks; a run has at most {MAX_TICKS:.0e}", span,
-                        "shorten the time limit or lengthen the step")
+                        f"{limit / step:.3g} ticks; a run has at most {MAX_TICKS:.0e}",
+                        self._timing_span(), "shorten the time limit or lengthen the step")
 
     def _in_definition_order(self) -> list[ast.Statement]:
         """Places first, each after the place it is defined by, so that a place may be used

@@ -202,6 +202,9 @@ SINGLE = {
                                ("W506", 5, 39, 42)),
     "a huge duration": ("activity { actor1 stand for 1e308 s }", ("E203", 5, 29, 36)),
     "a step too small": ("step 1e-12 s", ("E203", 5, 6, 13)),
+    "a flow of people for days": (
+        "time_limit 200000 s\nflow f from rect((5.6, 1.8), (6.0, 2.2)) to (5.5, 1.0) rate 0.05 /s",
+        ("E203", 5, 12, 20)),
     "a digit of another script": ("activity { actor1 move_to (\u0669\u0669, 1.0) }",
                                   ("E002", 5, 28, 29)),
     "an infinite coordinate": ("activity { actor1 move_to (1e999, 1.0) }", ("E203", 5, 28, 33)),
@@ -234,6 +237,15 @@ def test_k_within_the_cap_of_a_smaller_step_is_no_warning(check: Check) -> None:
 def test_one_diagnostic_at_its_span(check: Check, body: str,
                                     expected: tuple[str, int, int, int]) -> None:
     assert spans(check(body)) == [expected]
+
+
+def test_people_times_ticks_are_bounded_not_each_alone(check: Check) -> None:
+    flow = "flow f from rect((5.6, 1.8), (6.0, 2.2)) to (5.5, 1.0) rate 1 /s\n"
+    assert codes(check("time_limit 3000 s\n" + flow)) == []       # about 1.9e8 body-ticks
+    found = check("time_limit 3000 s\nstep 0.01 s\n" + flow).diagnostics
+    assert [d.code for d in found] == ["E203"]
+    assert "for 300,000 ticks (a time limit of 3000 s at a step of 0.01 s)" in found[0].message
+    assert found[0].hint is not None and "fewer people" in found[0].hint
 
 
 def test_unknown_name_is_pointed_at_with_a_did_you_mean(check: Check) -> None:
