@@ -430,6 +430,8 @@ class MoveAround(Behaviour):
     def on_held_at_goal(self, engine: World) -> None:
         if self.group is not None:  # a companion stands on the shared goal: as good as there
             self.on_arrived(engine)
+        else:  # someone stands on the spot it drew: wander elsewhere, not push for it
+            self._next_goal(engine)
 
     def on_stuck(self, engine: World) -> None:
         self._next_goal(engine)  # wandering has no fixed goal: pick another one

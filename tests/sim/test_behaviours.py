@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from shapely.geometry import Polygon
 
 from hubero_dsl.errors import SimulationError
 from hubero_dsl.sim.simulation import Simulation
@@ -294,6 +295,22 @@ def test_stopping_beside_a_taken_goal_still_turns_to_the_heading_asked(
     sim.run_until(lambda: task.done, time_limit=60)
     assert task.status is TaskStatus.SUCCEEDED
     assert sim.human("alice").heading == pytest.approx(math.pi / 2, abs=0.06)
+
+
+def test_a_wanderer_whose_spot_is_taken_draws_another_not_pushes_for_its_stuck_time(
+        scenario: ScenarioFactory) -> None:
+    sim = Simulation(scenario(GROUP_AT_GOAL), activities=False)
+    sim.engine.stuck_time = 30.0
+    _group_talking_at(sim, (5.0, 4.0))  # every spot of the area below lies inside their circle
+    alice = sim.engine.index_of("alice")
+    task = sim.human("alice").move_around(area=Polygon([(4.8, 3.8), (5.2, 3.8), (5.2, 4.2),
+                                                        (4.8, 4.2)]), duration=15.0)
+    goals = set()
+    while not task.done:
+        sim.step()
+        goals.add(tuple(sim.engine.humans.goal[alice]))
+    assert task.status is TaskStatus.SUCCEEDED
+    assert len(goals) >= 3         # a spot drawn anew every few seconds, well before 30 s
 
 
 def test_a_seat_someone_sits_on_is_not_taken_beside_them(scenario: ScenarioFactory) -> None:
