@@ -348,7 +348,7 @@ class Posed(MoveTo):
                  heading: float | None) -> None:
         super().__init__(at or (0.0, 0.0), heading)
         self.kind = "sit_down" if posture is Posture.SITTING else "lie_down"
-        self.keeps_posture = True
+        self.keeps_posture = at is None  # told where: it stands up and walks there first
         self.posture = posture
         self.timing = timing
         self.at = at

@@ -151,6 +151,21 @@ def test_sit_and_lie_down_go_there_and_hold_the_posture(scenario: ScenarioFactor
     assert alice.posture is Posture.STANDING  # the next task gets up
 
 
+@pytest.mark.parametrize(("first", "then"), [("sit_down", "sit_down"), ("sit_down", "lie_down"),
+                                             ("lie_down", "sit_down"), ("lie_down", "lie_down")])
+def test_seated_or_lying_told_to_take_a_posture_elsewhere_gets_up_and_goes(
+        scenario: ScenarioFactory, first: str, then: str) -> None:
+    sim = api_sim(scenario)
+    alice = sim.human("alice")
+    seated = getattr(alice, first)(at=(4.0, 6.0), duration=1.0)
+    sim.run_until(lambda: seated.done, time_limit=30)
+    task = getattr(alice, then)(at=(7.0, 2.0), duration=1.0)
+    sim.run_until(lambda: task.done, time_limit=60)
+    assert seated.status is task.status is TaskStatus.SUCCEEDED, task.reason
+    assert math.dist(alice.position, (7.0, 2.0)) <= 0.21
+    assert alice.posture is (Posture.SITTING if then == "sit_down" else Posture.LYING)
+
+
 def test_teleop_moves_with_the_commanded_velocity(scenario: ScenarioFactory) -> None:
     sim = api_sim(scenario)
     alice = sim.human("alice")
