@@ -46,6 +46,8 @@ ABREAST_LANE = 0.6      # m across the group's way at least: a companion in the 
 ABREAST_CLOSE = 1.0     # s over which a lead is closed
 ABREAST_SLOWEST = 0.2   # of its desired speed, the slowest one waiting walks
 ABREAST_ROOM = 1.0      # m further on where there must still be room for two
+ABREAST_WAKE = 1.5      # m: closer than this behind a companion in its lane, one is held up
+ABREAST_ARRIVING = 0.5  # m from its place: one there walks on to it rather than wait
 ABREAST_ONE_WAY = 0.8   # the mean of the members' unit ways at least this long: one way
 STAYING_TASKS = frozenset({"stand", "talk"})  # tasks after which one is still where one arrived
 WAY_MARGIN = 0.1        # m off walls beyond the body, for a member to walk straight on
@@ -604,9 +606,16 @@ class Engine:
                 continue
             way, lead, beside = found
             pace = np.maximum(velocity[walking] @ way, 0.0)
-            cap = np.where(beside, pace[None, :] - lead / ABREAST_CLOSE, np.inf).min(axis=1)
-            cap = np.clip(cap, ABREAST_SLOWEST * h.desired_speed[walking], h.max_speed[walking])
             lag = np.where(beside.T, lead.T, 0.0).max(axis=1)
+            # one in the middle of a line, behind a companion and level with another, closes
+            # up on the one ahead: it may outpace the one behind by its own lag
+            cap = np.where(beside, pace[None, :] - (lead - lag[:, None]) / ABREAST_CLOSE,
+                           np.inf).min(axis=1)
+            cap = np.clip(cap, ABREAST_SLOWEST * h.desired_speed[walking], h.max_speed[walking])
+            # one about to reach its place waits there, standing: crawling to it keeps it in
+            # the way of those coming up behind
+            arriving = physics.lengths(h.goal[walking] - h.position[walking]) < ABREAST_ARRIVING
+            cap[arriving] = h.max_speed[walking[arriving]]
             moved = velocity[walking] + (lag / ABREAST_CLOSE * self._relaxing(walking)
                                          )[:, None] * way
             velocity[walking] = physics.capped(moved, cap)
@@ -637,6 +646,10 @@ class Engine:
         lead = -offset @ way
         across = np.abs(offset[..., 0] * way[1] - offset[..., 1] * way[0])
         beside = (across >= ABREAST_LANE) & (lead > 0)
+        # one walking in a companion's wake (its lane, close behind) is held up by that
+        # companion: waiting for it would hold it up the more
+        in_wake = ((across < ABREAST_LANE) & (lead > 0) & (lead < ABREAST_WAKE)).any(axis=0)
+        beside[:, in_wake] = False
         if beside.any():
             i, j = np.nonzero(beside)
             level = h.position[walking[j]] + lead[i, j, None] * way

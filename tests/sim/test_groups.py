@@ -9,11 +9,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from shapely.geometry import Point, box
 
 from hubero_dsl.pipeline import check_source, compile_source
 from hubero_dsl.sim.loop import RunResult, run_program
 from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.sim.status import TaskStatus
+from hubero_dsl.world.drawing import grid_from_walkable
 from hubero_dsl.world.mapfile import save_map
 from tests.sim.conftest import room_grid
 
@@ -128,6 +130,23 @@ def test_a_group_walks_in_file_where_the_way_is_too_narrow(hall_corridor_map: Pa
     assert ahead and min(abs(a) for a in ahead) > 0.5     # one after the other
     assert max(beside) < 0.4
     assert max(ended.values()) < 23.0 / 0.7 + 3.0         # nobody waits for the impossible
+
+
+def test_a_group_passing_a_table_keeps_its_pace(tmp_path: Path) -> None:
+    # the table parts them: those ahead used to wait for a companion held up in another's
+    # wake, or for one in the middle of the line waiting on the one behind it, at a fifth of
+    # their speed: 9.4 s for this walk (now 6.3 s)
+    path = tmp_path / "table.yaml"
+    room = box(0.65, 0.65, 11.35, 7.35).difference(Point(3.0, 3.0).buffer(0.5, 64))
+    save_map(grid_from_walkable(room.difference(box(5.9, 0.6, 6.1, 3.55)), 0.02), path)
+    sim, result = _run(path, "human ann at (1.5, 2.0)\nhuman ben at (1.5, 2.7)\n"
+                             "human cat at (1.0, 2.35) { speed 1.0 m/s }\n"
+                             "group friends of (ann, ben, cat)\n"
+                             "activity { friends move_to (5.0, 2.4) }\n")
+    ends = [e.time for e in result.events if e.status is TaskStatus.SUCCEEDED]
+    assert len(ends) == 3 and max(ends) < 7.5          # 3.5 m at 1 m/s, and closing up
+    assert all(math.dist(sim.human(name).position, (5.0, 2.4)) < 1.0
+               for name in ("ann", "ben", "cat"))
 
 
 def test_members_sent_on_tasks_of_their_own_do_not_keep_abreast(hall_map: Path) -> None:
