@@ -40,6 +40,8 @@ GOAL_SLACK = 1e-9
 # from differences of positions, and a log keeps positions to 0.1 mm: two standing bodies
 # "close" at rounding speeds, which gave times to contact of 10^14 s.
 CLOSING = 0.01
+# s: times this close are one sample time (float sums of a step)
+_SAME_TIME = 1e-9
 
 
 @dataclass(frozen=True, slots=True)
@@ -141,7 +143,7 @@ def social_metrics(subject: Track, people: Sequence[Track], *,
         "path_irregularity": _irregularity(step, lengths),
         "time_to_goal": arrived if arrived is not None else math.inf,
         "min_distance": float(nearest.min()) if len(nearest) else math.inf,
-        "avg_distance": _time_average(np.minimum(nearest, 1e9), weights, total),
+        "avg_distance": _present_average(nearest, weights),
         "min_centre_distance": float(centres.min()) if centres.size else math.inf,
         "intimate_intrusions": _share(nearest < INTIMATE, weights, total),
         "personal_intrusions": _share((nearest >= INTIMATE) & (nearest < PERSONAL), weights,
@@ -191,17 +193,28 @@ def _gaps(subject: Track, people: Sequence[Track], others: FloatArray
         return empty, empty
     away = others - subject.position
     centres = np.hypot(away[..., 0], away[..., 1])
+    centres[np.isnan(centres)] = math.inf        # absent (NaN positions): nowhere near
     radii = np.array([[person.radius] for person in people])
     return centres - radii - subject.radius, centres
 
 
 def _at(track: Track, times: FloatArray) -> FloatArray:
-    """The track's positions at `times` (linear between samples, held beyond its ends)."""
-    if len(track.time) == len(times) and np.array_equal(track.time, times):
-        return track.position
-    x = np.interp(times, track.time, track.position[:, 0])
-    y = np.interp(times, track.time, track.position[:, 1])
-    return np.stack([x, y], axis=1)
+    """The track's positions at `times` (`sampled_at`: NaN while the body is absent)."""
+    return sampled_at(track.time, track.position, times)
+
+
+def sampled_at(time: FloatArray, values: FloatArray, at: FloatArray) -> FloatArray:
+    """Values (T,) or (T, k) sampled at `time`, at the times `at`: linear between samples,
+    held for one sample spacing beyond the ends (a log's last frame may come early), NaN
+    further out: a flow's member before it came or after it left is absent, not standing
+    where it was last seen."""
+    if len(time) == len(at) and np.array_equal(time, at):
+        return values
+    columns = values.reshape(len(time), -1)
+    found = np.column_stack([np.interp(at, time, column) for column in columns.T])
+    spacing = float(np.median(np.diff(time))) if len(time) > 1 else 0.0
+    found[(at < time[0] - spacing - _SAME_TIME) | (at > time[-1] + spacing + _SAME_TIME)] = np.nan
+    return found.reshape((len(at), *values.shape[1:]))
 
 
 def _efficiency(position: FloatArray, lengths: FloatArray, goal: tuple[float, float] | None,
@@ -234,6 +247,15 @@ def _irregularity(step: FloatArray, lengths: FloatArray) -> float:
     return float(turns.sum() / lengths.sum())
 
 
+def _present_average(values: FloatArray, weights: FloatArray) -> float:
+    """The time average of `values` over the samples where it is finite (someone there):
+    infinite when nobody ever was."""
+    present = np.isfinite(values)
+    if not present.any():
+        return math.inf
+    return _time_average(values[present], weights[present], float(weights[present].sum()))
+
+
 def _time_average(values: FloatArray, weights: FloatArray, total: float) -> float:
     if total <= 0:
         return float(values[0]) if len(values) else math.inf
@@ -261,24 +283,31 @@ def _still_time(time: FloatArray, lengths: FloatArray) -> float:
 
 
 def _jerk(time: FloatArray, position: FloatArray) -> float:
+    """The mean magnitude of the third derivative, each derivative taken over the true time
+    between its samples' midpoints (a run's last frame comes early; repeated times dropped):
+    the third difference over the step cubed where the steps are even."""
+    distinct = np.diff(time, prepend=-np.inf) > 0
+    time, position = time[distinct], position[distinct]
     if len(time) < 4:
         return 0.0
-    dt = float(np.median(np.diff(time)))
-    if dt <= 0:
-        return 0.0
-    third = np.diff(position, n=3, axis=0) / dt ** 3
-    return float(np.hypot(third[:, 0], third[:, 1]).mean())
+    derivative = position
+    for _ in range(3):
+        step = np.diff(time)
+        derivative = np.diff(derivative, axis=0) / step[:, None]
+        time = time[:-1] + step / 2
+    return float(np.hypot(derivative[:, 0], derivative[:, 1]).mean())
 
 
 def _distance_extremes(nearest: FloatArray, centres: FloatArray, weights: FloatArray,
                        total: float) -> dict[str, float]:
-    if not centres.size:
+    present = np.isfinite(nearest)
+    if not present.any():
         return {"max_distance": math.inf, "avg_centre_distance": math.inf,
                 "max_centre_distance": math.inf}
     nearest_centre = centres.min(axis=0)
-    return {"max_distance": float(nearest.max()),
-            "avg_centre_distance": _time_average(nearest_centre, weights, total),
-            "max_centre_distance": float(nearest_centre.max())}
+    return {"max_distance": float(nearest[present].max()),
+            "avg_centre_distance": _present_average(nearest_centre, weights),
+            "max_centre_distance": float(nearest_centre[present].max())}
 
 
 def motion_metrics(time: FloatArray, position: FloatArray) -> dict[str, float]:
@@ -347,8 +376,9 @@ def _social_force(subject: Track, others: FloatArray, gaps: FloatArray,
     if not len(others) or not len(subject.time):
         return 0.0
     away = subject.position[None, :, :] - others
+    there = (centres > 0) & np.isfinite(centres)
     unit = np.divide(away, centres[:, :, None], out=np.zeros_like(away),
-                     where=centres[:, :, None] > 0)
+                     where=there[:, :, None])
     force = (FORCE_A * np.exp(-np.maximum(gaps, 0.0) / FORCE_B))[:, :, None] * unit
     summed = force.sum(axis=0)
     return _time_average(np.hypot(summed[:, 0], summed[:, 1]), weights, total)

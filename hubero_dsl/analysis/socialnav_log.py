@@ -35,6 +35,7 @@ from hubero_dsl.socialnav import (
     Track,
     contacts,
     member_indices,
+    sampled_at,
     social_metrics,
 )
 from hubero_dsl.world.personal_space import contains
@@ -245,13 +246,17 @@ def shape_intrusions(run: LoggedRun, subject: Track, others: list[str],
     shapes = ShapeArrays.from_shapes([_shape(run, h) for h in others])
     repeated = ShapeArrays(np.repeat(shapes.kind, count), np.repeat(shapes.a, count),
                            np.repeat(shapes.b, count), np.repeat(shapes.offset, count))
-    centres = np.concatenate([_interpolated(run.humans[h].time, run.humans[h].position, times)
+    centres = np.concatenate([sampled_at(run.humans[h].time, run.humans[h].position, times)
                               for h in others])
     unwrapped = headings if headings is not None else _headings(run)
     turned = np.concatenate([_interpolated(run.humans[h].time, unwrapped[h], times)
                              for h in others])
     points = np.tile(subject.position, (len(others), 1))
-    inside = np.asarray(contains(repeated, turned, centres, points))
+    there = ~np.isnan(centres[:, 0])               # not a flow's member before it came or after
+    present = ShapeArrays(repeated.kind[there], repeated.a[there], repeated.b[there],
+                          repeated.offset[there])
+    inside = np.zeros(len(centres), dtype=np.bool_)
+    inside[there] = np.asarray(contains(present, turned[there], centres[there], points[there]))
     intruded = np.asarray(inside.reshape(len(others), count).any(axis=0), dtype=np.bool_)[:-1]
     dt = np.diff(times)
     return float(dt[intruded].sum() / dt.sum()) if dt.sum() > 0 else 0.0

@@ -81,7 +81,11 @@ class Tracks:
 
     def record(self, sim: Simulation) -> None:
         self.time.append(sim.time)
-        self.humans.append(sim.engine.humans.position.copy())
+        humans = sim.engine.humans
+        position = humans.position.copy()
+        if humans.present is not None:   # a flow's absent members wait off the map: absent
+            position[~humans.present] = np.nan
+        self.humans.append(position)
         self.robots.append(sim.engine.robots.position.copy())
 
     def tracks(self, sim: Simulation) -> dict[str, Track]:

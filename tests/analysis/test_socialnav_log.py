@@ -43,6 +43,26 @@ def test_a_robot_in_a_persons_own_shape(build_run: Callable, track: Callable, ro
     assert set(metrics) == {*METRICS, "shape_intrusions"}
 
 
+def test_a_flows_member_counts_only_while_it_is_there(build_run: Callable, track: Callable,
+                                                      robot: Callable) -> None:
+    # a visitor logged from t = 1 to 2 at x = 3, beside where the robot will be at t = 6: it
+    # left long before; held at its last position it would be a ghost the robot runs into
+    visitor = track("visitor_1", [1.0, 1.5, 2.0], [(3.0, 0.5)] * 3)
+    ann = track("ann", TIMES, [(-3.0, 5.0)] * 7)
+    run = build_run([visitor, ann], robots=[robot("cart", TIMES, WALK)])
+    metrics = robot_social_metrics(run, "cart")
+    # while the visitor was there the robot was at x = -2 .. -1: 4.06 m from it, surfaces
+    assert metrics["min_distance"] == pytest.approx(math.hypot(4.0, 0.5) - 0.5)
+    assert metrics["collisions"] == 0.0 and metrics["shape_intrusions"] == 0.0
+    assert metrics["min_time_to_collision"] > 1.0    # no jump from or to nowhere
+
+
+def test_a_robot_alone_has_no_distances(build_run: Callable, robot: Callable) -> None:
+    metrics = robot_social_metrics(build_run([], robots=[robot("cart", TIMES, WALK)]), "cart")
+    assert all(metrics[key] == math.inf for key in (
+        "min_distance", "avg_distance", "max_distance", "avg_centre_distance"))
+
+
 def test_group_spaces_come_from_the_logs_sets(build_run: Callable, track: Callable,
                                               robot: Callable) -> None:
     mum = track("mum", TIMES, [(0.0, 1.0)] * 7)

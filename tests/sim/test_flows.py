@@ -268,3 +268,23 @@ def test_a_rate_in_an_unknown_unit_lists_the_rate_units(room_map: Path) -> None:
     body = "flow f from rect((1, 1), (3, 3)) to (9, 4) rate 2 /day for 5 s"
     (error,) = check_source(_text(room_map, body), "t.hub").errors
     assert error.code == "E002" and error.hint is not None and "/s, /min, /h" in error.hint
+
+
+def test_a_robots_metrics_count_a_flows_people_only_while_they_are_there(
+        room_map: Path) -> None:
+    # people come 1 m from the robot and walk away from it, then leave: waiting off the map,
+    # they were counted 1e6 m away (max and average distances of 1e6 m) and their jump there
+    # and back read as a collision course (a time to collision of 0 s)
+    program = compile_source(_text(room_map, """
+    time_limit 30 s
+    flow visitors from rect((2.3, 1.7), (2.7, 2.1)) to (8.5, 6.5) rate 60 /min for 3 s
+    robot cart at (1.0, 0.6) { controller navigator; goal (1.0, 3.0) }
+    activity { cart move_to (1.0, 3.0); cart stand for 20 s }
+    expect min_time_to_collision(cart) >= 1 s
+    expect max_distance(cart) <= 20 m
+    expect avg_distance(cart) <= 20 m
+    """), "t.hub")
+    result = run_program(Simulation(program))
+    assert any(e.human.startswith("visitors_") for e in result.events)
+    assert [(v.text, v.held) for v in result.expectations] == [
+        (v.text, True) for v in result.expectations]

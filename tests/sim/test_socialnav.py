@@ -82,6 +82,14 @@ def test_jerk_of_a_cubic_motion() -> None:
     assert social_metrics(subject, [])["jerk"] == pytest.approx(6.0)
 
 
+def test_jerk_takes_a_last_shorter_step_as_short() -> None:
+    # a run's log ends with a frame at the end time, half a step after the one before: the
+    # third difference over the usual step cubed made 4 of this cubic's jerk of 1
+    times = np.append(np.arange(11) * 0.1, 1.05)
+    subject = Track(times, np.stack([times ** 3 / 6, np.zeros(12)], axis=1), 0.2)
+    assert social_metrics(subject, [])["jerk"] == pytest.approx(1.0, abs=0.01)
+
+
 def test_every_metric_is_computed() -> None:
     m = social_metrics(_track([(0, 0), (1, 0)]), [_track([(5, 5), (5, 5)])])
     assert set(m) == set(METRICS)
