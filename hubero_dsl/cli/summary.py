@@ -98,7 +98,7 @@ def _robot_metrics_table(metrics: dict[str, dict[str, float]]) -> Table:
                   "min TTC", "path length", "efficiency", "time to goal",
                   title="robots among people", title_justify="left")
     for name, values in metrics.items():
-        table.add_row(name, f"{values['min_distance']:.2f} m",
+        table.add_row(name, _metres(values["min_distance"]),
                       f"{100 * values['intimate_intrusions']:.0f} %",
                       f"{100 * values['personal_intrusions']:.0f} %",
                       f"{values['collisions']:.0f} / {values['obstacle_collisions']:.0f}",
@@ -115,6 +115,10 @@ def _percent(value: float) -> str:
 
 def _seconds(value: float) -> str:
     return f"{value:.2f} s" if value != float("inf") else "-"
+
+
+def _metres(value: float) -> str:
+    return f"{value:.2f} m" if value != float("inf") else "-"  # nobody was there
 
 
 def _actors_table(actors: list[HumanSummary], column: str, title: str) -> Table:

@@ -222,3 +222,15 @@ def test_hubero_test_runs_a_file_named_twice_once(cli: Callable[..., Outcome]) -
     assert twice.status == once.status == 0
     assert twice.out.rstrip().splitlines()[-1] == once.out.rstrip().splitlines()[-1] == (
         "2 passed, 0 failed")  # its two variants
+
+
+def test_a_robot_nobody_came_near_shows_no_distance(cli: Callable[..., Outcome],
+                                                    tmp_path: Path) -> None:
+    path = tmp_path / "alone.hub"
+    path.write_text(f'scenario "t"\nmap "{MAP}"\nrobot r at (1, 1) {{ controller navigator }}\n'
+                    "activity { r stand for 1 s }\n", encoding="utf-8")
+    outcome = cli("run", str(path), "--no-log")
+    assert outcome.status == 0
+    metrics = outcome.out.split("robots among people")[1]
+    row = next(line for line in metrics.splitlines() if line.strip("│ ").startswith("r "))
+    assert "inf" not in row and row.split("│")[2].strip() == "-"
