@@ -17,6 +17,7 @@ finished and says "complete": false).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import time
 from collections import Counter
@@ -111,7 +112,11 @@ def _variant_names(args: argparse.Namespace) -> list[str] | None:
 def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
     from hubero_dsl.cli.console import make_console
     from hubero_dsl.files import check_output
-    from hubero_dsl.sweep.executors import available_cores, open_executor
+    from hubero_dsl.sweep.executors import (
+        available_cores,
+        deaf_to_interrupts,
+        open_executor,
+    )
     from hubero_dsl.sweep.index import INDEX_CSV, INDEX_JSON, refuse_other_indexes, write_index
     from hubero_dsl.sweep.runner import prepare_out_dir, run_sweep
     from hubero_dsl.sweep.worker import standard_metrics
@@ -120,17 +125,21 @@ def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
     jobs = min(args.jobs or available_cores(), len(plan.runs))
     errors = make_console(stderr=True)
     started = time.monotonic()  # wall time for the terminal only, never for the index
-    with open_executor(args.executor, jobs=jobs, scheduler=args.scheduler,
-                       connect_timeout=args.connect_timeout) as executor, \
-            _SweepProgress(errors, plan, quiet=args.quiet) as on_done:
-        folder = prepare_out_dir(plan, args.out_dir)  # after connecting: nothing for nothing
-        for index in (INDEX_JSON, INDEX_CSV):  # before any run, not after them all
-            check_output(folder / index)
-        outcome = run_sweep(plan, args.out_dir, executor, log_rate=args.log_rate,
-                            metrics=None if args.no_metrics else standard_metrics,
-                            on_done=on_done)
-    elapsed = time.monotonic() - started
-    json_path, csv_path = write_index(args.out_dir, plan, outcome)
+    stopping = contextlib.ExitStack()  # once stopped, deaf until the index is written
+    with stopping:
+        with open_executor(args.executor, jobs=jobs, scheduler=args.scheduler,
+                           connect_timeout=args.connect_timeout) as executor, \
+                _SweepProgress(errors, plan, quiet=args.quiet) as on_done:
+            folder = prepare_out_dir(plan, args.out_dir)  # after connecting: nothing for nothing
+            for index in (INDEX_JSON, INDEX_CSV):  # before any run, not after them all
+                check_output(folder / index)
+            outcome = run_sweep(plan, args.out_dir, executor, log_rate=args.log_rate,
+                                metrics=None if args.no_metrics else standard_metrics,
+                                on_done=on_done)
+            if not outcome.complete:
+                stopping.enter_context(deaf_to_interrupts())
+        elapsed = time.monotonic() - started
+        json_path, csv_path = write_index(args.out_dir, plan, outcome)
     if not outcome.complete:
         stop = "terminated" if outcome.terminated else "interrupted"
         errors.print(f"hubero: {stop}: {len(outcome.records)} of {len(plan.runs)} runs "

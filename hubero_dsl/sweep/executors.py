@@ -126,6 +126,23 @@ def _signals_after() -> Iterator[None]:
             signal.raise_signal(held[0])  # now, to the handler it was meant for
 
 
+@contextlib.contextmanager
+def deaf_to_interrupts() -> Iterator[None]:
+    """Ctrl-C and SIGTERM go unheard for the block: a sweep that is stopping stops once, and
+    a second Ctrl-C (a terminal's user pressing it again) no longer cut short the stopping
+    and left no index. Main thread only; elsewhere the block runs as it is."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {number: signal.signal(number, signal.SIG_IGN)
+                for number in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
 class ProcessExecutor(Executor):
     """A process pool whose workers ignore Ctrl-C and can be stopped at once, and which can
     be renewed when a worker died (which breaks a `ProcessPoolExecutor` for good)."""

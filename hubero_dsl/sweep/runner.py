@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from hubero_dsl.errors import LogError, Terminated
-from hubero_dsl.sweep.executors import executor_slots, terminate
+from hubero_dsl.sweep.executors import deaf_to_interrupts, executor_slots, terminate
 from hubero_dsl.sweep.plan import SweepPlan
 from hubero_dsl.sweep.worker import (
     MetricsFunction,
@@ -133,9 +133,10 @@ def run_sweep(plan: SweepPlan, out_dir: str | Path, executor: Executor, *,
                 collect(index, _record_of(future, tasks[index]))
             _submit(executor, queue, tasks, pending, collect, max(1, limit))
     except KeyboardInterrupt as stop:
-        terminate(executor)
-        _harvest(pending, records)
-        _drop_unrecorded_logs(tasks, records)
+        with deaf_to_interrupts():
+            terminate(executor)
+            _harvest(pending, records)
+            _drop_unrecorded_logs(tasks, records)
         return SweepOutcome(tuple(records[i] for i in sorted(records)), complete=False,
                             terminated=isinstance(stop, Terminated))
     return SweepOutcome(tuple(records[i] for i in sorted(records)), complete=True)

@@ -187,6 +187,26 @@ def test_ctrl_c_stops_the_sweep_and_writes_the_finished_runs(tmp_path: Path) -> 
     assert logs == sorted(Path(r["log"]).name for r in written["runs"])  # no .part files left
 
 
+def test_ctrl_c_pressed_twice_still_leaves_the_index(tmp_path: Path) -> None:
+    # the second Ctrl-C came while the first was stopping the workers: no index was written,
+    # and finished logs stayed that no index named
+    out = tmp_path / "out"
+    process = _long_sweep(tmp_path, out, jobs=1)
+    deadline = time.monotonic() + 60
+    while len(list(out.glob("runs/*/seed-*.mcap"))) < 2 and time.monotonic() < deadline:
+        time.sleep(0.02)
+    process.send_signal(signal.SIGINT)
+    time.sleep(0.01)
+    process.send_signal(signal.SIGINT)
+    stdout, stderr = process.communicate(timeout=60)
+    assert_no_traceback(Outcome(process.returncode, stdout, stderr))
+    assert process.returncode == 130
+    written = index(out)
+    assert written["complete"] is False and written["runs"]
+    logs = sorted(p.name for p in out.glob("runs/*/*"))
+    assert logs == sorted(Path(r["log"]).name for r in written["runs"])
+
+
 def test_ctrl_c_to_the_process_group_as_the_sweep_starts_leaves_an_index_and_no_traceback(
         tmp_path: Path) -> None:
     # a terminal's Ctrl-C reaches the fork server and the workers too: as they start, the
