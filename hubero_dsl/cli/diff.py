@@ -34,7 +34,8 @@ if TYPE_CHECKING:
 
 _UNITS = {"path_length": "m", "duration": "s", "mean_speed": "m/s", "max_speed": "m/s",
           "min_distance": "m", "personal_space_intrusion_time": "s", "collisions": "",
-          "task_finish_times": "s", "final_status": ""}
+          "task_finish_times": "s", "final_status": "",
+          "shape_intrusions": "%"}  # the logs' own social-navigation metric (docs/analysis.md)
 _LABELS = {"personal_space_intrusion_time": "personal space intruded",
            "mean_speed": "mean speed (moving)"}
 
@@ -193,9 +194,15 @@ def _value(value: object, unit: str) -> str:
     if value is None:
         return "-"
     if isinstance(value, float):
-        return (f"{100 * value:.1f} %" if unit == "%"  # a share, as the summary shows it
-                else f"{value:.3f} {unit}".rstrip())
+        if unit == "%":                                # a share, as the summary shows it
+            return f"{100 * value:.1f} %"
+        return f"{value:.0f}" if _a_count(value, unit) else f"{value:.3f} {unit}".rstrip()
     return f"{value} {unit}".rstrip()
+
+
+def _a_count(value: float, unit: str) -> bool:
+    """Unitless whole numbers are counts (collisions), shown as such."""
+    return not unit and value.is_integer()
 
 
 def _delta(value: float | int | None, unit: str) -> str:
@@ -205,7 +212,8 @@ def _delta(value: float | int | None, unit: str) -> str:
         return "[dim]0[/]"
     if unit == "%":
         return f"{100 * value:+.1f} %"
-    text = f"{value:+.3f}" if isinstance(value, float) else f"{value:+d}"
+    text = (f"{value:+.3f}" if isinstance(value, float) and not _a_count(value, unit)
+            else f"{value:+.0f}")
     return f"{text} {unit}".rstrip()
 
 

@@ -267,3 +267,12 @@ def test_a_sweeps_human_is_checked_as_a_pairs_is(cli: Cli, logs: dict[str, Path]
     assert chosen.status == 0, chosen.err
     rows = [line.split()[:3] for line in chosen.out.splitlines() if line.startswith(" far")]
     assert rows == [["far", "1", "b"]]
+
+
+def test_counts_show_as_whole_numbers_and_shape_intrusions_as_shares() -> None:
+    from hubero_dsl.cli.diff import _delta, _unit, _value
+
+    assert (_value(3.0, _unit("collisions")), _delta(3.0, _unit("collisions"))) == ("3", "+3")
+    assert _value(2.0, _unit("obstacle_collisions")) == "2"
+    assert _value(0.607, _unit("shape_intrusions")) == "60.7 %"
+    assert _value(2.0, _unit("min_distance")) == "2.000 m"     # a whole length stays a length
