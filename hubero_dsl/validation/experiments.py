@@ -23,6 +23,7 @@ from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
 from shapely.geometry import LineString, Polygon, box
 from shapely.ops import unary_union
 
@@ -36,6 +37,10 @@ MAX_TRAJECTORY_BYTES = 64 * 2**20  # a recording larger than this is refused, no
 # Frames a recording may span: over an hour at 25 frames/s, where experiments last minutes.
 # PedPy's analyses build a row per frame of the span, so a forged frame number costs memory.
 MAX_FRAMES = 100_000
+# People who walk through the place cover most of its length along the walking direction; all
+# of them within this share of it means coordinates in the wrong unit (100 times too small)
+SCALE_SHARE = 0.1
+SCALE_PEOPLE = 10
 SHIPPED = ("uo-050-180-180", "uo-100-180-180", "uo-145-180-180", "uo-180-180-070",
            "uo-180-180-120", "traj_UNI_CORR_500_01")
 # Frames in steady state, from the data's documentation; other files use every frame.
@@ -206,11 +211,29 @@ def _check_positions(trajectory: Any, experiment: Experiment) -> None:
                          f"{experiment.name} experiment's walkable area (the first: person "
                          f"{first['id']}, frame {first['frame']}, at ({first['x']:g}, "
                          f"{first['y']:g}) m)")
+    _check_scale(data, experiment, unreadable)
     if experiment.steady is not None:
         first_frame, last_frame = experiment.steady
         if not ((frames >= first_frame) & (frames <= last_frame)).any():
             raise InputError(f"{unreadable}: nobody is measured in the steady frames "
                              f"{first_frame}-{last_frame} of {experiment.name}")
+
+
+def _check_scale(data: Any, experiment: Experiment, unreadable: str) -> None:
+    """InputError for a recording of SCALE_PEOPLE or more whose people all stay within a tenth
+    of the place's length along the walking direction: its coordinates are not in the series'
+    unit (a file in metres read as centimetres is a hundred times too small, and lies inside
+    the place). Fewer people say too little to judge by."""
+    if data["id"].nunique() < SCALE_PEOPLE:
+        return
+    along = np.asarray(experiment.direction)
+    walked = data[["x", "y"]].to_numpy() @ along
+    place = np.asarray(experiment.walkable.exterior.coords) @ along
+    if np.ptp(walked) < SCALE_SHARE * np.ptp(place):
+        raise InputError(f"{unreadable}: its people span only {np.ptp(walked):.3g} m along the "
+                         f"walking direction of a place {np.ptp(place):.3g} m long; are its "
+                         f"coordinates in {experiment.unit}, as the {experiment.name} "
+                         f"series stores them?")
 
 
 def _first_line(exc: BaseException) -> str:

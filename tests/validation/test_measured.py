@@ -92,6 +92,11 @@ MALFORMED = {
                                   "person 1 has two positions in frame 300"),
     "a frame a trillion on": ("uo-100-180-180", "1 300 90 600 0\n1 999999999999 90 590 0\n",
                               "its frames span 300 to 999999999999, more than 100,000"),
+    "positions in metres where the series has centimetres": (
+        "uo-100-180-180", "".join(f"{person} {frame} 0.3 {4 - frame / 100:.2f} 0\n"
+                                  for person in range(1, 11) for frame in range(300, 700, 50)),
+        "its people span only 0.035 m along the walking direction of a place 14.5 m long; are "
+        "its coordinates in cm"),
 }
 
 
