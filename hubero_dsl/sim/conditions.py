@@ -26,6 +26,7 @@ if TYPE_CHECKING:
 
 COMPARE: dict[str, Callable[[float, float], bool]] = {
     "<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge}
+TIME_SLACK = 1e-9  # s: a tick's time (tick x step) is the time it stands for within this
 
 
 @dataclass
@@ -92,9 +93,10 @@ class Conditions:
                 compare = COMPARE[op]
                 return lambda: compare(self._count_inside(members, area), threshold)
             case c.TimeCompare(operator=op, threshold=threshold):
-                # `time >= 2 s` holds at the tick that reaches 2 s despite rounding
+                # the tick that reaches 2 s is at 2 s despite rounding (56 x 0.05 s is
+                # 2.8000000000000003): `time >= 2 s` and `time <= 2 s` both hold at it
                 compare = COMPARE[op]
-                bound = threshold - 1e-9 if op in (">=", "<") else threshold
+                bound = threshold - TIME_SLACK if op in (">=", "<") else threshold + TIME_SLACK
                 return lambda: compare(self.engine.time, bound)
             case c.Not(operand=operand):
                 test = self._test(operand)

@@ -99,6 +99,19 @@ def test_wait_until_conditions(scenario: ScenarioFactory, condition: str,
     assert when >= earliest - 0.06
 
 
+def test_time_conditions_are_exact_at_the_tick_that_reaches_their_bound(
+        scenario: ScenarioFactory) -> None:
+    # 56 ticks of 0.05 s make 2.8000000000000003 s: `time <= 2.8 s` failed at the run's last
+    # tick, and `time > 2.8 s` held there
+    result = run(scenario, """activity { alice stand for 2.8 s }
+    expect time <= 2.8 s always
+    """)
+    assert result.time == pytest.approx(2.8) and result.expectations[0].held
+    result = run(scenario, "activity { bob stand until time > 2.8 s }")
+    assert statuses(result, "bob") == [("stand", TaskStatus.PREEMPTED)]
+    assert result.time == pytest.approx(2.85)     # the tick after 2.8 s, not the one at it
+
+
 def test_until_preempts_and_counts_as_done(scenario: ScenarioFactory) -> None:
     result = run(scenario, """activity {
         w: alice move_around forever until time >= 2 s
