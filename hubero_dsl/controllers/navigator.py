@@ -30,7 +30,7 @@ from hubero_dsl.planners.navfn import NavfnParams, NavfnPlanner
 _ESCAPE_ANGLES = np.linspace(0.0, 2.0 * math.pi, 16, endpoint=False)
 ESCAPE_DIRECTIONS = np.column_stack([np.cos(_ESCAPE_ANGLES), np.sin(_ESCAPE_ANGLES)])
 WALL_GAP = 0.02  # m the body keeps from walls (navfn plans keep its lethal margin, 0.05)
-BRUSH = 0.03  # m a body may brush a wall by (a plan between cell centres grazes corners)
+BRUSH = 0.0  # m a body may brush a wall by: none, as the engine stops a robot at the wall
 WALL_LOOKAHEAD = 0.5  # s ahead that the body's clearance from walls is checked
 STILL_SPEED = 0.2   # m/s: people slower than this are gone round, not waited for
 DETOUR_RANGE = 3.0  # m (surface gap): the people a detour goes round

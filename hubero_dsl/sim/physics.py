@@ -28,6 +28,11 @@ Point = tuple[float, float]
 
 TURN_RATE = 2.5          # rad/s a human turns at
 WALL_MARGIN = 0.02       # m of clearance a body centre keeps beyond "free"
+# The clearance a body centre keeps from walls, as a share of its radius and a margin: a
+# person may brush furniture (shoulders turn, arms tuck in); a robot's rigid footprint may
+# touch a wall but never enter it.
+HUMAN_WALL_KEEP = (0.5, WALL_MARGIN)
+ROBOT_WALL_KEEP = (1.0, 0.0)
 STILL = 0.1              # m/s below which a body counts as standing
 FEW_BODIES = 8           # up to this many, wall and overlap tests run in floats
 CROWDED_GOAL = 1.5       # m from a goal within which a stuck walker looks for who stands there
@@ -128,23 +133,27 @@ def separate_bodies(position: FloatArray, radius: FloatArray, movable: BoolArray
 
 
 def keep_out_of_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
-                      radius: FloatArray) -> FloatArray:
+                      radius: FloatArray, *, keep: tuple[float, float] = HUMAN_WALL_KEEP,
+                      slides: BoolArray | None = None) -> FloatArray:
     """Where a move would put a body into a wall, slide along it or stay.
 
-    A body centre must keep `radius / 2` of clearance (bodies may brush furniture, centres never
-    enter occupied cells); the full move is tried, then each axis alone, then no move. Bodies
-    whose cell is far enough from every wall are accepted at once (`OccupancyGrid.surely_clear`);
-    only the others pay for interpolated clearances; a few bodies are handled in floats.
-    Returns `new` itself when nobody is stopped.
+    A body centre must keep `keep` = (share, margin) of clearance: that share of its radius
+    plus the margin (people may brush furniture, robots may not; centres never enter occupied
+    cells); the full move is tried, then each
+    axis alone for the bodies that `slides` (all by default: a differential-drive robot
+    cannot move sideways), then no move. Bodies whose cell is far enough from every wall are
+    accepted at once (`OccupancyGrid.surely_clear`); only the others pay for interpolated
+    clearances; a few bodies are handled in floats. Returns `new` itself when nobody is
+    stopped.
     """
-    if len(new) <= FEW_BODIES and (kept := _few_kept_out_of_walls(grid, old, new, radius)
-                                   ) is not None:
+    if len(new) <= FEW_BODIES and (kept := _few_kept_out_of_walls(
+            grid, old, new, radius, keep, slides)) is not None:
         return kept
     step = lengths(new - old)
     moved = step > 0
     if not moved.any():  # nobody moves: there is nothing to stop (the common tick at rest)
         return new
-    needed = 0.5 * radius + WALL_MARGIN
+    needed = keep[0] * radius + keep[1]
     near_wall = ~grid.surely_clear(new, needed)
     # a move longer than the clearance it starts from might pass through a thin wall: check it
     # too (a push from a robot, or a large step), not just where it ends
@@ -153,7 +162,8 @@ def keep_out_of_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
     if check.size == 0:
         return new
     result = new.copy()
-    result[check] = _slide_along_walls(grid, old[check], new[check], needed[check])
+    result[check] = _slide_along_walls(grid, old[check], new[check], needed[check],
+                                       None if slides is None else slides[check])
     return result
 
 
@@ -166,13 +176,16 @@ class _Move:
     x1: float
     y1: float
     needed: float
+    slides: bool
 
 
 def _few_kept_out_of_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
-                           radius: FloatArray) -> FloatArray | None:
+                           radius: FloatArray, keep: tuple[float, float],
+                           slides: BoolArray | None) -> FloatArray | None:
     """`keep_out_of_walls` for a few bodies, row by row in floats with the arrays' arithmetic;
     None when a coordinate is not finite (the arrays handle those)."""
-    stops = wall_stops(grid, old.tolist(), new.tolist(), radius.tolist())
+    stops = wall_stops(grid, old.tolist(), new.tolist(), radius.tolist(), keep=keep,
+                       slides=None if slides is None else slides.tolist())
     if stops is None:
         return None
     if not stops:
@@ -182,7 +195,8 @@ def _few_kept_out_of_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray
     return result
 
 
-def wall_stops(grid: OccupancyGrid, old: list[Point], new: list[Point], radius: list[float]
+def wall_stops(grid: OccupancyGrid, old: list[Point], new: list[Point], radius: list[float],
+               *, keep: tuple[float, float] = HUMAN_WALL_KEEP, slides: list[bool] | None = None
                ) -> dict[int, Point] | None:
     """`keep_out_of_walls` for a few bodies given as floats: where each body whose move a wall
     stops or bends ends instead, by row ({} when no wall is in anyone's way); None when a
@@ -197,11 +211,11 @@ def wall_stops(grid: OccupancyGrid, old: list[Point], new: list[Point], radius: 
         step = math.sqrt(dx * dx + dy * dy)
         if step == 0.0:
             continue
-        needed = 0.5 * r + WALL_MARGIN
+        needed = keep[0] * r + keep[1]
         if not (grid.surely_clear_point(x1, y1, needed)
                 and grid.surely_clear_point(x0, y0, step + needed)):
             rows.append(row)
-            moves.append(_Move(x0, y0, x1, y1, needed))
+            moves.append(_Move(x0, y0, x1, y1, needed, slides is None or slides[row]))
     if not moves:
         return {}
     return dict(zip(rows, _few_slid_along_walls(grid, moves), strict=True))
@@ -216,7 +230,10 @@ def _few_slid_along_walls(grid: OccupancyGrid, moves: list[_Move]) -> list[Point
     before = [grid.clearance_at_point(m.x0, m.y0) for m in moves]
     result = [(m.x0, m.y0) for m in moves]
     pending = list(range(len(moves)))
-    for trial_of in (lambda m: (m.x1, m.y1), lambda m: (m.x1, m.y0), lambda m: (m.x0, m.y1)):
+    for trial, trial_of in enumerate((lambda m: (m.x1, m.y1), lambda m: (m.x1, m.y0),
+                                      lambda m: (m.x0, m.y1))):
+        if trial:  # an axis alone: only for those that may slide
+            pending = [k for k in pending if moves[k].slides]
         trials = [trial_of(moves[k]) for k in pending]
         fractions: tuple[float, ...] | None = None
         still = []
@@ -239,7 +256,7 @@ def _few_slid_along_walls(grid: OccupancyGrid, moves: list[_Move]) -> list[Point
 
 
 def _slide_along_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
-                       needed: FloatArray) -> FloatArray:
+                       needed: FloatArray, slides: BoolArray | None = None) -> FloatArray:
     """`keep_out_of_walls` for the bodies near a wall, row by row with exact clearances."""
     before = grid.clearance_at(old)
 
@@ -256,7 +273,7 @@ def _slide_along_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
     if not bad.any():
         return result
     for axis in (0, 1):
-        rows = bad.nonzero()[0]
+        rows = (bad if slides is None else bad & slides).nonzero()[0]
         trial = old[rows].copy()
         trial[:, axis] = new[rows, axis]
         fits = acceptable(rows, trial)

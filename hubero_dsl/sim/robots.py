@@ -74,6 +74,8 @@ class Robots:
         self.commanded: dict[int, tuple[float, float]] = {}
         self.driven: dict[int, tuple[float, float]] = {}
         self._holonomic = [i for i, s in enumerate(specs) if s.kinematics == "holonomic"]
+        # which may slide along a wall that stops them: a unicycle cannot move sideways
+        self.slides: BoolArray = np.array([s.kinematics == "holonomic" for s in specs], bool)
         self.controllers: list[RobotController] = [
             (controllers or {})[s.name] for s in specs] if count else []
         self.tasks: list[RobotTask | None] = [None] * count
@@ -154,7 +156,8 @@ class Robots:
         old = self.position.tolist()
         proposed = [(x + vx * dt, y + vy * dt)
                     for (x, y), (vx, vy) in zip(old, wanted, strict=True)]
-        stops = physics.wall_stops(self.grid, old, proposed, self.radius.tolist())
+        stops = physics.wall_stops(self.grid, old, proposed, self.radius.tolist(),
+                                   keep=physics.ROBOT_WALL_KEEP, slides=self.slides.tolist())
         if stops is None:
             return None
         moved = [stops.get(i, p) for i, p in enumerate(proposed)]
@@ -358,7 +361,9 @@ def move_fleets(fleets: Sequence[Robots], wanted: Sequence[list[tuple[float, flo
     old = np.concatenate([fleet.position for fleet in fleets])
     proposed = old + velocity * dt
     moved = physics.keep_out_of_walls(fleets[0].grid, old, proposed,
-                                      np.concatenate([fleet.radius for fleet in fleets]))
+                                      np.concatenate([fleet.radius for fleet in fleets]),
+                                      keep=physics.ROBOT_WALL_KEEP,
+                                      slides=np.concatenate([fleet.slides for fleet in fleets]))
     step = moved - old
     starts = list(itertools.accumulate((fleet.count for fleet in fleets), initial=0))
     if moved is not proposed:

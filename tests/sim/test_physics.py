@@ -30,15 +30,18 @@ def furnished_room() -> OccupancyGrid:
 
 def kept_out_exactly(grid: OccupancyGrid, rng: np.random.Generator, count: int,
                      area: tuple[tuple[float, float], tuple[float, float]],
-                     step: float) -> bool:
+                     step: float, *, robots: bool = False) -> bool:
     """Random moves of `count` bodies from free places in `area`: `keep_out_of_walls` gives
-    the exact test's answer. Whether any move was stopped or slid."""
+    the exact test's answer, for people or for robots (half of them unicycles, which do not
+    slide). Whether any move was stopped or slid."""
     old = rng.uniform(*area, size=(count, 2))
     old = old[grid.is_free(old)]
     new = old + rng.normal(0.0, step, size=old.shape)
     radius = rng.uniform(0.15, 0.3, size=len(old))
-    fast = physics.keep_out_of_walls(grid, old, new, radius)
-    exact = physics._slide_along_walls(grid, old, new, 0.5 * radius + physics.WALL_MARGIN)
+    keep = physics.ROBOT_WALL_KEEP if robots else physics.HUMAN_WALL_KEEP
+    slides = rng.uniform(size=len(old)) < 0.5 if robots else None
+    fast = physics.keep_out_of_walls(grid, old, new, radius, keep=keep, slides=slides)
+    exact = physics._slide_along_walls(grid, old, new, keep[0] * radius + keep[1], slides)
     np.testing.assert_array_equal(fast, exact)
     return not np.array_equal(exact, new)
 
@@ -49,13 +52,17 @@ def test_keep_out_of_walls_equals_the_exact_test_for_every_body(seed: int) -> No
     assert kept_out_exactly(furnished_room(), rng, 300, ((0.0, 0.0), (6.0, 4.0)), 0.15)
 
 
+@pytest.mark.parametrize("robots", [False, True])
 @pytest.mark.parametrize("count", [1, 3, physics.FEW_BODIES])
-def test_a_few_bodies_are_kept_out_of_walls_as_many_are(count: int) -> None:
+def test_a_few_bodies_are_kept_out_of_walls_as_many_are(count: int, robots: bool) -> None:
     # a few bodies are checked in floats, many in arrays: both give the exact test's answer
     grid, rng = furnished_room(), np.random.default_rng(count)
     about_the_table = ((0.5, 1.0), (3.5, 2.5))
-    slid = sum(kept_out_exactly(grid, rng, count, about_the_table, 0.1) for _ in range(200))
+    slid = sum(kept_out_exactly(grid, rng, count, about_the_table, 0.1, robots=robots)
+               for _ in range(200))
     assert slid > 10   # walls were met, not only open floor
+    if robots:
+        assert kept_out_exactly(grid, rng, 300, ((0.0, 0.0), (6.0, 4.0)), 0.15, robots=True)
 
 
 def test_the_float_test_of_a_point_is_the_array_test() -> None:

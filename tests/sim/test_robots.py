@@ -124,3 +124,31 @@ def test_a_target_that_is_no_finite_point_is_refused_when_given(
     for actor in (sim.robot("r"), sim.human("h")):
         with pytest.raises(SimulationError, match=r"a point \(x, y\) of finite numbers"):
             actor.move_to(point)
+
+
+def test_a_robot_driven_into_a_wall_stops_at_its_surface_and_slides_along(
+        scenario: ScenarioFactory) -> None:
+    # its centre kept half its radius from walls, as a person's: 0.15 m of it into the wall
+    sim = Simulation(scenario("robot r at (2, 1.5) { radius 0.3 m; max_speed 1.0 m/s }\n"),
+                     activities=False)
+    sim.set_robot_velocity("r", 0.3, -1.0)
+    clearances = []
+    for _ in range(60):
+        sim.step()
+        clearances.append(float(sim.engine.grid.clearance_at(sim.robot("r").position)))
+    assert min(clearances) >= 0.3 - 1e-9
+    assert sim.robot("r").position[0] == pytest.approx(2.9, abs=0.06)   # it slid on
+
+
+def test_a_unicycle_driven_into_a_wall_at_an_angle_does_not_slide_sideways(
+        scenario: ScenarioFactory) -> None:
+    heading = -math.pi / 3
+    sim = Simulation(scenario("robot r at (2, 1.5) heading -60 deg { radius 0.3 m; "
+                              "kinematics unicycle; max_speed 1.0 m/s }\n"), activities=False)
+    sim.robot("r").drive(1.0, 0.0)                        # (v, omega): straight ahead
+    for _ in range(60):
+        sim.step()
+        x, y = sim.robot("r").position
+        across = (x - 2.0) * math.sin(heading) - (y - 1.5) * math.cos(heading)
+        assert abs(across) < 1e-9                         # still on the line it drove along
+    assert sim.engine.grid.clearance_at(sim.robot("r").position) >= 0.3 - 1e-9
