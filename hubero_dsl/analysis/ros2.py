@@ -158,9 +158,10 @@ def _write(writer: Writer, run: LoggedRun, typestore: Typestore) -> None:
 
 
 def _frames(run: LoggedRun) -> list[tuple[int, list[Body]]]:
-    """Every frame of the run (nanoseconds, with the bodies present then), in time order."""
+    """Every frame of the run (nanoseconds, with the bodies present then), in time order:
+    frames nobody is in too (a flow's people not come yet, or all gone)."""
     params = run.metadata.params
-    at: dict[int, list[Body]] = defaultdict(list)
+    at: dict[int, list[Body]] = defaultdict(list, {ns: [] for ns in run.frames.tolist()})
     for name, track in run.humans.items():
         radius = float(params.get(name, {}).get("radius", DEFAULT_RADIUS))  # type: ignore[arg-type]
         shape = params.get(name, {}).get("personal_space")

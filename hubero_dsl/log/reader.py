@@ -151,6 +151,9 @@ class LoggedRun:
     log: list[LogLine]
     result: RunOutcome | None
     attachments: dict[str, bytes] = field(repr=False)
+    # every frame's time (ns): a frame may hold nobody (a flow's people not yet come)
+    frames: npt.NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64),
+                                          repr=False)
 
 
 def refuse_unless_run_log(path: Path, advice: str) -> None:
@@ -225,6 +228,8 @@ def _read(path: Path, stream: Any) -> LoggedRun:
     collector = _Collector(humans, robots, crowds)
     for _, channel, message in reader.iter_messages(log_time_order=False):
         collector.add(channel.topic, message.data)
+        if channel.topic == s.TF_TOPIC:  # one a frame, whoever is there
+            collector.frames.append(message.log_time)
     if collector.grid_message is None:
         raise LogError(f"{path} has no /map message: the log is incomplete")
     metadata = _metadata(provenance, attachments)
@@ -234,7 +239,8 @@ def _read(path: Path, stream: Any) -> LoggedRun:
         grid=s.grid_from_message(collector.grid_message, f"{path} /map"),
         humans=collector.human_tracks(), robots=collector.robot_tracks(),
         events=collector.events, log=collector.log,
-        result=_outcome(result) if result is not None else None, attachments=attachments)
+        result=_outcome(result) if result is not None else None, attachments=attachments,
+        frames=np.unique(np.asarray(collector.frames, dtype=np.int64)))
 
 
 # the files a log attaches, each with its checksum (`KEY_sha256`) in the provenance record
@@ -360,6 +366,7 @@ class _Collector:
         self._robots: dict[str, list[tuple[float, float, float, float]]] = {
             name: [] for name in robots}
         self._radius: dict[str, float] = {}
+        self.frames: list[int] = []
 
     def add(self, topic: str, data: bytes) -> None:
         human = self._state_topics.get(topic)

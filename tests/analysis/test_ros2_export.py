@@ -128,3 +128,24 @@ def test_a_failed_export_leaves_nothing(tmp_path: Path, monkeypatch: pytest.Monk
     (tmp_path / "full" / "x").write_text("x")
     with pytest.raises(InputError):
         ros2.export_ros2(log, tmp_path / "full")
+
+
+def test_frames_nobody_is_in_are_in_the_bag_too(tmp_path: Path) -> None:
+    # a flow alone: before its first person comes and after its last leaves, the frames had
+    # no /clock, and nothing told RViz that the last people had gone
+    scenario = tmp_path / "flow.hub"
+    scenario.write_text(f'scenario "flow"\nmap "{ROOT / "maps" / "station.yaml"}"\nseed 3\n'
+                        "time_limit 2 min\n"
+                        "flow boarding from rect((31.0, 1.0), (34.5, 13.0)) to (15.0, 18.0) "
+                        "rate 4 /min for 1 min\n", encoding="utf-8")
+    log = tmp_path / "run.mcap"
+    simulate(compile_file(scenario), log=log, writer_process=False)
+    ros2.export_ros2(log, tmp_path / "bag")
+    _, messages = _read_bag(tmp_path / "bag")
+    run = load_run(log)
+    assert [time for time, _ in messages["/clock"]] == run.frames.tolist()
+    first_arrival = min(float(track.time[0]) for track in run.humans.values() if len(track.time))
+    assert messages["/clock"][0][0] == 0 and first_arrival > 1.0
+    assert messages["/people"][0][1].people == [] and messages["/people"][-1][1].people == []
+    last = messages["/people/markers"][-1][1].markers
+    assert [m.action for m in last] == [3]          # everyone deleted, nobody drawn
