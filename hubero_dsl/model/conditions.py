@@ -7,7 +7,7 @@ and diagrams.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import StrEnum
 from typing import TYPE_CHECKING, TypeAlias
 
@@ -155,9 +155,34 @@ def walk_conditions(condition: Condition) -> list[Condition]:
 
 
 def required_labels(condition: Condition) -> list[LabelCondition]:
-    """The label events that must have happened for the condition to hold (`and` operands)."""
-    if isinstance(condition, LabelCondition):
-        return [condition]
-    if isinstance(condition, AllOf):
-        return [part for operand in condition.operands for part in required_labels(operand)]
+    """The label events that must have happened for the condition to hold: every `and`
+    operand's; those every `or` operand needs (`y done or y failed` needs `y started`: a
+    label is done or failed only once started); under `not not`, the operand's."""
+    match condition:
+        case LabelCondition():
+            return [condition]
+        case AllOf(operands=operands):
+            return [part for operand in operands for part in required_labels(operand)]
+        case AnyOf(operands=operands):
+            return _needed_by_each(condition, operands)
+        case Not(operand=Not(operand=inner)):
+            return required_labels(inner)
     return []
+
+
+def _needed_by_each(either: AnyOf, operands: tuple[Condition, ...]) -> list[LabelCondition]:
+    """The label events every operand of `either` needs, each worded as `either` itself."""
+    each = [_implied(operand) for operand in operands]
+    common = [key for key in each[0] if all(key in implied for implied in each[1:])]
+    return [replace(each[0][key], event=key[1], span=either.span, text=either.text)
+            for key in common]
+
+
+def _implied(condition: Condition) -> dict[tuple[str, LabelEvent], LabelCondition]:
+    """The label events a condition needs, by (label, event), a label's start included
+    wherever its end or failure is needed."""
+    found: dict[tuple[str, LabelEvent], LabelCondition] = {}
+    for needed in required_labels(condition):
+        found.setdefault((needed.label.name, needed.event), needed)
+        found.setdefault((needed.label.name, LabelEvent.STARTED), needed)
+    return found

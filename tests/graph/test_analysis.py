@@ -170,12 +170,22 @@ def test_three_way_deadlock_is_one_finding() -> None:
     assert diagnostic.message.count("needs") == 3
 
 
-def test_only_and_conditions_order_a_wait() -> None:
+def test_only_what_a_condition_needs_orders_a_wait() -> None:
     # `or` and `not` may hold without the label, so they make no cycle
     assert found("activity a {\n    wait until b1 done or time > 5 s\n    b1: wait 1 s\n}\n") == []
     assert found("activity a {\n    wait until not b1 done\n    b1: wait 1 s\n}\n") == []
     assert [c.code for c in analyse("activity a {\n    wait until time > 1 s and b1 done\n"
                                     "    b1: wait 1 s\n}\n")] == ["E304"]
+
+
+@pytest.mark.parametrize("wait", ["y done or y failed", "not (not y done)",
+                                  "(y done and time > 1 s) or y started"])
+def test_a_deadlock_behind_or_and_double_not_is_found(wait: str) -> None:
+    # both sides of the `or` need `y` to have started: they hung until the time limit
+    text = (f"activity a {{\n    wait until {wait}\n    x: h stand for 1 s\n}}\n"
+            "activity b {\n    wait until x done\n    y: g stand for 1 s\n}\n")
+    diagnostic = only(text, "E305")
+    assert at(diagnostic)[0] == 2 and "which needs `x done`" in diagnostic.message
 
 
 def test_wait_for_a_label_that_runs_forever() -> None:
