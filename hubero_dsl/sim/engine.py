@@ -514,6 +514,7 @@ class Engine:
         nobody walks), everyone as a Crowd unless `crowd` is False. `steer` asks them, and
         `Lockstep.end_step` moves everyone."""
         humans = self.humans
+        self._gathered_tick = -1  # the robots have moved since the tick's end looked
         rows = humans.moving.nonzero()[0]
         if not len(rows):
             return None

@@ -83,7 +83,9 @@ class Lockstep:
         for engine in engines:
             engine.tick += 1
         _dispatch_events(rows, [s is not None for s in steerings], heading_goals)
-        for engine in engines:
+        for engine, steering in zip(engines, steerings, strict=True):
+            if steering is not None:  # somebody walked: who is held short of a taken goal
+                engine.ways_round.hold_at_goals()
             if engine.robots.count:
                 engine.robots.settle(engine.tick, engine.dt, engine.ticks(engine.stuck_time),
                                      engine.position_of, engine.finish_robot,

@@ -90,19 +90,23 @@ class WaysRound:
         if engine.tick % max(1, engine.ticks(LOOK_AGAIN)):
             return
         self._rejoin_groups()
-        rows = self._held_at_goals(rows)
         stalled = self._stalled_alone_by_walls(rows)
         stalled = stalled[engine.tick - self.rerouted_tick[stalled] >= engine.ticks(STALLED)]
         self._plan_again(engine.paths.retreat(stalled, engine.humans.position,
                                               engine.grid.crosses_obstacle, REACH))
         self._make_way(stalled)
 
-    def _held_at_goals(self, rows: IntArray) -> IntArray:
-        """Walkers among `rows` stalled for STALLED s near their goal with someone standing on
-        it, or queued behind those, are told so (a move_to stops short there); those still
-        walking are returned."""
+    def hold_at_goals(self) -> None:
+        """At a tick's end, every LOOK_AGAIN s: walkers stalled for STALLED s near their goal
+        with someone standing on it, or queued behind those, are told so (a move_to stops
+        short there). Told at the end of the tick they stalled in, as arrivals are, the step
+        after theirs starts at the next tick's beginning, with the event's time."""
         engine, humans = self.engine, self.engine.humans
-        stalled = rows[engine.tick - engine.anchor_tick[rows] >= engine.ticks(STALLED)]
+        moved = engine.tick - 1   # the tick whose move has just been made
+        if moved % max(1, engine.ticks(LOOK_AGAIN)):
+            return
+        rows = humans.moving.nonzero()[0]
+        stalled = rows[moved - engine.anchor_tick[rows] >= engine.ticks(STALLED)]
         stalled = stalled[np.isfinite(humans.goal[stalled]).all(axis=1)]
         # beyond the goal's ring only one with someone at rest beside it can be queued (in a
         # jam far from every goal, that leaves nobody to look at one by one)
@@ -113,7 +117,6 @@ class WaysRound:
             stalled = stalled[~far]
         for index in stalled.tolist():
             engine.hold_short(index)
-        return rows[humans.moving[rows]] if stalled.size else rows
 
     def _stalled_alone_by_walls(self, rows: IntArray) -> IntArray:
         """The walkers among `rows` who have made no progress for `STALLED` s within the

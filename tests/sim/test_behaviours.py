@@ -10,6 +10,7 @@ import pytest
 from shapely.geometry import Polygon
 
 from hubero_dsl.errors import SimulationError
+from hubero_dsl.sim.loop import run_program
 from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.sim.status import Posture, TaskStatus
 from hubero_dsl.world.mapfile import save_map
@@ -299,6 +300,21 @@ def test_a_walker_stuck_at_a_goal_others_stand_on_stops_beside_them(
     assert task.status is TaskStatus.SUCCEEDED
     assert task.reason.startswith("stopped short of a goal taken by ")
     assert math.dist(sim.human("alice").position, (5.0, 4.0)) < 1.5
+
+
+def test_the_step_after_one_stopped_short_starts_at_its_events_tick(
+        scenario: ScenarioFactory) -> None:
+    # decided as the tick began, the success was stamped with that tick, but the next step
+    # (and `m done`) came a tick later: `expect m done within` judged a time the log denied
+    program = scenario(GROUP_AT_GOAL + """activity { parallel { bob stand for 30 s;
+        carol stand for 30 s; dave stand for 30 s; erin stand for 30 s } }
+    activity { m: alice move_to (5.0, 4.0); alice stand for 1 s }
+    """)
+    result = run_program(Simulation(program))
+    walk, stand = [e for e in result.events if e.human == "alice"][1:3]
+    assert walk.reason.startswith("stopped short of a goal taken by ")
+    assert (stand.kind, stand.status) == ("stand", TaskStatus.ACTIVE)
+    assert stand.tick == walk.tick
 
 
 def test_stopping_beside_a_taken_goal_still_turns_to_the_heading_asked(
