@@ -458,8 +458,8 @@ class Engine:
         self.wake_tick[index] = NEVER
         self._set_status(handle, status, reason)
 
-    def cancel(self, handle: TaskHandle) -> None:
-        self.abort(handle, "cancelled", TaskStatus.PREEMPTED)
+    def cancel(self, handle: TaskHandle, reason: str = "cancelled") -> None:
+        self.abort(handle, reason, TaskStatus.PREEMPTED)
 
     def abort(self, handle: TaskHandle, reason: str,
               status: TaskStatus = TaskStatus.ABORTED) -> None:

@@ -203,8 +203,8 @@ class Scheduler:
         members = {m for branch in branches_of(self.graph, fork) for m in branch.members}
         for token in list(self.tokens):
             if token is not winner and token.node in members:
-                if token.handle is not None:
-                    token.handle.cancel()
+                if token.handle is not None:  # not done: its label is not done either
+                    token.handle.cancel("another branch of its race ended first")
                 self.tokens.remove(token)
         for member in members:   # joins inside the losing branches forget partial arrivals
             self.arrivals.pop(member, None)
@@ -221,7 +221,7 @@ class Scheduler:
         assert handle is not None
         if not handle.done:
             if data["until"] is not None and self.conditions.holds(data["until"]):
-                handle.cancel()
+                handle.cancel(f"until {data['until'].text} held")   # counts as done
             elif token.until_tick is not None and self.engine.tick >= token.until_tick:
                 self.engine.abort(handle, f"did not finish within {data['within']:g} s")
             if not handle.done:

@@ -59,17 +59,18 @@ class TaskHandle:
     reason: str = ""
     started_at: float | None = None
     ended_at: float | None = None
-    _cancel: Callable[[TaskHandle], None] | None = field(default=None, repr=False)
+    _cancel: Callable[[TaskHandle, str], None] | None = field(default=None, repr=False)
     _listeners: list[Callable[[TaskHandle], None]] = field(default_factory=list, repr=False)
 
     @property
     def done(self) -> bool:
         return self.status.is_final
 
-    def cancel(self) -> None:
-        """Preempt the task if it has not finished; a finished task stays as it is."""
+    def cancel(self, reason: str = "cancelled") -> None:
+        """Preempt the task if it has not finished, for `reason`; a finished task stays as it
+        is."""
         if not self.done and self._cancel is not None:
-            self._cancel(self)
+            self._cancel(self, reason)
 
     def on_change(self, listener: Callable[[TaskHandle], None]) -> None:
         self._listeners.append(listener)

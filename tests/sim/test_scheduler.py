@@ -58,6 +58,8 @@ def test_race_ends_with_the_first_branch_and_preempts_the_others(
     assert result.state is RunState.COMPLETED
     assert result.time == pytest.approx(1.0, abs=0.06)
     assert statuses(result, "bob") == [("move_around", TaskStatus.PREEMPTED)]
+    assert [e.reason for e in result.events if e.human == "bob" and e.status.is_final] == [
+        "another branch of its race ended first"]
 
 
 def test_repeat_runs_its_body_n_times(scenario: ScenarioFactory) -> None:
@@ -120,6 +122,8 @@ def test_until_preempts_and_counts_as_done(scenario: ScenarioFactory) -> None:
     activity { wait until w done; bob stand for 0.1 s }""")
     assert statuses(result, "alice")[0] == ("move_around", TaskStatus.PREEMPTED)
     assert started(result, "bob", "stand") == [pytest.approx(2.0, abs=0.1)]
+    ended = next(e for e in result.events if e.status is TaskStatus.PREEMPTED)
+    assert ended.reason == "until time >= 2 s held"     # done, unlike a race's loser
 
 
 def test_within_aborts_a_late_task_and_on_failure_stop_ends_the_run(
