@@ -56,6 +56,9 @@ BACKLOG = 1 << 16
 INSTALL_HINT = "install it with: pip install 'hubero[live]'"
 
 
+MIN_PACE = 1e-3  # of real time: slower, a tick's wait outgrows what a sleep can take
+
+
 def parse_pace(text: str) -> float | None:
     """`1x`, `10x`, `0.5x` -> the factor; `max` -> None (no waiting). ValueError otherwise."""
     if text == "max":
@@ -65,6 +68,9 @@ def parse_pace(text: str) -> float | None:
     if not (math.isfinite(factor) and factor > 0):
         raise ValueError(f"invalid pace '{text}': give a factor of real time such as 1x, 10x "
                          "or 0.5x, or max")
+    if factor < MIN_PACE:
+        raise ValueError(f"pace '{text}' is slower than {MIN_PACE:g}x (a second of the run "
+                         f"in {1 / MIN_PACE:g} s): give a factor of at least {MIN_PACE:g}x")
     return factor
 
 
