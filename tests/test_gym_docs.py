@@ -63,3 +63,22 @@ def test_the_gym_examples_of_the_page_run_in_turn(tmp_path: Path,
         exec(compile(code, f"{ROBOTS}:example {index}", "exec"), namespace)  # our own docs
     assert (tmp_path / "episode.mcap").is_file()      # the first example's log
     assert len(namespace["finished"]) == 2             # the evaluation's episodes
+
+
+def test_the_pages_controller_drives_its_unicycle_towards_the_goal() -> None:
+    # it answered (vx, vy) whatever the kinematics: the page's unicycle turned in circles
+    from hubero_dsl.pipeline import compile_source
+    from hubero_dsl.sim.simulation import Simulation
+
+    code = re.search(r"## Writing a controller.*?```python\n(.*?)```", _page(), flags=re.S)
+    namespace: dict[str, object] = {}
+    exec(compile(code.group(1), f"{ROBOTS}:GoStraight", "exec"), namespace)  # our own docs
+    text = (f'scenario "s"\nmap "{REPO_ROOT / "maps" / "living_room.yaml"}"\n'
+            "robot cart at (6.3, 2.5) heading 180 deg { kinematics unicycle; goal (4.8, 1.0) }\n"
+            "activity { cart move_to (4.8, 1.0) }\n")
+    sim = Simulation(compile_source(text, "s.hub"), controllers={"cart": namespace["GoStraight"]})
+    for _ in range(200):
+        sim.step()
+    assert sim.engine.robots.specs[0].kinematics == "unicycle"
+    x, y = sim.robot("cart").position
+    assert (x - 4.8) ** 2 + (y - 1.0) ** 2 < 0.3 ** 2
