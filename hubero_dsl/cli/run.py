@@ -61,7 +61,7 @@ def add_live_options(parser: argparse.ArgumentParser) -> None:
                            "max, no waiting (default 1x)")
     live.add_argument("--live-wait", action="store_true",
                       help="start the run when a client subscribes, and after the end keep "
-                           "serving until it disconnects")
+                           "serving until no client is subscribed (it disconnected)")
 
 
 def refuse_live(parser: argparse.ArgumentParser, advice: str) -> None:
@@ -298,7 +298,7 @@ def _run_live(program: Program, variant: str | None, output: Path | None,
                          controllers=controllers, live=live)
         if args.live_wait:
             if not args.quiet:
-                print("hubero: the run has ended; serving until the client disconnects "
+                print("hubero: the run has ended; serving until no client is subscribed "
                       "(Ctrl-C to stop)", file=sys.stderr, flush=True)
             with contextlib.suppress(KeyboardInterrupt):  # also SIGTERM: stop serving, and
                 live.serve_until_clients_leave()        # report the run as it ended
