@@ -15,8 +15,10 @@ MAX_CHUNK_BYTES.
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import struct
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -27,7 +29,7 @@ import numpy.typing as npt
 import zstandard
 from mcap.exceptions import InvalidMagic, McapError
 from mcap.reader import make_reader
-from mcap.records import Chunk
+from mcap.records import Chunk, Footer
 from mcap.stream_reader import StreamReader
 
 from hubero_dsl.diagnostics import Span
@@ -43,6 +45,8 @@ FloatArray = npt.NDArray[np.float64]
 # hubero writes chunks of 4 MB, or of one map message (4 bytes a cell at most, encoded): a
 # chunk that unpacks to more is forged, its few kilobytes made to take gigabytes of memory
 MAX_CHUNK_BYTES = 64 << 20
+_CRC_BYTES = 4          # the footer's summary CRC, last before the closing magic
+_FOOTER_FIELDS = 25     # the footer's opcode, length and two offsets, which its CRC covers
 POSTURE_VALUE = {posture.name: posture.value for posture in Posture}  # as the log names them
 
 
@@ -273,11 +277,31 @@ def _check_attachments(path: Path, provenance: dict[str, str],
 
 def _refuse_chunk_bombs(path: Path, stream: Any) -> None:
     """LogError for a chunk that would unpack to more than MAX_CHUNK_BYTES, found before
-    anything unpacks it: the MCAP library trusts the sizes a chunk and its frame declare."""
-    for record in StreamReader(stream, emit_chunks=True).records:
+    anything unpacks it: the MCAP library trusts the sizes a chunk and its frame declare.
+    The data section's and the summary's CRCs are checked on the way (the library's reader
+    checks only the chunks' it unpacks: a damaged schema went unseen)."""
+    for record in StreamReader(stream, emit_chunks=True, validate_crcs=True).records:
         if isinstance(record, Chunk) and _unpacked_size(record) > MAX_CHUNK_BYTES:
             raise LogError(f"{path} is not a readable hubero run log: a chunk of it unpacks to "
                            f"more than {MAX_CHUNK_BYTES >> 20} MB (hubero writes 4 MB chunks)")
+        if isinstance(record, Footer):
+            _check_summary(path, stream, record)
+
+
+def _check_summary(path: Path, stream: Any, footer: Footer) -> None:
+    """LogError when the summary (and the footer's fields before its CRC) do not match the
+    footer's summary CRC (0: not computed)."""
+    if not footer.summary_crc:
+        return
+    here = stream.tell()   # where the reader goes on, to the closing magic
+    end = stream.seek(0, io.SEEK_END) - len(MCAP_MAGIC) - _CRC_BYTES
+    start = footer.summary_start or end - _FOOTER_FIELDS
+    stream.seek(start)
+    summary = stream.read(max(end - start, 0))
+    stream.seek(here)
+    if zlib.crc32(summary) != footer.summary_crc:
+        raise LogError(f"{path} is not a readable hubero run log (truncated or corrupt?): "
+                       "its summary does not match its checksum")
 
 
 def _unpacked_size(chunk: Chunk) -> int:

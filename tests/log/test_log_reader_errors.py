@@ -64,6 +64,20 @@ def test_corrupt_chunk(meeting: LoggedMeeting, tmp_path: Path) -> None:
         load_run(path)
 
 
+def test_any_flipped_byte_is_refused(meeting: LoggedMeeting, tmp_path: Path) -> None:
+    # a byte outside the chunks (a schema, a summary record) was read as it came: the data
+    # section's and the summary's CRCs were not checked
+    data = meeting.log.read_bytes()
+    path = tmp_path / "flipped.mcap"
+    for where in range(0, len(data), max(1, len(data) // 300)):
+        flipped = bytearray(data)
+        flipped[where] ^= 0xFF
+        path.write_bytes(bytes(flipped))
+        with pytest.raises(LogError):
+            load_run(path)
+            pytest.fail(f"a flipped byte at {where} of {len(data)} was not seen")
+
+
 def test_a_changed_attachment(meeting: LoggedMeeting, tmp_path: Path) -> None:
     # attachments lie outside the chunks, whose CRCs the MCAP library checks
     data = bytearray(meeting.log.read_bytes())
@@ -71,6 +85,12 @@ def test_a_changed_attachment(meeting: LoggedMeeting, tmp_path: Path) -> None:
     assert where > 0
     data[where:where + 8] = b"@" * 8
     path = tmp_path / "changed.mcap"
+    path.write_bytes(bytes(data))
+    with pytest.raises(LogError, match="crc validation failed in DataEnd"):
+        load_run(path)
+    # from a writer that leaves the data section's CRC out (0), the attachment's own checksum
+    summary_start = struct.unpack_from("<Q", data, len(data) - 8 - 29 + 9)[0]
+    data[summary_start - 4:summary_start] = bytes(4)    # DataEnd's CRC, just before the summary
     path.write_bytes(bytes(data))
     with pytest.raises(LogError, match=r"truncated or corrupt\?\): its attachment source/"
                                        r".* is not what it was when written"):
