@@ -50,6 +50,7 @@ ABREAST_WAKE = 1.5      # m: closer than this behind a companion in its lane, on
 ABREAST_ARRIVING = 0.5  # m from its place: one there walks on to it rather than wait
 ABREAST_ONE_WAY = 0.8   # the mean of the members' unit ways at least this long: one way
 STAYING_TASKS = frozenset({"stand", "talk"})  # tasks after which one is still where one arrived
+MOVING_ROBOT_TASKS = frozenset({"move_to", "follow"})  # a robot on these is on its way
 WAY_MARGIN = 0.1        # m off walls beyond the body, for a member to walk straight on
 SEE_PAST_EVERY = 0.25   # s between looks past a group walker's next waypoint
 
@@ -307,16 +308,21 @@ class Engine:
 
     def _bodies_at_rest(self) -> tuple[list[str], FloatArray, FloatArray, BoolArray]:
         """Every body's name, position and radius, humans' then robots', and which stand still
-        (a human present and not walking, a robot at rest)."""
+        (a human present and not walking, a robot at rest and not on its way somewhere: one
+        that waits or yields to pass is no one gathered round a goal)."""
         h = self.humans
         names, position, radius, still = list(h.names), h.position, h.radius, ~h.moving
         if h.present is not None:
             still &= h.present
         if self.robots.count:
-            names += self.robots.names
-            position = np.concatenate([position, self.robots.position])
-            radius = np.concatenate([radius, self.robots.radius])
-            still = np.concatenate([still, physics.lengths(self.robots.velocity) < physics.STILL])
+            r = self.robots
+            names += r.names
+            position = np.concatenate([position, r.position])
+            radius = np.concatenate([radius, r.radius])
+            settled = [task is None or task.task.kind not in MOVING_ROBOT_TASKS
+                       for task in r.tasks]
+            still = np.concatenate([still, (physics.lengths(r.velocity) < physics.STILL)
+                                    & np.asarray(settled, dtype=bool)])
         return names, position, radius, still
 
     def arrived_together(self, index: int, goal: tuple[float, float]) -> None:

@@ -20,6 +20,7 @@ from hubero_dsl.sim.loop import RunState, run_program
 from hubero_dsl.sim.robots import ControllerError
 from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.sim.status import TaskStatus
+from hubero_dsl.world.mapfile import save_map
 from tests.plugin_controller import install_straight_drive
 from tests.sim.conftest import ScenarioFactory, room_grid
 
@@ -44,8 +45,6 @@ class Recorder:
 
 def test_a_navigator_robot_plans_round_a_wall_and_its_task_keeps_the_run_alive(
         scenario: ScenarioFactory, tmp_path: Path) -> None:
-    from hubero_dsl.world.mapfile import save_map
-
     walled = tmp_path / "gap.yaml"  # a wall at x = 5 with a gap at the top
     save_map(room_grid(walls=((4.9, 0.0, 5.1, 6.0),)), walled)
     program = scenario("""
@@ -181,6 +180,28 @@ def test_a_robot_stuck_at_a_goal_someone_stands_on_says_who(
     # unlike a person, a robot does not count stopping beside its goal as arriving
     assert task.status is TaskStatus.ABORTED
     assert task.reason == "stuck: no progress for 5 s, its goal taken by bob"
+
+
+def test_a_robot_waiting_on_its_way_is_no_one_gathered_at_a_walkers_goal(
+        scenario: ScenarioFactory, tmp_path: Path) -> None:
+    # face to face in a corridor, a robot that stopped to yield stood within 1.5 m of the
+    # walker's goal: the walker "stopped short of a goal taken by cart", 2 m from its goal
+    corridor = tmp_path / "corridor.yaml"
+    save_map(room_grid(walls=((0.0, 0.0, 10.0, 3.5), (0.0, 4.5, 10.0, 8.0))), corridor)
+    program = scenario("""
+    human walker at (2, 4)
+    robot cart at (7.4, 4) { controller external }
+    """, corridor)
+    sim = Simulation(program, activities=False)
+    sim.engine.stuck_time = 30.0
+    waiting = sim.robot("cart").move_to((1.0, 4.0))  # an external robot left at rest
+    walk = sim.human("walker").move_to((8.0, 4.0))
+    sim.run_until(lambda: sim.time >= 15.0)
+    assert not walk.done and not waiting.done       # face to face, neither has got anywhere
+    stand = sim.robot("cart").stand(duration=30.0)  # a robot standing is someone at the goal
+    sim.run_until(lambda: walk.done, time_limit=25)
+    assert not stand.done
+    assert walk.reason == "stopped short of a goal taken by cart"
 
 
 def test_acceleration_is_limited(scenario: ScenarioFactory) -> None:
