@@ -232,7 +232,7 @@ class Scheduler:
         if data["label"] is not None:
             self.labels.started.add(data["label"])
         if data["within"] is not None:
-            token.until_tick = self.engine.tick + self.engine.ticks(data["within"])
+            token.until_tick = self.engine.tick + max(1, self.engine.ticks(data["within"]))
         handle = self.command(data["human"], data["task"], data["step"].span)
         token.handle = handle
         if not handle.done and data["until"] is None and data["within"] is None:

@@ -203,3 +203,10 @@ def test_a_task_still_on_when_the_run_ends_counts_its_time(scenario: ScenarioFac
     assert result.time == pytest.approx(1.0)  # the run ends with a's activity
     assert busy["a"] == pytest.approx(1.0)
     assert busy["b"] == pytest.approx(1.0)  # wandering until the run ended, not 0
+
+
+def test_a_within_shorter_than_the_step_gives_the_task_a_step(scenario: ScenarioFactory) -> None:
+    # rounded to no step at all, the task was aborted as it started, at t = 0
+    result = run(scenario, "activity { alice stand for 3 s within 0.01 s }")
+    (ended,) = [e for e in result.events if e.status.is_final]
+    assert ended.status is TaskStatus.ABORTED and ended.time == pytest.approx(0.05)
