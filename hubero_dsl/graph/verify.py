@@ -18,6 +18,7 @@ find what would make a scenario hang or fight over a human at run time:
 - E312 `wait until L done` (or a task that ends only `until L done`) where L never finishes
   because a `forever` task holds it.
 - E313 an `until` that can never hold while its task runs.
+- E314 (a warning) a wait outside a race's branch that needs a label inside it.
 
 Ordering is a happens-before relation on events: every node `n` has a start event `(n, "s")`
 and an end event `(n, "e")`; a flow edge u -> v orders `(u, "e")` before `(v, "s")` (repeat
@@ -97,6 +98,7 @@ def verify_activities(activities: Sequence[m.Activity], graph: nx.DiGraph, *,
     found += blocked
     found += _waits(context, never_done, label_names)
     found += _untils(context)
+    found += _waits_on_race_branches(context)
     return sorted(found, key=Diagnostic.sort_key)
 
 
@@ -438,6 +440,31 @@ def _waits(context: _Context, never_done: dict[str, str],
         elif not context.structurally_after((wait.accept, "e"), wait.source):
             possible.append(wait)
     return found + _deadlocks(context, possible)
+
+
+def _waits_on_race_branches(context: _Context) -> Iterator[Diagnostic]:
+    """E314 (a warning): a wait outside a race's branch that needs a label inside it: when
+    another branch ends the race first, the label's step is preempted (or never starts) and
+    the wait waits until the time limit. Once per wait."""
+    races = [(fork, branches_of(context.graph, fork))
+             for fork in nodes_of_kind(context.graph, NodeKind.RACE_FORK)]
+    branches = [(fork, branch) for fork, each in races if len(each) > 1 for branch in each]
+    warned: set[str] = set()
+    for wait in [*context.waits, *context.until_orders()]:
+        for fork, branch in branches:
+            if wait.accept in warned or wait.scope.begin not in branch.members \
+                    or wait.accept in branch.members:
+                continue
+            warned.add(wait.accept)
+            line = context.graph.nodes[fork]["span"].line
+            yield warning("E314", f"{_quoted(context.graph, wait.accept)} needs "
+                          f"`{wait.scope.label}`, in a branch of the `race` at line {line}: "
+                          f"when another branch ends the race first, `{wait.scope.label}` "
+                          f"may never {_verb(wait.condition.event)}, and the wait then lasts "
+                          "until the time limit", context.graph.nodes[wait.accept]["span"],
+                          "wait for the race itself (label it), or give the wait a way out with "
+                          "`or`",
+                          (Related(f"`{wait.scope.label}` is here", wait.scope.ref.span),))
 
 
 def _unknown_labels(context: _Context) -> Iterator[Diagnostic]:

@@ -188,6 +188,17 @@ def test_a_deadlock_behind_or_and_double_not_is_found(wait: str) -> None:
     assert at(diagnostic)[0] == 2 and "which needs `x done`" in diagnostic.message
 
 
+def test_a_wait_for_a_label_inside_a_race_branch_is_warned_of() -> None:
+    race = ("activity a {\n    race {\n        h stand for 2 s\n"
+            "        { wait 5 s; toast: g stand for 1 s%s }\n    }\n}\n")
+    diagnostic = only(race % "" + "activity b { wait until toast started }\n", "E314")
+    assert at(diagnostic) == (7, 14) and "race` at line 2" in diagnostic.message
+    assert at(diagnostic.related[0]) == (4, 21)
+    # inside its own branch, or with a way out, the wait is sure to end
+    assert found(race % "; wait until toast done") == []
+    assert found(race % "" + "activity b { wait until toast started or time > 9 s }\n") == []
+
+
 def test_wait_for_a_label_that_runs_forever() -> None:
     text = ("activity a {\n    idle: h stand forever\n}\n"
             "activity b {\n    wait until idle done\n    wait until idle started\n}\n")
