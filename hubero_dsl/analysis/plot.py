@@ -31,6 +31,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Polygon
 
 from hubero_dsl.errors import InputError
+from hubero_dsl.files import write_replacing
 from hubero_dsl.model.tasks import TASKS
 from hubero_dsl.sim.status import TaskStatus
 from hubero_dsl.world.personal_space import outline
@@ -140,6 +141,8 @@ def spaced_frames(position: FloatArray, spacing: float) -> npt.NDArray[np.intp]:
         return np.zeros(0, dtype=np.intp)
     steps = np.linalg.norm(np.diff(position, axis=0), axis=1)
     travelled = np.concatenate([[0.0], np.cumsum(steps)])
+    if travelled[-1] >= spacing * len(position):  # marks closer than the frames: every frame
+        return np.arange(len(position), dtype=np.intp)
     marks = np.arange(0.0, travelled[-1], spacing)
     frames = np.searchsorted(travelled, marks)
     return np.unique(np.concatenate([[0], frames, [len(position) - 1]]).astype(np.intp))
@@ -303,13 +306,9 @@ def _title(run: LoggedRun) -> str:
 
 
 def save(figure: Figure, out: str | Path) -> Path:
-    """Write the figure as PNG; InputError if the file cannot be written."""
-    out = Path(out)
-    try:
-        figure.savefig(out, format="png", dpi=DPI)
-    except OSError as exc:
-        raise InputError(f"{out}: cannot be written ({exc.strerror or exc})") from None
-    return out
+    """Write the figure as PNG, whole or not at all (a file there before is kept when the
+    write fails); InputError if the file cannot be written."""
+    return write_replacing(Path(out), lambda temp: figure.savefig(temp, format="png", dpi=DPI))
 
 
 def plot_run(run: LoggedRun, out: str | Path, *, spacing: float = SPACING,

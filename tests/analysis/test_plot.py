@@ -126,6 +126,26 @@ def test_bad_spacing(tmp_path: Path, build_run: Factory, track: Factory) -> None
         plot_run(run, tmp_path / "x.png", spacing=0.0)
 
 
+def test_a_failed_write_keeps_the_picture_that_was_there(
+        tmp_path: Path, build_run: Factory, track: Factory,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from matplotlib.figure import Figure
+
+    run = build_run([track("h", [0.0, 1.0], [(0, 0), (1, 0)])])
+    out = tmp_path / "run.png"
+    out.write_bytes(b"an earlier picture")
+
+    def half_then_full_disk(self: Figure, target: Path, **options: object) -> None:
+        Path(target).write_bytes(b"\x89PNG half")
+        raise OSError(27, "File too large")
+
+    monkeypatch.setattr(Figure, "savefig", half_then_full_disk)
+    with pytest.raises(InputError, match="cannot be written"):
+        plot_run(run, out)
+    assert out.read_bytes() == b"an earlier picture"
+    assert [p.name for p in tmp_path.iterdir()] == ["run.png"]
+
+
 def test_legend_column_grows_with_labels() -> None:
     assert legend_inches(["a"]) == LEGEND_INCHES
     long = legend_inches(["guest1: ellipse 0.6 x 0.4 m, 0.1 m back"])
@@ -139,6 +159,8 @@ def test_spaced_frames() -> None:
     standing = np.zeros((10, 2))
     assert spaced_frames(standing, 1.0).tolist() == [0, 9]
     assert spaced_frames(np.zeros((0, 2)), 1.0).tolist() == []
+    # marks closer than the frames: every frame (a 1e-9 m spacing tried to allocate 52 GiB)
+    assert spaced_frames(path, 1e-9).tolist() == list(range(51))
 
 
 def test_short_shapes() -> None:
