@@ -94,6 +94,10 @@ def _check_out(out: Path, output_format: str, reads: tuple[Path, ...]) -> None:
             raise InputError(f"{out}: --format png writes a PNG: give -o a name ending in .png")
         check_picture(out, reads)
         return
+    if out.suffix.lower() in (".png", *_OTHER_PICTURES):
+        raise InputError(f"{out}: --format {output_format} writes text, not a picture: give "
+                         f"-o a name such as graph.{'dot' if output_format == 'dot' else 'mmd'}"
+                         ", or --format png")
     check_output(out, reads)
     if out.is_file() and out.suffix.lower() not in _FORMAT_OF_SUFFIX:
         raise InputError(f"{out} exists and is not a graph (.mmd, .mermaid, .dot, .gv): not "

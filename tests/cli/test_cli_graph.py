@@ -78,6 +78,15 @@ def test_a_picture_hubero_does_not_draw_is_refused_with_the_command_that_does(
     assert not (tmp_path / name).exists()
 
 
+@pytest.mark.parametrize("text_format", ["dot", "mermaid"])
+def test_text_is_not_written_under_a_pictures_name(cli: Cli, stand_in: list[Any],
+                                                   tmp_path: Path, text_format: str) -> None:
+    # DOT text in g.png, exit 0: a file no viewer opened, and later refused as no PNG
+    outcome = cli("graph", "x.hub", "--format", text_format, "-o", str(tmp_path / "g.png"))
+    assert outcome.status == 2 and "writes text, not a picture" in outcome.err
+    assert not (tmp_path / "g.png").exists()
+
+
 def test_png_goes_to_the_output_file(cli: Cli, stand_in: list[Any], tmp_path: Path) -> None:
     target = tmp_path / "g.png"
     assert cli("graph", "x.hub", "-o", str(target)).status == 0
