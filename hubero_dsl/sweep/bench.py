@@ -62,8 +62,13 @@ def find_suite(folder: str | Path) -> list[Path]:
 
 
 def robots_of(scenarios: Sequence[Path]) -> set[str]:
-    """The robots every scenario of the suite names."""
+    """The robots every scenario of the suite names; InputError for a scenario with none (a
+    bench compares robots: it would report runs with nothing to measure as ok)."""
     names = [{robot.name for robot in compile_file(path).robots} for path in scenarios]
+    for path, robots in zip(scenarios, names, strict=True):
+        if not robots:
+            raise InputError(f"{path}: no robot under test; hubero bench compares robots' "
+                             "navigation, so each scenario of a suite has one")
     return set.intersection(*names) if names else set()
 
 

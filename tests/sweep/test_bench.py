@@ -16,6 +16,7 @@ from hubero_dsl.sweep.bench import COLUMNS
 from tests.plugin_controller import install_straight_drive
 
 ROOT = Path(__file__).resolve().parents[2]
+RIMEA = ROOT / "scenarios" / "rimea"
 SUITE = ROOT / "scenarios" / "benchmark"
 HERE = "tests.sweep.bench_controllers"
 
@@ -109,13 +110,14 @@ def test_a_controller_that_raises_is_a_row_and_exit_1(small_suite: Path, tmp_pat
     (["bench", "{suite}", "--controller", "cart=no_such_module_x:Planner"], "cannot be imported"),
     (["bench", "{suite}", "--controller", "cart"], "ROBOT=MODULE:CLASS"),
     (["bench", "{suite}", "--seeds", "3..1"], "the range 3..1 is empty"),
+    (["bench", "{rimea}"], "no robot under test"),   # it ran them, "5 runs; 5 ok"
 ])
 def test_bad_input_is_exit_2_with_a_message(args: list[str], message: str, small_suite: Path,
                                             tmp_path: Path, capsys: pytest.CaptureFixture[str]
                                             ) -> None:
     empty = tmp_path / "empty"
     empty.mkdir()
-    argv = [a.format(empty=empty, suite=small_suite) for a in args]
+    argv = [a.format(empty=empty, suite=small_suite, rimea=RIMEA) for a in args]
     assert main([*argv, "-o", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
