@@ -49,6 +49,9 @@ LEGEND_INCHES = 2.6      # the narrowest column to the right of the map for the 
 LEGEND_FONT = 9
 _LEGEND_CHAR_INCHES = 0.62 * LEGEND_FONT / 72  # a generous average advance of DejaVu Sans
 _LEGEND_HANDLE_INCHES = 0.75                  # the line sample, its padding and the frame
+_LEGEND_ROW_INCHES = 1.7 * LEGEND_FONT / 72    # a row: its text and the 0.8 em between rows
+_LEGEND_FRAME_INCHES = 0.25                    # the frame's padding, above and below
+_LEGEND_FOOT_INCHES = 0.2                      # below the legend, to the figure's edge
 MARGIN = 1.5        # metres of map shown around what the actors used
 SPACING = 1.5       # metres along a path between two drawn personal spaces
 FREE, OCCUPIED, UNKNOWN = 1.0, 0.55, 0.82  # grey levels of the map
@@ -90,9 +93,13 @@ class View:
         map_w, map_h = width * scale, height * scale
         left, right, bottom, top = 0.8, 0.25, 0.6, 0.45
         extra = 0.0 if legend is None else legend_inches(legend)
-        fig_w, fig_h = left + map_w + right + extra, bottom + map_h + top
+        # tall enough for the legend, which hangs from the map's top edge: a long, narrow
+        # map (a corridor) left its lower entries cut off
+        tall = 0.0 if legend is None else legend_height(legend) + _LEGEND_FOOT_INCHES
+        fig_w, fig_h = left + map_w + right + extra, max(bottom + map_h, tall) + top
         figure = Figure(figsize=(fig_w, fig_h), dpi=DPI)
-        axes = figure.add_axes((left / fig_w, bottom / fig_h, map_w / fig_w, map_h / fig_h))
+        axes = figure.add_axes((left / fig_w, (fig_h - top - map_h) / fig_h, map_w / fig_w,
+                                map_h / fig_h))
         axes.set_xlim(self.x0, self.x1)
         axes.set_ylim(self.y0, self.y1)
         axes.set_aspect("equal", adjustable="box")
@@ -104,6 +111,11 @@ class View:
 def legend_inches(labels: Sequence[str]) -> float:
     longest = max((len(label) for label in labels), default=0)
     return max(LEGEND_INCHES, _LEGEND_HANDLE_INCHES + longest * _LEGEND_CHAR_INCHES)
+
+
+def legend_height(labels: Sequence[str]) -> float:
+    """The legend's height (inches): a row per label, `labelspacing` apart, and its frame."""
+    return _LEGEND_FRAME_INCHES + len(labels) * _LEGEND_ROW_INCHES
 
 
 def _positions(run: LoggedRun) -> list[FloatArray]:

@@ -18,6 +18,7 @@ from hubero_dsl.analysis.plot import (
     _marker_handles,
     colours,
     legend_inches,
+    place_legend,
     plot_overlay,
     plot_run,
     short_shape,
@@ -151,6 +152,21 @@ def test_legend_column_grows_with_labels() -> None:
     long = legend_inches(["guest1: ellipse 0.6 x 0.4 m, 0.1 m back"])
     assert long > LEGEND_INCHES
     assert long > legend_inches(["guest1: circle r 0.4 m"])
+
+
+@pytest.mark.parametrize("rows", [3, 10, 30])
+def test_the_legend_fits_beside_a_long_narrow_map(rows: int) -> None:
+    # a 40 m x 2 m corridor: the figure was as tall as the map, and the legend lost its rows
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.lines import Line2D
+
+    labels = [f"walker {i}: circle r 0.5 m" for i in range(rows)]
+    figure, axes = View(0.0, 40.0, 0.0, 2.0).figure(labels)
+    place_legend(figure, axes, [Line2D([], [], label=label) for label in labels])
+    canvas = FigureCanvasAgg(figure)
+    canvas.draw()
+    legend = figure.legends[0].get_window_extent(canvas.get_renderer())
+    assert legend.y0 >= 0 and legend.y1 <= figure.bbox.height
 
 
 def test_spaced_frames() -> None:
