@@ -24,6 +24,7 @@ from matplotlib.patches import Polygon
 
 from hubero_dsl.analysis.plot import (
     MEMBER_PATH,
+    ROBOT_LINE,
     View,
     colours,
     draw_map,
@@ -31,8 +32,11 @@ from hubero_dsl.analysis.plot import (
     personal_space_of,
     place_legend,
     robot_colours,
+    robot_goals,
+    run_title,
     set_colours,
 )
+from hubero_dsl.analysis.socialnav_log import DEFAULT_ROBOT_RADIUS
 from hubero_dsl.errors import InputError
 from hubero_dsl.files import write_replacing
 from hubero_dsl.world.personal_space import outline
@@ -76,6 +80,7 @@ class _Scene:
         self.bodies: dict[str, CirclePatch] = {}
         self.spaces: dict[str, Polygon] = {}
         self.robots: dict[str, CirclePatch] = {}
+        self.robot_trails: dict[str, Line2D] = {}
         for name in sorted(run.humans):
             if not len(run.humans[name].time):
                 continue  # a flow's person who never came
@@ -91,9 +96,17 @@ class _Scene:
             self.bodies[name] = axes.add_patch(CirclePatch(
                 (0.0, 0.0), float(radius) if isinstance(radius, int | float) else 0.2,
                 facecolor=colour, edgecolor="black", zorder=4))
-        for name, colour in robot_colours(list(run.robots)).items():
-            self.robots[name] = axes.add_patch(CirclePatch((0.0, 0.0), 0.3, facecolor=colour,
-                                                           zorder=4))
+        # robots as the picture draws them: a dotted trail, the body at its size, the goal
+        palette = robot_colours(list(run.robots))
+        for name, colour in palette.items():
+            self.robot_trails[name], = axes.plot([], [], color=colour, linestyle=ROBOT_LINE,
+                                                 linewidth=1.4, zorder=3)
+            self.robots[name] = axes.add_patch(CirclePatch(
+                (0.0, 0.0), run.robots[name].radius or DEFAULT_ROBOT_RADIUS, facecolor=colour,
+                zorder=4))
+        for name, goal in robot_goals(run).items():
+            axes.plot(*goal, marker="X", markersize=10, color=palette[name],
+                      markeredgecolor="black", zorder=5)
         self.clock = axes.text(0.02, 0.97, "", transform=axes.transAxes, va="top",
                                fontsize=11, bbox={"facecolor": "white", "alpha": 0.8})
 
@@ -114,11 +127,14 @@ class _Scene:
             self.bodies[name].set_center((float(where[0]), float(where[1])))
         for name, robot in self.run.robots.items():
             if len(robot.time):
+                shown = robot.time <= when
+                self.robot_trails[name].set_data(robot.position[shown, 0],
+                                                 robot.position[shown, 1])
                 where = _at(robot.time, robot.position, when)
                 self.robots[name].set_center((float(where[0]), float(where[1])))
         self.clock.set_text(f"t = {when:5.1f} s")
         return [*self.trails.values(), *self.spaces.values(), *self.bodies.values(),
-                *self.robots.values(), self.clock]
+                *self.robot_trails.values(), *self.robots.values(), self.clock]
 
 
 def animate_run(run: LoggedRun, out: str | Path, *, max_frames: int = MAX_FRAMES,
@@ -134,8 +150,7 @@ def animate_run(run: LoggedRun, out: str | Path, *, max_frames: int = MAX_FRAMES
     figure, axes = View.around([run], whole_map).figure([str(h.get_label()) for h in handles])
     figure.set_dpi(GIF_DPI)
     draw_map(axes, run.grid)
-    axes.set_title(f"{run.metadata.title}"
-                   + (f" [{run.metadata.variant}]" if run.metadata.variant else ""), fontsize=11)
+    axes.set_title(run_title(run), fontsize=11)
     scene = _Scene(run, axes, palette, crowds)
     place_legend(figure, axes, handles)
     times = frame_times(run, max_frames)

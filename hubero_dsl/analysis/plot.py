@@ -55,6 +55,9 @@ _LEGEND_FOOT_INCHES = 0.2                      # below the legend, to the figure
 MARGIN = 1.5        # metres of map shown around what the actors used
 SPACING = 1.5       # metres along a path between two drawn personal spaces
 FREE, OCCUPIED, UNKNOWN = 1.0, 0.55, 0.82  # grey levels of the map
+# a robot's path: dotted; a comparison's second run's, dash-dotted
+ROBOT_LINE: Any = ":"
+ROBOT_LINE_B: Any = (0, (4, 2, 1, 2))
 _NAVIGATION = tuple(kind.name for kind in TASKS.values() if kind.marks_goal)
 
 
@@ -121,10 +124,10 @@ def legend_height(labels: Sequence[str]) -> float:
 def _positions(run: LoggedRun) -> list[FloatArray]:
     return ([track.position for track in run.humans.values()]
             + [track.position for track in run.robots.values()]
-            + [np.array([goal]) for goal in _robot_goals(run).values()])
+            + [np.array([goal]) for goal in robot_goals(run).values()])
 
 
-def _robot_goals(run: LoggedRun) -> dict[str, tuple[float, float]]:
+def robot_goals(run: LoggedRun) -> dict[str, tuple[float, float]]:
     """Each robot's declared goal, by name (robots without one left out)."""
     goals = {name: run.metadata.robot_goal(name)[0] for name in run.robots}
     return {name: goal for name, goal in goals.items() if goal is not None}
@@ -213,10 +216,11 @@ def draw_robots(axes: Axes, run: LoggedRun, dashed: bool = False) -> None:
     for name, robot in run.robots.items():
         if len(robot.position):
             axes.plot(robot.position[:, 0], robot.position[:, 1], color=palette[name],
-                      linestyle=":" if not dashed else (0, (1, 3)), linewidth=1.4, zorder=3)
+                      linestyle=ROBOT_LINE if not dashed else ROBOT_LINE_B, linewidth=1.4,
+                      zorder=3)
             axes.plot(*robot.position[0], marker="s", markersize=7, color=palette[name],
                       zorder=5)
-    for name, goal in _robot_goals(run).items():
+    for name, goal in robot_goals(run).items():
         axes.plot(*goal, marker="X", markersize=10, color=palette[name],
                   markeredgecolor="black", zorder=5)
 
@@ -282,11 +286,19 @@ def short_shape(shape: Shape) -> str:
     return f"rectangle {shape.length:g} x {shape.width:g} m"
 
 
-def _robot_handles(run: LoggedRun) -> list[Line2D]:
+def _robot_handles(run: LoggedRun, sides: tuple[str, str] | None = None) -> list[Line2D]:
+    """A robot's entry (with `sides`, the two runs' line styles of a comparison) and its
+    goal's."""
     palette = robot_colours(list(run.robots))
-    handles = [Line2D([], [], color=palette[name], linestyle=":", marker="s", markersize=6,
-                      label=f"robot {name}") for name in sorted(run.robots)]
-    if _robot_goals(run):
+    handles = [Line2D([], [], color=palette[name], linestyle=ROBOT_LINE, marker="s",
+                      markersize=6, label=f"robot {name}") for name in sorted(run.robots)]
+    if sides is not None and handles:
+        handles = [Line2D([], [], color=h.get_color(), linestyle=ROBOT_LINE, marker="s",
+                          markersize=6, label=f"{h.get_label()}, {sides[0]}")
+                   for h in handles] + [
+                   Line2D([], [], color=h.get_color(), linestyle=ROBOT_LINE_B,
+                          label=f"{h.get_label()}, {sides[1]}") for h in handles]
+    if robot_goals(run):
         handles.append(Line2D([], [], linestyle="none", marker="X", color="white",
                               markeredgecolor="black", markersize=9, label="robot's goal"))
     return handles
@@ -312,7 +324,7 @@ def place_legend(figure: Figure, axes: Axes, handles: list[Any]) -> None:
                   borderaxespad=0.0)
 
 
-def _title(run: LoggedRun) -> str:
+def run_title(run: LoggedRun) -> str:
     variant = f" [{run.metadata.variant}]" if run.metadata.variant else ""
     return f"{run.metadata.title}{variant}, seed {run.metadata.seed}"
 
@@ -342,7 +354,7 @@ def plot_run(run: LoggedRun, out: str | Path, *, spacing: float = SPACING,
         else:
             draw_member(axes, run, name, crowds[crowd])
     draw_robots(axes, run)
-    axes.set_title(_title(run), fontsize=11)
+    axes.set_title(run_title(run), fontsize=11)
     place_legend(figure, axes, handles)
     return save(figure, out)
 
@@ -368,7 +380,7 @@ def plot_overlay(a: LoggedRun, b: LoggedRun, out: str | Path, *, epsilon: float 
     crowds = {n: c for n, c in set_colours(a).items() if n in in_set.values()}
     label_a, label_b = labels or (_side_label(a, "A"), _side_label(b, "B"))
     handles = [*_overlay_handles(named, palette, (label_a, label_b), epsilon),
-               *_set_handles(a, crowds)]
+               *_set_handles(a, crowds), *_robot_handles(a, (label_a, label_b))]
     handles += _marker_handles([(run, name) for run in (a, b) for name in named
                                 if name in run.humans])
     figure, axes = (view or View.around([a, b], whole_map)).figure(_labels(handles))

@@ -100,6 +100,22 @@ def test_synthetic_run_with_robot(tmp_path: Path, build_run: Factory, track: Fac
     assert share_of_colour(image, (0, 0, 0), tolerance=30) > 0.001  # the robot's path
 
 
+def test_a_comparison_names_its_robots_and_tells_their_runs_apart(
+        tmp_path: Path, build_run: Factory, track: Factory, robot: Factory,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # the robots were drawn, dotted both, and missing from the legend
+    import hubero_dsl.analysis.plot as plot
+
+    shown: list[list[str]] = []
+    monkeypatch.setattr(plot, "place_legend", lambda figure, axes, handles: shown.append(
+        [h.get_label() for h in handles]))
+    run = build_run([track("h", [0.0, 2.0], [(0, 0), (2, 1)])],
+                    robots=[robot("bot", [0.0, 2.0], [(-2, -2), (-2, 2)])])
+    plot_overlay(run, run, tmp_path / "d.png", labels=("A", "B"))
+    assert {"robot bot, A", "robot bot, B"} <= set(shown[0])
+    assert plot.ROBOT_LINE != plot.ROBOT_LINE_B
+
+
 def test_a_human_who_reached_no_goal_ends_in_a_diamond_not_a_star(
         build_run: Factory, track: Factory, living_room_logs: dict[str, Path]) -> None:
     stood = build_run([track("h", [0.0, 1.0], [(0, 0), (1, 0)])])   # no task succeeded
@@ -226,3 +242,21 @@ def test_an_interrupted_animation_leaves_the_gif_that_was_there(
         animate_run(run, out, max_frames=6, fps=5)
     assert out.read_bytes() == b"GIF89a an earlier replay"
     assert [p.name for p in tmp_path.iterdir()] == ["run.gif"]
+
+
+def test_a_replay_draws_robots_as_the_picture_does(build_run: Factory, track: Factory,
+                                                  robot: Factory) -> None:
+    # a 0.3 m disc whatever the robot, with no trail: not what the legend showed
+    from dataclasses import replace
+
+    from matplotlib.figure import Figure
+
+    from hubero_dsl.analysis.animate import _Scene
+
+    vacuum = replace(robot("vacuum", [0.0, 1.0, 2.0], [(0, 0), (1, 0), (2, 0)]), radius=0.17)
+    run = build_run([track("h", [0.0, 2.0], [(0, 1), (2, 1)])], robots=[vacuum])
+    axes = Figure().add_subplot()
+    scene = _Scene(run, axes, {"h": "tab:blue"}, {})
+    scene.show(1.0)
+    assert scene.robots["vacuum"].radius == pytest.approx(0.17)
+    assert np.asarray(scene.robot_trails["vacuum"].get_xdata()).tolist() == [0.0, 1.0]
