@@ -134,10 +134,20 @@ def outline(shape_row: Shape | ShapeRow, position: tuple[float, float] | FloatAr
 
 
 def _box_outline(half_length: float, half_width: float, n: int) -> FloatArray:
+    """n points round the box, its four corners among them (points spread evenly round it
+    cut three corners of a box that is not square): each side gets a share of the points by
+    its length, starting at its corner."""
     corners = np.array([[half_length, -half_width], [half_length, half_width],
                         [-half_length, half_width], [-half_length, -half_width],
                         [half_length, -half_width]])
-    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(corners, axis=0), axis=1))])
-    samples = np.linspace(0.0, arc[-1], n, endpoint=False)
-    return np.column_stack([np.interp(samples, arc, corners[:, 0]),
-                            np.interp(samples, arc, corners[:, 1])])
+    sides = np.linalg.norm(np.diff(corners, axis=0), axis=1)
+    if n < len(sides) or sides.sum() <= 0:
+        arc = np.concatenate([[0.0], np.cumsum(sides)])
+        samples = np.linspace(0.0, arc[-1], n, endpoint=False)
+        return np.column_stack([np.interp(samples, arc, corners[:, 0]),
+                                np.interp(samples, arc, corners[:, 1])])
+    counts = np.maximum(1, np.floor(n * sides / sides.sum()).astype(int))
+    counts[np.argmax(sides)] += n - int(counts.sum())  # the rounding's points to the longest
+    return np.concatenate([
+        corners[k] + np.linspace(0.0, 1.0, count, endpoint=False)[:, None]
+        * (corners[k + 1] - corners[k]) for k, count in enumerate(counts)])

@@ -130,6 +130,16 @@ def test_outline_traces_the_shapely_boundary(shape: Shape) -> None:
     assert Polygon(points).exterior.is_ccw
 
 
+@pytest.mark.parametrize("n", [4, 32, 48])
+def test_a_rectangles_outline_keeps_its_corners(n: int) -> None:
+    # points spread evenly round a 1.2 x 0.8 m box cut three of its corners by 5 cm
+    points = outline(Rectangle(1.2, 0.8), (0.0, 0.0), 0.0, n=n)
+    assert points.shape == (n, 2)
+    for corner in ((0.6, 0.4), (-0.6, 0.4), (-0.6, -0.4), (0.6, -0.4)):
+        assert np.min(np.hypot(*(points - corner).T)) < 1e-12
+    assert Polygon(points).area == pytest.approx(1.2 * 0.8)
+
+
 def test_outline_accepts_a_shape_row() -> None:
     points = outline((0, 1.0, 1.0, 0.0), (0.0, 0.0), 0.0, n=4)
     np.testing.assert_allclose(points, [[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]],
