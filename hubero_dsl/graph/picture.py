@@ -39,6 +39,7 @@ _WRAP = 34
 _MAX_PIXELS = 30_000
 _LEAST_DPI = 40  # below it, a drawing squeezed into _MAX_PIXELS cannot be read
 _DIAMOND_INCHES = 0.12  # half the diagonal of a decision/merge rhombus
+_NOTCH_INCHES = 0.1     # how deep a wait's (accept event's) box is notched on its left
 _BAR_HEIGHT = 0.07 / ROW_INCHES  # a fork or join bar, in rows
 SIGNAL_COLOUR = "steelblue"  # the arrows from a label's event to who waits for it
 _SIGNAL_BEND = -0.25  # matplotlib's arc3 `rad`: to the left of the way the arrow goes
@@ -155,10 +156,12 @@ def _wrapped(text: str) -> str:
     return "\n".join(textwrap.wrap(text, _WRAP, break_long_words=True)) or " "
 
 
-def _box_size(text: str) -> tuple[float, float]:
-    """Width in columns and height in rows of a box around the wrapped text."""
+def _box_size(text: str, kind: NodeKind | None = None) -> tuple[float, float]:
+    """Width in columns and height in rows of a box around the wrapped text (a wait's box
+    wider by its notch, which the text keeps clear of)."""
     lines = text.split("\n")
-    width = (max(len(line) for line in lines) * _CHAR_INCHES + 0.16) / COLUMN_INCHES
+    notch = _NOTCH_INCHES if kind is NodeKind.ACCEPT else 0.0
+    width = (max(len(line) for line in lines) * _CHAR_INCHES + 0.16 + notch) / COLUMN_INCHES
     height = (len(lines) * _LINE_INCHES + 0.12) / ROW_INCHES
     return width, height
 
@@ -174,10 +177,12 @@ def _draw_node(axes: Axes, graph: nx.DiGraph, node: str,
     if kind in (NodeKind.REPEAT_START, NodeKind.REPEAT_END):
         return _draw_diamond(axes, describe_node(graph, node), x, y)
     text = _wrapped(describe_node(graph, node))
-    width, height = _box_size(text)
+    width, height = _box_size(text, kind)
     patch: Patch
+    text_x = x
     if kind is NodeKind.ACCEPT:
-        notch = 0.1 / COLUMN_INCHES
+        notch = _NOTCH_INCHES / COLUMN_INCHES
+        text_x = x + notch / 2
         patch = Polygon([(x - width / 2, y + height / 2), (x + width / 2, y + height / 2),
                          (x + width / 2, y - height / 2), (x - width / 2, y - height / 2),
                          (x - width / 2 + notch, y)], closed=True)
@@ -195,7 +200,7 @@ def _draw_node(axes: Axes, graph: nx.DiGraph, node: str,
     patch.set(facecolor="#f4f7ff" if kind is NodeKind.ACTION else "white", edgecolor="#333",
               linewidth=0.8, linestyle="--" if dashed else "-", zorder=2)
     axes.add_patch(patch)
-    axes.text(x, y, text, ha="center", va="center", fontsize=FONT_SIZE,
+    axes.text(text_x, y, text, ha="center", va="center", fontsize=FONT_SIZE,
               family="DejaVu Sans Mono", color="#555" if dashed else "black", zorder=3)
     return patch
 
@@ -296,7 +301,7 @@ def _loop_left(graph: nx.DiGraph, loop: tuple[str, str],
     reach, inner_loops = _DIAMOND_INCHES, 0
     for order in range(first + 1, last):
         node = f"{activity}/{order}"
-        half = _box_size(_wrapped(describe_node(graph, node)))[0] / 2
+        half = _box_size(_wrapped(describe_node(graph, node)), graph.nodes[node]["kind"])[0] / 2
         reach = max(reach, (centre - positions[node][0] + half) * COLUMN_INCHES)
         inner_loops += graph.nodes[node]["kind"] is NodeKind.REPEAT_END
     return centre - (reach + 0.15 + 0.12 * inner_loops) / COLUMN_INCHES
