@@ -111,17 +111,11 @@ def _signals_after() -> Iterator[None]:
     process, and one interrupted between its fork and its being recorded by the pool was left
     behind, to print a traceback when it found the pool gone. Main thread only (where Python
     runs signal handlers); elsewhere the block runs as it is."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
     held: list[int] = []
-    previous = {number: signal.signal(number, lambda received, frame: held.append(received))
-                for number in (signal.SIGINT, signal.SIGTERM)}
     try:
-        yield
+        with _interrupts_handled_by(lambda received, frame: held.append(received)):
+            yield
     finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
         if held:
             signal.raise_signal(held[0])  # now, to the handler it was meant for
 
@@ -131,16 +125,24 @@ def deaf_to_interrupts() -> Iterator[None]:
     """Ctrl-C and SIGTERM go unheard for the block: a sweep that is stopping stops once, and
     a second Ctrl-C (a terminal's user pressing it again) no longer cut short the stopping
     and left no index. Main thread only; elsewhere the block runs as it is."""
+    with _interrupts_handled_by(signal.SIG_IGN):
+        yield
+
+
+@contextlib.contextmanager
+def _interrupts_handled_by(handler: Any) -> Iterator[None]:
+    """SIGINT and SIGTERM go to `handler` for the block, in the main thread (where Python
+    runs signal handlers; elsewhere the block runs as it is); the handlers before, after."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = {number: signal.signal(number, signal.SIG_IGN)
+    previous = {number: signal.signal(number, handler)
                 for number in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield
     finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
+        for number, before in previous.items():
+            signal.signal(number, before)
 
 
 class ProcessExecutor(Executor):
