@@ -290,14 +290,11 @@ def _robot_handles(run: LoggedRun, sides: tuple[str, str] | None = None) -> list
     """A robot's entry (with `sides`, the two runs' line styles of a comparison) and its
     goal's."""
     palette = robot_colours(list(run.robots))
-    handles = [Line2D([], [], color=palette[name], linestyle=ROBOT_LINE, marker="s",
-                      markersize=6, label=f"robot {name}") for name in sorted(run.robots)]
-    if sides is not None and handles:
-        handles = [Line2D([], [], color=h.get_color(), linestyle=ROBOT_LINE, marker="s",
-                          markersize=6, label=f"{h.get_label()}, {sides[0]}")
-                   for h in handles] + [
-                   Line2D([], [], color=h.get_color(), linestyle=ROBOT_LINE_B,
-                          label=f"{h.get_label()}, {sides[1]}") for h in handles]
+    styles = [(ROBOT_LINE, "s", "")] if sides is None else [
+        (ROBOT_LINE, "s", f", {sides[0]}"), (ROBOT_LINE_B, "", f", {sides[1]}")]
+    handles = [Line2D([], [], color=palette[name], linestyle=line, marker=marker,
+                      markersize=6, label=f"robot {name}{side}")
+               for line, marker, side in styles for name in sorted(run.robots)]
     if robot_goals(run):
         handles.append(Line2D([], [], linestyle="none", marker="X", color="white",
                               markeredgecolor="black", markersize=9, label="robot's goal"))

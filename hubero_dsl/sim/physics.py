@@ -139,12 +139,11 @@ def keep_out_of_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
 
     A body centre must keep `keep` = (share, margin) of clearance: that share of its radius
     plus the margin (people may brush furniture, robots may not; centres never enter occupied
-    cells); the full move is tried, then each
-    axis alone for the bodies that `slides` (all by default: a differential-drive robot
-    cannot move sideways), then no move. Bodies whose cell is far enough from every wall are
-    accepted at once (`OccupancyGrid.surely_clear`); only the others pay for interpolated
-    clearances; a few bodies are handled in floats. Returns `new` itself when nobody is
-    stopped.
+    cells). The full move is tried, then each axis alone for the bodies that `slides` (all by
+    default: a differential-drive robot cannot move sideways), then no move. Bodies whose cell
+    is far enough from every wall are accepted at once (`OccupancyGrid.surely_clear`); only
+    the others pay for interpolated clearances; a few bodies are handled in floats. Returns
+    `new` itself when nobody is stopped.
     """
     if len(new) <= FEW_BODIES and (kept := _few_kept_out_of_walls(
             grid, old, new, radius, keep, slides)) is not None:
