@@ -113,9 +113,14 @@ def _scenario(axes: Any, program: Program) -> list[Any]:
         axes.plot(*flow.target, "*", color="tab:olive", markersize=10)
     entry = lambda marker, colour, label: plt.Line2D(  # noqa: E731
         [], [], marker=marker, color=colour, linestyle="", label=label)
-    return [entry("D", "tab:purple", "place"), entry("s", "tab:blue", "area"),
-            entry("o", "tab:green", "human start"), entry("s", "tab:brown", "robot start"),
-            entry("*", "tab:olive", "flow target (area dashed)")]
+    # only what the picture shows: a legend listing robots and flows a scenario has not
+    # has the reader look for them
+    shown = [(program.places, entry("D", "tab:purple", "place")),
+             (program.areas, entry("s", "tab:blue", "area")),
+             (starts, entry("o", "tab:green", "human start")),
+             (program.robots, entry("s", "tab:brown", "robot start")),
+             (program.flows, entry("*", "tab:olive", "flow target (area dashed)"))]
+    return [handle for drawn, handle in shown if drawn]
 
 
 def _save(figure: Any, path: Path) -> Path:

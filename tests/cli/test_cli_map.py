@@ -120,3 +120,19 @@ def test_draw_refuses_to_write_over_its_input_or_into_nowhere(tmp_path: Path, cl
     assert nowhere.status == 2
     missing = cli("map", "show", str(tmp_path / "missing.yaml"))
     assert missing.status == 2 and "Traceback" not in missing.err
+
+
+def test_a_scenarios_legend_lists_what_the_picture_shows() -> None:
+    # a party without robots or flows had "robot start" and "flow target" in its legend
+    from matplotlib.figure import Figure
+
+    from hubero_dsl.analysis import mapview
+    from hubero_dsl.pipeline import compile_file
+
+    root = Path(__file__).resolve().parents[2]
+    labels = [h.get_label() for h in mapview._scenario(
+        Figure().add_subplot(), compile_file(root / "scenarios" / "house_party.hub"))]
+    assert "robot start" in labels and "flow target (area dashed)" not in labels
+    labels = [h.get_label() for h in mapview._scenario(
+        Figure().add_subplot(), compile_file(root / "scenarios" / "living_room.hub"))]
+    assert "robot start" not in labels and "place" in labels
