@@ -203,17 +203,21 @@ def _at(track: Track, times: FloatArray) -> FloatArray:
     return sampled_at(track.time, track.position, times)
 
 
-def sampled_at(time: FloatArray, values: FloatArray, at: FloatArray) -> FloatArray:
+def sampled_at(time: FloatArray, values: FloatArray, at: FloatArray, *,
+               held: bool = False) -> FloatArray:
     """Values (T,) or (T, k) sampled at `time`, at the times `at`: linear between samples,
     held for one sample spacing beyond the ends (a log's last frame may come early), NaN
     further out: a flow's member before it came or after it left is absent, not standing
-    where it was last seen."""
+    where it was last seen. `held`: held however far beyond the ends (for a search that
+    takes no NaN)."""
     if len(time) == len(at) and np.array_equal(time, at):
         return values
     columns = values.reshape(len(time), -1)
     found = np.column_stack([np.interp(at, time, column) for column in columns.T])
-    spacing = float(np.median(np.diff(time))) if len(time) > 1 else 0.0
-    found[(at < time[0] - spacing - _SAME_TIME) | (at > time[-1] + spacing + _SAME_TIME)] = np.nan
+    if not held:
+        spacing = float(np.median(np.diff(time))) if len(time) > 1 else 0.0
+        found[(at < time[0] - spacing - _SAME_TIME)
+              | (at > time[-1] + spacing + _SAME_TIME)] = np.nan
     return found.reshape((len(at), *values.shape[1:]))
 
 

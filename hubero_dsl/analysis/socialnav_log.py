@@ -201,7 +201,8 @@ def _neighbours(run: LoggedRun) -> dict[str, list[str]]:
     if len(names) < 2:
         return {}
     times = np.unique(np.concatenate([run.humans[h].time for h in names]))
-    positions = np.stack([_interpolated(run.humans[h].time, run.humans[h].position, times)
+    positions = np.stack([sampled_at(run.humans[h].time, run.humans[h].position, times,
+                                     held=True)
                           for h in names], axis=1)                              # (T, P, 2)
     count, found = len(names), []
     for frame in positions:
@@ -249,7 +250,7 @@ def shape_intrusions(run: LoggedRun, subject: Track, others: list[str],
     centres = np.concatenate([sampled_at(run.humans[h].time, run.humans[h].position, times)
                               for h in others])
     unwrapped = headings if headings is not None else _headings(run)
-    turned = np.concatenate([_interpolated(run.humans[h].time, unwrapped[h], times)
+    turned = np.concatenate([sampled_at(run.humans[h].time, unwrapped[h], times, held=True)
                              for h in others])
     points = np.tile(subject.position, (len(others), 1))
     there = ~np.isnan(centres[:, 0])               # not a flow's member before it came or after
@@ -260,16 +261,6 @@ def shape_intrusions(run: LoggedRun, subject: Track, others: list[str],
     intruded = np.asarray(inside.reshape(len(others), count).any(axis=0), dtype=np.bool_)[:-1]
     dt = np.diff(times)
     return float(dt[intruded].sum() / dt.sum()) if dt.sum() > 0 else 0.0
-
-
-def _interpolated(time: FloatArray, values: FloatArray, at: FloatArray) -> FloatArray:
-    """Values (T,) or (T, 2) at the times `at`, linear between samples."""
-    if time is at or (len(time) == len(at) and np.array_equal(time, at)):
-        return values
-    if values.ndim == 1:
-        return np.asarray(np.interp(at, time, values), dtype=np.float64)
-    return np.column_stack([np.interp(at, time, values[:, 0]),
-                            np.interp(at, time, values[:, 1])])
 
 
 
