@@ -231,9 +231,7 @@ def _read(path: Path, stream: Any) -> LoggedRun:
     _check_names(humans, robots)
     collector = _Collector(humans, robots, crowds)
     for _, channel, message in reader.iter_messages(log_time_order=False):
-        collector.add(channel.topic, message.data)
-        if channel.topic == s.TF_TOPIC:  # one a frame, whoever is there
-            collector.frames.append(message.log_time)
+        collector.add(channel.topic, message.data, message.log_time)
     if collector.grid_message is None:
         raise LogError(f"{path} has no /map message: the log is incomplete")
     metadata = _metadata(provenance, attachments)
@@ -392,13 +390,14 @@ class _Collector:
         self._radius: dict[str, float] = {}
         self.frames: list[int] = []
 
-    def add(self, topic: str, data: bytes) -> None:
+    def add(self, topic: str, data: bytes, log_time: int) -> None:
         human = self._state_topics.get(topic)
         if human is not None:
             self._states[human].append(_json(data))
         elif topic in self._crowd_topics:
             self._crowd_states.append(_json(data))
         elif topic == s.TF_TOPIC:
+            self.frames.append(log_time)  # one a frame, whoever is there
             if self._robot_frames:
                 self._add_transforms(_json(data))
         elif topic == s.TASKS_TOPIC:
