@@ -98,14 +98,14 @@ def _robot_metrics_table(metrics: dict[str, dict[str, float]]) -> Table:
                   "min TTC", "path length", "efficiency", "time to goal",
                   title="robots among people", title_justify="left")
     for name, values in metrics.items():
-        table.add_row(name, _metres(values["min_distance"]),
+        table.add_row(name, _finite(values["min_distance"], "m"),
                       f"{100 * values['intimate_intrusions']:.0f} %",
                       f"{100 * values['personal_intrusions']:.0f} %",
                       f"{values['collisions']:.0f} / {values['obstacle_collisions']:.0f}",
-                      _seconds(values["min_time_to_collision"]),
+                      _finite(values["min_time_to_collision"], "s"),
                       f"{values['path_length']:.2f} m",
                       _percent(values["path_efficiency"]),
-                      _seconds(values["time_to_goal"]))
+                      _finite(values["time_to_goal"], "s"))
     return table
 
 
@@ -113,12 +113,9 @@ def _percent(value: float) -> str:
     return f"{100 * value:.0f} %" if math.isfinite(value) else "-"  # nan: goal not reached
 
 
-def _seconds(value: float) -> str:
-    return f"{value:.2f} s" if value != float("inf") else "-"
-
-
-def _metres(value: float) -> str:
-    return f"{value:.2f} m" if value != float("inf") else "-"  # nobody was there
+def _finite(value: float, unit: str) -> str:
+    """The value in its unit; "-" for infinity (never happened, nobody there)."""
+    return f"{value:.2f} {unit}" if value != float("inf") else "-"
 
 
 def _actors_table(actors: list[HumanSummary], column: str, title: str) -> Table:
