@@ -10,6 +10,6 @@ import sys
 if sys.path and sys.path[0] in ("", os.getcwd()):
     del sys.path[0]
 
-from hubero_dsl.cli.main import main
+from hubero_dsl.cli.main import program
 
-raise SystemExit(main())
+raise SystemExit(program())

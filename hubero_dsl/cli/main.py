@@ -87,6 +87,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         _forget_handled_interrupts()
 
 
+def program() -> int:
+    """The `hubero` program (`python -m hubero_dsl` too): `main`, and then, for a command
+    that was stopped, deaf to Ctrl-C and SIGTERM while the process ends. A user pressing
+    Ctrl-C again and again had the press after the stopping kill the ending process, which
+    then did not exit with `main`'s status."""
+    status = main()
+    if status in (EXIT_INTERRUPTED, EXIT_TERMINATED) and \
+            threading.current_thread() is threading.main_thread():
+        for number in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(number, signal.SIG_IGN)
+    return status
+
+
 def _exit_status(argv: Sequence[str] | None) -> int:
     """Run the command; every way it can end is answered by an exit status."""
     try:
@@ -161,8 +174,10 @@ def _lose_no_interrupt_in_callbacks() -> None:
     def resend_interrupts(unraisable: Any) -> None:
         if isinstance(unraisable.exc_value, KeyboardInterrupt):
             terminated = isinstance(unraisable.exc_value, Terminated)
-            _thread.start_new_thread(_send_again, (signal.SIGTERM if terminated
-                                                   else signal.SIGINT,))
+            signum = signal.SIGTERM if terminated else signal.SIGINT
+            with contextlib.suppress(AttributeError):  # a handler that hears one stop only
+                signal.getsignal(signum).rearm()  # type: ignore[union-attr]
+            _thread.start_new_thread(_send_again, (signum,))
         else:
             previous(unraisable)
 

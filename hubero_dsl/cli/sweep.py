@@ -17,7 +17,6 @@ finished and says "complete": false).
 from __future__ import annotations
 
 import argparse
-import contextlib
 import math
 import time
 from collections import Counter
@@ -114,8 +113,8 @@ def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
     from hubero_dsl.files import check_output
     from hubero_dsl.sweep.executors import (
         available_cores,
-        deaf_to_interrupts,
         open_executor,
+        stopped_once,
     )
     from hubero_dsl.sweep.index import INDEX_CSV, INDEX_JSON, refuse_other_indexes, write_index
     from hubero_dsl.sweep.runner import prepare_out_dir, run_sweep
@@ -125,8 +124,7 @@ def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
     jobs = min(args.jobs or available_cores(), len(plan.runs))
     errors = make_console(stderr=True)
     started = time.monotonic()  # wall time for the terminal only, never for the index
-    stopping = contextlib.ExitStack()  # once stopped, deaf until the index is written
-    with stopping:
+    with stopped_once():  # once stopped, deaf until the index is written and said
         with open_executor(args.executor, jobs=jobs, scheduler=args.scheduler,
                            connect_timeout=args.connect_timeout) as executor, \
                 _SweepProgress(errors, plan, quiet=args.quiet) as on_done:
@@ -136,15 +134,14 @@ def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
             outcome = run_sweep(plan, args.out_dir, executor, log_rate=args.log_rate,
                                 metrics=None if args.no_metrics else standard_metrics,
                                 on_done=on_done)
-            if not outcome.complete:
-                stopping.enter_context(deaf_to_interrupts())
         elapsed = time.monotonic() - started
         json_path, csv_path = write_index(args.out_dir, plan, outcome)
-    if not outcome.complete:
-        stop = "terminated" if outcome.terminated else "interrupted"
-        errors.print(f"hubero: {stop}: {len(outcome.records)} of {len(plan.runs)} runs "
-                     f"finished; their index is in {json_path}", highlight=False, soft_wrap=True)
-        return EXIT_TERMINATED if outcome.terminated else EXIT_INTERRUPTED
+        if not outcome.complete:
+            stop = "terminated" if outcome.terminated else "interrupted"
+            errors.print(f"hubero: {stop}: {len(outcome.records)} of {len(plan.runs)} runs "
+                         f"finished; their index is in {json_path}", highlight=False,
+                         soft_wrap=True)
+            return EXIT_TERMINATED if outcome.terminated else EXIT_INTERRUPTED
     if not args.quiet:
         _print_table(plan, outcome)
         where = "inline" if args.executor == "serial" else (

@@ -26,7 +26,7 @@ from collections.abc import Callable, Iterator
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from typing import Any, Literal, ParamSpec, TypeVar
 
-from hubero_dsl.errors import InputError
+from hubero_dsl.errors import InputError, Terminated
 
 ExecutorKind = Literal["serial", "process", "dask"]
 EXECUTOR_KINDS: tuple[ExecutorKind, ...] = ("serial", "process", "dask")
@@ -44,8 +44,6 @@ T = TypeVar("T")
 
 def check_jobs(jobs: int | None) -> None:
     """Refuse (InputError) a `--jobs` that is no number of worker processes to start."""
-    from hubero_dsl.errors import InputError
-
     if jobs is not None and not 1 <= jobs <= MAX_JOBS:
         raise InputError(f"--jobs must be from 1 to {MAX_JOBS}, got {jobs}")
 
@@ -127,6 +125,34 @@ def deaf_to_interrupts() -> Iterator[None]:
     and left no index. Main thread only; elsewhere the block runs as it is."""
     with _interrupts_handled_by(signal.SIG_IGN):
         yield
+
+
+@contextlib.contextmanager
+def stopped_once() -> Iterator[None]:
+    """The first Ctrl-C or SIGTERM in the block stops it (KeyboardInterrupt or Terminated);
+    later ones go unheard until the block ends. The handler itself goes deaf, so no moment
+    is left between a first press and the stopping where a second one cut the stopping
+    short. Main thread only; elsewhere the block runs as it is."""
+    with _interrupts_handled_by(_StopOnce()):
+        yield
+
+
+class _StopOnce:
+    """A signal handler that raises for the first signal only."""
+
+    def __init__(self) -> None:
+        self.stopping = False
+
+    def __call__(self, received: int, frame: object) -> None:
+        if self.stopping:
+            return
+        self.stopping = True
+        raise Terminated if received == signal.SIGTERM else KeyboardInterrupt
+
+    def rearm(self) -> None:
+        """The stop it raised was lost (raised in a callback that cannot raise) and is sent
+        again: hear it."""
+        self.stopping = False
 
 
 @contextlib.contextmanager

@@ -234,6 +234,44 @@ def test_an_interrupt_raised_in_a_callback_is_not_lost(tmp_path: Path) -> None:
     assert outcome.stderr == "hubero: interrupted\n"
 
 
+def test_a_sweeps_first_stop_lost_in_a_callback_is_heard_when_sent_again(
+        tmp_path: Path) -> None:
+    # a sweep hears one stop only: the first, raised in a callback and lost there, made the
+    # stop sent again go unheard, and the sweep ran on
+    outcome = run_main_as_module(tmp_path, "import os, signal\n"
+                                           "from hubero_dsl.sweep.executors import stopped_once\n"
+                                           "class Held: pass\n"
+                                           "def interrupt(reference):\n"
+                                           "    os.kill(os.getpid(), signal.SIGINT)\n"
+                                           "def dispatch(argv):\n"
+                                           "    with stopped_once():\n"
+                                           "        held = Held()\n"
+                                           "        reference = weakref.ref(held, interrupt)\n"
+                                           "        del held\n"
+                                           "        time.sleep(30)\n"
+                                           "    return 0")
+    assert outcome.returncode == 130, outcome.stderr
+    assert outcome.stderr == "hubero: interrupted\n"
+
+
+def test_a_stop_pressed_again_as_a_stopped_command_ends_keeps_its_status(
+        tmp_path: Path) -> None:
+    # Ctrl-C pressed again while the stopped process ended killed it with SIGINT (-2)
+    (tmp_path / "ending.py").write_text(
+        "import os, signal\n"
+        "from hubero_dsl.cli import main as cli\n"
+        "def dispatch(argv):\n"
+        "    raise KeyboardInterrupt\n"
+        "cli._dispatch = dispatch\n"
+        "status = cli.program()\n"
+        "os.kill(os.getpid(), signal.SIGINT)\n"
+        "raise SystemExit(status)\n", encoding="utf-8")
+    outcome = subprocess.run([sys.executable, "-m", "ending"], cwd=tmp_path,
+                             capture_output=True, text=True, timeout=60)
+    assert outcome.returncode == 130, outcome.stderr
+    assert outcome.stderr == "hubero: interrupted\n"
+
+
 def test_an_unknown_option_is_told_with_its_commands_usage(cli: Cli) -> None:
     outcome = cli("check", "a.hub", "--bogus")
     assert outcome.status == 2
