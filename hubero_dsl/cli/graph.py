@@ -57,8 +57,9 @@ def run(args: argparse.Namespace) -> int:
     program = _checked_program(args.file)
     if program is None:
         return 1
-    graph = program.graph
     from hubero_dsl.graph import render
+
+    graph = render.drawn_graph(program.activities)
 
     if args.output is not None:
         from hubero_dsl.world.mapfile import map_files

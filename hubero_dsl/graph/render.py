@@ -10,18 +10,73 @@ branch), then drawn as matplotlib patches.
 
 `describe_node` turns nodes back into the scenario's own words (the texts the lowering stored
 on each step); the verification uses it in messages too.
+
+`drawn_graph` is the graph the drawings show: a task given to a crowd or group runs as one
+branch per member, but is drawn as the one step the scenario wrote (`visitors move_around in
+lounge for 30 s, each of 8`), so a crowd of 1000 is one box, not a fork of 1000.
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import replace
 
 import networkx as nx
 
 from hubero_dsl.graph.build import (
     NodeKind,
     activity_nodes,
+    build_activity_graph,
     signals,
     successors_in_order,
 )
+from hubero_dsl.model import activities as m
+
+# ---- the graph drawn ---------------------------------------------------------------------
+
+
+def drawn_graph(activities: Sequence[m.Activity]) -> nx.DiGraph:
+    """The activity graph with each task given to a crowd or group folded into one step."""
+    return build_activity_graph([replace(a, steps=tuple(_fold(s) for s in a.steps))
+                                 for a in activities])
+
+
+def _fold(step: m.Step) -> m.Step:
+    if isinstance(step, m.ParallelStep) and step.crowd is not None and \
+            (folded := _crowd_task(step, step.crowd)) is not None:
+        return folded
+    match step:
+        case m.ParallelStep() | m.RaceStep():
+            return replace(step, branches=tuple(_fold(b) for b in step.branches))
+        case m.RepeatStep():
+            return replace(step, body=tuple(_fold(s) for s in step.body))
+        case m.SequenceStep():
+            return replace(step, steps=tuple(_fold(s) for s in step.steps))
+    return step
+
+
+def _crowd_task(step: m.ParallelStep, crowd: str) -> m.TaskStep | None:
+    """The members' one task as the crowd's, or None when they are not one task said alike
+    (then the fork of members is drawn as it runs)."""
+    words = crowd_words(step)
+    if words is None:
+        return None
+    first = step.branches[0]
+    assert isinstance(first, m.TaskStep)
+    return replace(first, actor=crowd, span=step.span, label=step.label,
+                   text=f"{words}, each of {len(step.branches)}")
+
+
+def crowd_words(step: m.ParallelStep) -> str | None:
+    """A task given to a crowd or group as the scenario wrote it (`visitors stand for 2 s`),
+    or None when the step is no such task or its members' steps are not one task said alike."""
+    tasks = [b for b in step.branches if isinstance(b, m.TaskStep)]
+    if step.crowd is None or not tasks or len(tasks) != len(step.branches) or \
+            not all(t.text.startswith(f"{t.actor} ") for t in tasks):
+        return None
+    said = {t.text.removeprefix(f"{t.actor} ") for t in tasks}
+    return f"{step.crowd} {said.pop()}" if len(said) == 1 else None
+
 
 # ---- the scenario's words ----------------------------------------------------------------
 
@@ -37,6 +92,8 @@ def describe_node(graph: nx.DiGraph, node: str) -> str:
             return f"{prefix}wait {data['step'].duration_text}"
         case NodeKind.ACCEPT:
             return f"{prefix}wait until {data['condition'].text}"
+        case NodeKind.FORK if (words := crowd_words(data["step"])) is not None:
+            return words
         case NodeKind.REPEAT_START:
             return f"repeat {data['step'].count_text}"
         case NodeKind.REPEAT_END:

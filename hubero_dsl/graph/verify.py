@@ -30,14 +30,15 @@ happen before the label event it waits for can never be satisfied.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cache
 from itertools import pairwise
 
 import networkx as nx
 
-from hubero_dsl.diagnostics import Diagnostic, Related, error, warning
+from hubero_dsl.diagnostics import Diagnostic, Related, Span, error, warning
 from hubero_dsl.graph.build import (
     LabelScope,
     NodeKind,
@@ -99,7 +100,50 @@ def verify_activities(activities: Sequence[m.Activity], graph: nx.DiGraph, *,
     found += _waits(context, never_done, label_names)
     found += _untils(context)
     found += _waits_on_race_branches(context)
-    return sorted(found, key=Diagnostic.sort_key)
+    return sorted(_in_crowds_words(found, activities), key=Diagnostic.sort_key)
+
+
+# ---- a task given to a crowd or group, told once -----------------------------------------
+
+_NAME_AFTER_BACKTICK = re.compile(r"`([A-Za-z_][A-Za-z0-9_]*)")
+
+
+def _in_crowds_words(found: list[Diagnostic], activities: Sequence[m.Activity]
+                     ) -> list[Diagnostic]:
+    """A finding at a task given to a crowd or group speaks of the crowd, once: its members'
+    steps were each found alike, and a crowd of 1000 had 1000 errors naming `NAME_1` to
+    `NAME_1000`. Names are replaced where the words quote them (after a backtick), never in
+    the prose around them."""
+    crowds = _crowd_steps(activities)
+    told: dict[Diagnostic, None] = {}
+    for diagnostic in found:
+        if diagnostic.span in crowds:
+            diagnostic = _speaking_of(diagnostic, *crowds[diagnostic.span])
+        told.setdefault(diagnostic)
+    return list(told)
+
+
+def _crowd_steps(activities: Sequence[m.Activity]) -> dict[Span, tuple[str, frozenset[str]]]:
+    """Where each task given to a crowd or group is written: the crowd, and its members."""
+    found: dict[Span, tuple[str, frozenset[str]]] = {}
+    for activity in activities:
+        for step in m.walk_steps(activity.steps):
+            if isinstance(step, m.ParallelStep) and step.crowd is not None:
+                members = frozenset(s.actor for s in m.walk_steps(step.branches)
+                                    if isinstance(s, m.TaskStep))
+                found[step.span] = (step.crowd, members)
+    return found
+
+
+def _speaking_of(diagnostic: Diagnostic, crowd: str, members: frozenset[str]) -> Diagnostic:
+    def words(text: str) -> str:
+        return _NAME_AFTER_BACKTICK.sub(
+            lambda name: f"`{crowd}" if name.group(1) in members else name.group(0), text)
+
+    return replace(diagnostic, message=words(diagnostic.message),
+                   hint=words(diagnostic.hint) if diagnostic.hint else diagnostic.hint,
+                   related=tuple(replace(r, message=words(r.message))
+                                 for r in diagnostic.related))
 
 
 @dataclass(frozen=True, slots=True)

@@ -24,6 +24,7 @@ class FakeProgram:
         self.graph = nx.DiGraph()
         self.graph.add_edge("start", "end")
         self.map_path = Path("nowhere.yaml")  # no map: nothing beside it to keep
+        self.activities = ()
 
 
 @pytest.fixture

@@ -191,3 +191,26 @@ def test_a_graph_too_wide_to_read_as_a_picture_is_refused(tmp_path: Path) -> Non
     with pytest.raises(InputError, match=r"too large to draw as a picture.*--format dot"):
         to_png(graph_of(f"activity {{ parallel {{ {branches} }} }}"), tmp_path / "wide.png")
     assert not (tmp_path / "wide.png").exists()
+
+
+def test_a_task_given_to_a_crowd_is_drawn_as_the_one_step_written() -> None:
+    from hubero_dsl.graph.render import drawn_graph
+    from hubero_dsl.pipeline import check_source
+    from tests.lang.conftest import CASE_PATH, ROOM
+
+    result = check_source(ROOM + "crowd c 100 in rect((-4.5, 0.5), (3.0, 5.0))\n"
+                          "activity {\n"
+                          "    browse: c move_around in rect((-4, 1), (2, 4)) for 30 s\n"
+                          "    c_3 stand for 1 s\n"
+                          "}\n"
+                          "activity { actor1 stand for 1 s until browse done }\n", CASE_PATH)
+    assert result.program is not None, result.diagnostics
+    graph = drawn_graph(result.program.activities)
+    assert len(result.program.graph) > 100 > len(graph)  # runs as 100 branches, drawn as one
+    words = [describe_node(graph, n) for n in graph]
+    assert "browse: c move_around in rect((-4, 1), (2, 4)) for 30 s, each of 100" in words
+    assert "c_3 stand for 1 s" in words  # a member's own step stays its own
+    (waits,) = signals(graph)
+    assert describe_node(graph, waits.target) == "actor1 stand for 1 s until browse done"
+    text = to_mermaid(graph)
+    assert text.count("move_around") == 1 and "c_1" not in text

@@ -92,6 +92,36 @@ def test_a_step_given_to_a_crowd_is_reported_once_not_per_member(check: Check) -
     assert codes(result) == ["E306"]
 
 
+def test_a_crowds_steps_that_clash_are_told_once_in_the_crowds_words(check: Check) -> None:
+    # each member's steps were found alike: five E302 naming `c_1` to `c_5`, and an E308
+    # quoting the first member's step
+    result = check("crowd c 5 in rect((2, 1), (3, 2))\n"
+                   "activity {\n"
+                   "    parallel {\n"
+                   "        c stand for 2 s\n"
+                   "        c stand for 3 s\n"
+                   "    }\n"
+                   "    c stand forever\n"
+                   "    c talk for 2 s\n"
+                   "}")
+    clash, forever = result.errors
+    assert (clash.code, clash.message) == (
+        "E302", "`c` is commanded by two steps that can run at the same time")
+    assert clash.related[0].message == "this step also commands `c`"
+    assert (forever.code, forever.message) == (
+        "E308", "`c stand forever` runs forever, so the steps after it never run")
+    assert forever.related[0].message == "`c talk for 2 s` never runs"
+
+
+def test_a_member_commanded_on_its_own_is_told_by_its_name(check: Check) -> None:
+    result = check("crowd c 3 in rect((2, 1), (3, 2))\n"
+                   "activity { c stand for 5 s }\n"
+                   "activity { c_2 stand for 1 s }")
+    (clash,) = result.errors
+    assert clash.code == "E301" and clash.message.startswith("`c_2` is commanded by two")
+    assert clash.related[0].message.endswith("commands `c_2` here")
+
+
 def test_a_slip_of_a_crowds_name_suggests_the_crowd(check: Check) -> None:
     (error,) = check("crowd shoppers 3 in rect((2, 1), (3, 2))\n"
                      "activity { shopers stand for 1 s }").errors
