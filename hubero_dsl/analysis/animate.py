@@ -107,8 +107,8 @@ class _Scene:
         for name, goal in robot_goals(run).items():
             axes.plot(*goal, marker="X", markersize=10, color=palette[name],
                       markeredgecolor="black", zorder=5)
-        self.clock = axes.text(0.02, 0.97, "", transform=axes.transAxes, va="top",
-                               fontsize=11, bbox={"facecolor": "white", "alpha": 0.8})
+        # above the map, right of the run's title: over the map it hid a corner of it
+        self.clock = axes.set_title(" ", loc="right", fontsize=11, family="monospace")
 
     def show(self, when: float) -> list[Artist]:
         for name, trail in self.trails.items():
@@ -150,7 +150,7 @@ def animate_run(run: LoggedRun, out: str | Path, *, max_frames: int = MAX_FRAMES
     figure, axes = View.around([run], whole_map).figure([str(h.get_label()) for h in handles])
     figure.set_dpi(GIF_DPI)
     draw_map(axes, run.grid)
-    axes.set_title(run_title(run), fontsize=11)
+    axes.set_title(run_title(run), fontsize=11, loc="left")
     scene = _Scene(run, axes, palette, crowds)
     place_legend(figure, axes, handles)
     times = frame_times(run, max_frames)

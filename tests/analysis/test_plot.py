@@ -260,3 +260,24 @@ def test_a_replay_draws_robots_as_the_picture_does(build_run: Factory, track: Fa
     scene.show(1.0)
     assert scene.robots["vacuum"].radius == pytest.approx(0.17)
     assert np.asarray(scene.robot_trails["vacuum"].get_xdata()).tolist() == [0.0, 1.0]
+
+
+def test_a_replays_clock_is_above_the_map_not_over_it(build_run: Factory,
+                                                      track: Factory) -> None:
+    # a boxed clock in the map's top-left corner hid whoever walked there
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from hubero_dsl.analysis.animate import _Scene
+
+    run = build_run([track("h", [0.0, 2.0], [(0, 1), (2, 1)])])
+    figure = Figure()
+    canvas = FigureCanvasAgg(figure)
+    axes = figure.add_subplot()
+    scene = _Scene(run, axes, {"h": "tab:blue"}, {})
+    scene.show(1.0)
+    assert scene.clock.get_text() == "t =   1.0 s"
+    canvas.draw()  # the title's place is decided as the figure is drawn
+    renderer = canvas.get_renderer()
+    clock, map_area = scene.clock.get_window_extent(renderer), axes.get_window_extent(renderer)
+    assert clock.y0 >= map_area.y1
