@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -19,7 +19,7 @@ from hubero_dsl.files import write_replacing
 from hubero_dsl.world.mapfile import load_map
 
 if TYPE_CHECKING:
-    from hubero_dsl.model.program import Program
+    from hubero_dsl.model.program import HumanSpec, Program
     from hubero_dsl.world.grid import OccupancyGrid
 
 FREE, OCCUPIED, UNKNOWN = (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), (0.62, 0.62, 0.62)
@@ -90,7 +90,8 @@ def _scenario(axes: Any, program: Program) -> list[Any]:
         axes.fill(x, y, color="tab:blue", alpha=0.12)
         axes.plot(x, y, color="tab:blue", linewidth=1)
         centre = polygon.representative_point()
-        axes.annotate(name, (centre.x, centre.y), fontsize=7, color="tab:blue", ha="center")
+        axes.annotate(name, (centre.x, centre.y), fontsize=7, color="tab:blue", ha="center",
+                      bbox=_LABEL_BOX)  # readable over the obstacles inside the area too
     for name, pose in sorted(program.places.items()):
         axes.plot(pose.x, pose.y, "D", color="tab:purple", markersize=4)
         axes.annotate(name, pose.xy, xytext=(3, 3), textcoords="offset points", fontsize=7,
@@ -102,6 +103,7 @@ def _scenario(axes: Any, program: Program) -> list[Any]:
         if index < MAX_LABELLED and human.group is None:
             axes.annotate(human.name, human.start.xy, xytext=(3, -8), textcoords="offset points",
                           fontsize=7, color="tab:green")
+    _label_crowds(axes, [h for h in starts if h.group is not None])
     for robot in program.robots:
         axes.plot(robot.start.x, robot.start.y, "s", color="tab:brown", markersize=6)
         axes.annotate(robot.name, robot.start.xy, xytext=(3, -8), textcoords="offset points",
@@ -121,6 +123,23 @@ def _scenario(axes: Any, program: Program) -> list[Any]:
              (program.robots, entry("s", "tab:brown", "robot start")),
              (program.flows, entry("*", "tab:olive", "flow target (area dashed)"))]
     return [handle for drawn, handle in shown if drawn]
+
+
+_LABEL_BOX = {"boxstyle": "round,pad=0.15", "facecolor": "white", "edgecolor": "none",
+              "alpha": 0.7}
+
+
+def _label_crowds(axes: Any, members: list[HumanSpec]) -> None:
+    """Each crowd's name and size once, at the member nearest the crowd's middle: a name per
+    member would cover the picture, and none left the reader to guess whose starts they are."""
+    crowds: dict[str, list[HumanSpec]] = {}
+    for member in members:
+        crowds.setdefault(cast(str, member.group), []).append(member)
+    for name, people in crowds.items():
+        starts = np.array([person.start.xy for person in people])
+        middle = starts[np.argmin(np.hypot(*(starts - starts.mean(axis=0)).T))]
+        axes.annotate(f"{name} ({len(people)})", tuple(middle), xytext=(3, -8),
+                      textcoords="offset points", fontsize=7, color="tab:green", bbox=_LABEL_BOX)
 
 
 def _save(figure: Any, path: Path) -> Path:

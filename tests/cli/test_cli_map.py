@@ -136,3 +136,18 @@ def test_a_scenarios_legend_lists_what_the_picture_shows() -> None:
     labels = [h.get_label() for h in mapview._scenario(
         Figure().add_subplot(), compile_file(root / "scenarios" / "living_room.hub"))]
     assert "robot start" not in labels and "place" in labels
+
+
+def test_a_crowds_starts_are_named_once_with_its_size() -> None:
+    # eight unnamed dots: the reader had to guess whose starts they were
+    from matplotlib.figure import Figure
+
+    from hubero_dsl.analysis import mapview
+    from hubero_dsl.pipeline import compile_file
+
+    root = Path(__file__).resolve().parents[2]
+    axes = Figure().add_subplot()
+    mapview._scenario(axes, compile_file(root / "scenarios" / "lounge_crowd.hub"))
+    texts = [t.get_text() for t in axes.texts]
+    assert texts.count("visitors (8)") == 1 and not any("visitors_" in t for t in texts)
+    assert {"mum", "dad", "kid", "cart", "lounge"} <= set(texts)
