@@ -98,11 +98,11 @@ def _scenario(axes: Any, program: Program) -> list[Any]:
                       color="tab:purple")
     members = {m for flow in program.flows for m in flow.members}
     starts = [h for h in program.humans if h.name not in members]
-    for index, human in enumerate(starts):
+    for human in starts:
         axes.plot(human.start.x, human.start.y, "o", color="tab:green", markersize=4)
-        if index < MAX_LABELLED and human.group is None:
-            axes.annotate(human.name, human.start.xy, xytext=(3, -8), textcoords="offset points",
-                          fontsize=7, color="tab:green")
+    for human in [h for h in starts if h.group is None][:MAX_LABELLED]:
+        axes.annotate(human.name, human.start.xy, xytext=(3, -8), textcoords="offset points",
+                      fontsize=7, color="tab:green")
     _label_crowds(axes, [h for h in starts if h.group is not None])
     for robot in program.robots:
         axes.plot(robot.start.x, robot.start.y, "s", color="tab:brown", markersize=6)
