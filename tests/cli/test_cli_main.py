@@ -219,37 +219,27 @@ def test_an_interrupt_inside_an_imported_exec_still_exits_130(tmp_path: Path) ->
     assert outcome.stderr == "hubero: interrupted\n"
 
 
-def test_an_interrupt_raised_in_a_callback_is_not_lost(tmp_path: Path) -> None:
+@pytest.mark.parametrize(("interrupt", "in_a_sweep"), [
     # Python runs the Ctrl-C handler wherever the main thread is: in a weak reference's
     # callback its KeyboardInterrupt was printed as "Exception ignored" and the command went on
-    outcome = run_main_as_module(tmp_path, "class Held: pass\n"
-                                           "def interrupt(reference): raise KeyboardInterrupt\n"
-                                           "def dispatch(argv):\n"
-                                           "    held = Held()\n"
-                                           "    reference = weakref.ref(held, interrupt)\n"
-                                           "    del held\n"
-                                           "    time.sleep(30)\n"
-                                           "    return 0")
-    assert outcome.returncode == 130, outcome.stderr
-    assert outcome.stderr == "hubero: interrupted\n"
-
-
-def test_a_sweeps_first_stop_lost_in_a_callback_is_heard_when_sent_again(
-        tmp_path: Path) -> None:
+    ("raise KeyboardInterrupt", False),
     # a sweep hears one stop only: the first, raised in a callback and lost there, made the
     # stop sent again go unheard, and the sweep ran on
+    ("os.kill(os.getpid(), signal.SIGINT)", True),
+], ids=["raised", "sent-during-a-sweep"])
+def test_an_interrupt_raised_in_a_callback_is_not_lost(tmp_path: Path, interrupt: str,
+                                                       in_a_sweep: bool) -> None:
+    waiting = ["held = Held()", "reference = weakref.ref(held, interrupt)", "del held",
+               "time.sleep(30)"]
+    if in_a_sweep:
+        waiting = ["with stopped_once():", *(f"    {line}" for line in waiting)]
     outcome = run_main_as_module(tmp_path, "import os, signal\n"
                                            "from hubero_dsl.sweep.executors import stopped_once\n"
                                            "class Held: pass\n"
-                                           "def interrupt(reference):\n"
-                                           "    os.kill(os.getpid(), signal.SIGINT)\n"
+                                           f"def interrupt(reference): {interrupt}\n"
                                            "def dispatch(argv):\n"
-                                           "    with stopped_once():\n"
-                                           "        held = Held()\n"
-                                           "        reference = weakref.ref(held, interrupt)\n"
-                                           "        del held\n"
-                                           "        time.sleep(30)\n"
-                                           "    return 0")
+                                           + "".join(f"    {line}\n" for line in waiting)
+                                           + "    return 0")
     assert outcome.returncode == 130, outcome.stderr
     assert outcome.stderr == "hubero: interrupted\n"
 
