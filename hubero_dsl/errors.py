@@ -86,6 +86,14 @@ class Stopped(BaseException):
 OUTSIDE_STOPS = (KeyboardInterrupt, Stopped)
 
 
+def shown(value: object) -> str:
+    """What user code returned, as its repr cut short; a placeholder when even that fails."""
+    try:
+        return f"{' '.join(repr(value).split()):.80}"  # an array's repr, on one line
+    except Exception:  # user code again
+        return f"a {type(value).__name__}"
+
+
 def failure_of(exc: BaseException) -> str:
     """`Type: message` of an exception user code raised; its message may itself fail."""
     try:

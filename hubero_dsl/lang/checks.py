@@ -683,8 +683,8 @@ class Checker:
 
         try:
             model = planner_params(planner)
-        except InputError as exc:
-            self.report("E105", exc.message, param.name_span)
+        except InputError as exc:  # a plugin that cannot be loaded, or is no planner
+            self.report("E110", exc.message, param.name_span)
             return None
         if model is None:
             flow = self.symbols.flow_of_member(planner)

@@ -11,6 +11,7 @@ import math
 from collections.abc import Callable, Iterable
 
 from hubero_dsl.diagnostics import Diagnostic, Span, closest, error
+from hubero_dsl.errors import InputError
 from hubero_dsl.lang import ast
 from hubero_dsl.model.params import ParamKind, ParamSpec
 from hubero_dsl.model.program import Distribution, ParamValue
@@ -170,12 +171,7 @@ class ValueReader:
                 self.report("E201", f"{what} takes a planner name", value.span,
                             "one of: " + ", ".join(names))
                 return None
-            if value.name not in names:
-                hint = did_you_mean(value.name, names) or "installed: " + ", ".join(names)
-                kind = spec.name.replace("_", " ")  # "global planner" or "local planner"
-                self.report("E101", f"unknown {kind} '{value.name}'", value.span, hint)
-                return None
-            return value.name
+            return self._planner(spec.name, value, names)
         if spec.kind is ParamKind.CHOICE:
             if isinstance(value, ast.NameRef) and value.name in spec.choices:
                 return value.name
@@ -187,6 +183,33 @@ class ValueReader:
             return self.distribution(value, spec)
         return self.quantity(value, spec.dimension, what, positive=spec.positive,
                              non_negative=not spec.positive, maximum=spec.maximum)
+
+    def _planner(self, param: str, value: ast.NameRef, names: list[str]) -> str | None:
+        """A planner's name given to `param` (`global_planner`, `local_planner`): installed,
+        of that kind, and, for a plugin, loadable as a planner."""
+        from hubero_dsl.planners.registry import (
+            check_plugin,
+            global_planner_names,
+            local_planner_names,
+        )
+
+        kind, other = ("global", "local") if param == "global_planner" else ("local", "global")
+        if value.name not in names:
+            others = global_planner_names() if other == "global" else local_planner_names()
+            if value.name in others:
+                self.report("E101", f"'{value.name}' is a {other} planner, not a {kind} one",
+                            value.span, f"give it as `{other}_planner {value.name}`; {kind} "
+                            "planners: " + ", ".join(names))
+                return None
+            hint = did_you_mean(value.name, names) or "installed: " + ", ".join(names)
+            self.report("E101", f"unknown {kind} planner '{value.name}'", value.span, hint)
+            return None
+        try:
+            check_plugin(kind, value.name)
+        except InputError as exc:
+            self.report("E110", exc.message, value.span)
+            return None
+        return value.name
 
     def distribution(self, value: ast.Distribution, spec: ParamSpec) -> Distribution | None:
         what = f"'{spec.name}'"

@@ -10,7 +10,7 @@ from functools import cache
 from importlib.metadata import EntryPoint, entry_points
 from typing import TYPE_CHECKING
 
-from hubero_dsl.errors import InputError
+from hubero_dsl.errors import OUTSIDE_STOPS, InputError, failure_of
 
 if TYPE_CHECKING:
     from hubero_dsl.planners.base import GlobalPlanner, LocalPlanner, PlannerParams
@@ -35,13 +35,49 @@ def _planner_entry_points() -> dict[str, tuple[EntryPoint, ...]]:
 
 @cache
 def _load(group: str, name: str) -> type:
+    what = f"{_KIND[group]} planner plugin '{name}'"
+    entry = _entry_points(group).get(name)
+    if entry is None:
+        raise InputError(f"no {_KIND[group]} planner named '{name}'")
     try:
-        loaded = _entry_points(group)[name].load()
-    except Exception as exc:  # a broken third-party plugin must not take hubero down
-        raise InputError(f"planner plugin '{name}' cannot be loaded: {exc}") from None
+        loaded = entry.load()
+    except OUTSIDE_STOPS:
+        raise
+    except BaseException as exc:  # a broken third-party plugin must not take hubero down
+        raise InputError(f"{what} cannot be loaded: {failure_of(exc)}") from None
+    return _checked(loaded, what, _METHOD[group])
+
+
+_KIND = {GLOBAL_GROUP: "global", LOCAL_GROUP: "local"}
+_METHOD = {GLOBAL_GROUP: "plan", LOCAL_GROUP: "velocities"}
+
+
+def _checked(loaded: object, what: str, method: str) -> type:
+    """The class a plugin registered, if it is a planner; InputError saying what it lacks."""
+    from hubero_dsl.planners.base import PlannerParams
+
     if not isinstance(loaded, type):
-        raise InputError(f"planner plugin '{name}' is not a class")
+        raise InputError(f"{what} is not a class")
+    if not callable(getattr(loaded, method, None)):
+        raise InputError(f"{what} has no {method}() method")
+    params = getattr(loaded, "Params", None)
+    if not (isinstance(params, type) and issubclass(params, PlannerParams)):
+        raise InputError(f"{what}: its `Params` must be a subclass of "
+                         f"hubero_dsl.planners.base.PlannerParams, not {params!r}")
     return loaded
+
+
+def check_plugin(kind: str, name: str) -> None:
+    """InputError when the `kind` ("global" or "local") planner `name` is a plugin that cannot
+    be loaded or is no planner. hubero's own planners are not imported: checking a scenario
+    stays cheap."""
+    group = GLOBAL_GROUP if kind == "global" else LOCAL_GROUP
+    entry = _entry_points(group).get(name)
+    if entry is not None and not entry.value.startswith(OWN_PACKAGE):
+        _load(group, name)
+
+
+OWN_PACKAGE = "hubero_dsl."
 
 
 def global_planner_names() -> list[str]:

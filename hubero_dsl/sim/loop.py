@@ -15,8 +15,9 @@ import numpy as np
 import numpy.typing as npt
 
 from hubero_dsl.errors import SimulationError
+from hubero_dsl.planners.guard import PlannerError
 from hubero_dsl.sim.judge import Judge, Verdict
-from hubero_dsl.sim.scheduler import RunState
+from hubero_dsl.sim.scheduler import RunState, Scheduler
 from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.sim.status import TaskEvent, TaskStatus
 
@@ -67,22 +68,30 @@ def run_program(sim: Simulation, observers: Sequence[Observer] = ()) -> RunResul
     # robots' social-navigation metrics go in the summary; a crowd is too large to record
     record = sim.engine.robots.count > 0 and sim.engine.humans.count <= MAX_RECORDED_HUMANS
     judge = Judge(sim, record_tracks=record)
-    while True:
-        scheduler.update()  # also decides when the run is over (done, failed, timed out)
-        judge.observe()
-        if scheduler.state is not RunState.RUNNING:
-            break
-        sim.advance()
-        scheduler.after_step()
-        judge.record()
-        for observer in observers:
-            observer(sim)
+    try:
+        _run(sim, scheduler, judge, observers)
+    except PlannerError as exc:
+        raise exc.at(sim.time) from None
     verdicts = judge.finish()
     robot_metrics = {name: judge.tracks.metrics(sim, name) for name in sim.engine.robots.names} \
         if judge.tracks is not None else {}
     return RunResult(scheduler.state, scheduler.reason, sim.time, sim.tick, sim.variant,
                      sim.seed, list(sim.events), verdicts, summarise(sim),
                      summarise_robots(sim), robot_metrics)
+
+
+def _run(sim: Simulation, scheduler: Scheduler, judge: Judge,
+         observers: Sequence[Observer]) -> None:
+    while True:
+        scheduler.update()  # also decides when the run is over (done, failed, timed out)
+        judge.observe()
+        if scheduler.state is not RunState.RUNNING:
+            return
+        sim.advance()
+        scheduler.after_step()
+        judge.record()
+        for observer in observers:
+            observer(sim)
 
 
 MAX_RECORDED_HUMANS = 2000  # beyond, robots' metrics come from the log (hubero_dsl.analysis)

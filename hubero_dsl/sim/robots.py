@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any, TypeGuard
 import numpy as np
 
 from hubero_dsl.controllers.base import Neighbour, Observation, RobotBody, RobotController
-from hubero_dsl.errors import OUTSIDE_STOPS, SimulationError, failure_of
+from hubero_dsl.errors import OUTSIDE_STOPS, SimulationError, failure_of, shown
 from hubero_dsl.model.tasks import Target, Task
 from hubero_dsl.sim import physics
 from hubero_dsl.sim.arrays import BoolArray, FloatArray, HumanArrays, IntArray
@@ -403,19 +403,11 @@ def _velocity_command(command: Any, robot: str, controller: str,
     except Exception:  # whatever reading the answer raises, the answer is not a velocity
         pass
     raise ControllerError(f"robot '{robot}' at t = {time:g} s: its controller {controller} "
-                          f"returned {_shown(command)}, not a velocity (two finite numbers)")
+                          f"returned {shown(command)}, not a velocity (two finite numbers)")
 
 
 def _a_number(value: object) -> TypeGuard[numbers.Real]:
     return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
-
-
-def _shown(value: Any) -> str:
-    """`value`'s repr, cut short; a placeholder when even that fails (user code)."""
-    try:
-        return f"{value!r:.80}"
-    except Exception:  # user code again
-        return f"a {type(value).__name__}"
 
 
 def robot_body(spec: RobotSpec, grid: OccupancyGrid, dt: float) -> RobotBody:

@@ -28,6 +28,7 @@ from hubero_dsl.errors import OUTSIDE_STOPS, InputError, SimulationError, failur
 from hubero_dsl.model.params import HUMAN_PARAMS, REACTIONS, SEED_DIGITS, ParamKind
 from hubero_dsl.model.program import Distribution, ParamValue, Pose, Program, unknown_variants
 from hubero_dsl.planners.base import GlobalPlanner, LocalPlanner, PlannerParams
+from hubero_dsl.planners.guard import built, guarded_global, guarded_local
 from hubero_dsl.planners.registry import global_planner, local_planner
 from hubero_dsl.sim.arrays import FloatArray, HumanArrays
 from hubero_dsl.sim.conditions import Conditions, LabelBook
@@ -45,6 +46,7 @@ if TYPE_CHECKING:
     from hubero_dsl.controllers.base import RobotController
     from hubero_dsl.diagnostics import Span
     from hubero_dsl.model.tasks import Task
+    from hubero_dsl.world.grid import OccupancyGrid
 
 
 def stable_seed(*parts: int | str) -> list[int]:
@@ -105,8 +107,10 @@ class GlobalPlanners:
         params = cls.Params.model_validate(dict(key[1]))
         share = getattr(cls, "for_sharing", None)
         if share is None:
-            return cls(program.grid, params)
-        planner: GlobalPlanner = share(program.grid, params)
+            return _global_planner_built(key[0], lambda: cls(program.grid, params),
+                                         program.grid)
+        planner = _global_planner_built(key[0], lambda: share(program.grid, params),
+                                        program.grid)
         self._kept[key] = planner
         return planner
 
@@ -304,7 +308,15 @@ class Simulation:
         if self._shared_planners is not None:
             return self._shared_planners.build(self.program, key)
         cls = global_planner(key[0])
-        return cls(self.program.grid, cls.Params.model_validate(dict(key[1])))
+        params = cls.Params.model_validate(dict(key[1]))
+        return _global_planner_built(key[0], lambda: cls(self.program.grid, params),
+                                     self.program.grid)
+
+
+def _global_planner_built(name: str, build: Callable[[], GlobalPlanner],
+                          grid: OccupancyGrid) -> GlobalPlanner:
+    """A global planner `build` makes; a plugin's failures told as its own (`guard`)."""
+    return guarded_global(built("global", name, build), name, grid)
 
 
 def crowds_placed(program: Program, seed: int) -> Program:
@@ -398,7 +410,7 @@ def _local_planner(program: Program, params: dict[str, dict[str, ParamValue]], n
     rows: list[PlannerParams] = [cls.Params.model_validate(_planner_values(params[h], name))
                                  for h in program.human_names]
     rows += [cls.Params() for _ in range(robot_count)]
-    return cls(program.grid, rows)
+    return guarded_local(built("local", name, lambda: cls(program.grid, rows)), name)
 
 
 def _human_arrays(program: Program, params: dict[str, dict[str, ParamValue]]) -> HumanArrays:

@@ -424,7 +424,10 @@ def test_units_must_fit_the_dimension(check: Check, value: str, dimension: str) 
 def test_planner_names_are_checked_against_their_kind(check: Check) -> None:
     result = check("defaults { global_planner social_force; local_planner navfn }")
     assert [d.message for d in result.diagnostics] == [
-        "unknown global planner 'social_force'", "unknown local planner 'navfn'"]
+        "'social_force' is a local planner, not a global one",
+        "'navfn' is a global planner, not a local one"]
+    assert [d.message for d in check("defaults { global_planner nafvn }").diagnostics] == [
+        "unknown global planner 'nafvn'"]
     assert codes(check("defaults { global_planner straight; local_planner direct }")) == []
 
 
