@@ -41,8 +41,8 @@ MAX_TICKS = 1e8  # ticks in a run (time_limit / step): about 14 h of computing a
 MAX_VARIANTS = 10_000  # variants of a scenario (named variants times sweep values)
 MAX_HUMANS = 20_000    # humans of a scenario, crowds included (a log has 65,535 channels)
 # People and robots times ticks: what a run computes and logs grows with both, and each bound
-# alone lets their product run for days (10,000 people for 27 h at a 1 s step, a log of about
-# 145 GB). 5e8 is 10,000 people for 42 min at the default step, or 1,000 for 7 h.
+# alone lets their product reach 1e10 (10,000 people for 1e6 s at a 1 s step, a log of more
+# than a terabyte). 5e8 is 10,000 people for 42 min at the default step, or 1,000 for 7 h.
 MAX_BODY_TICKS = 5e8
 TARGETS = (NameKind.PLACE, NameKind.HUMAN, NameKind.ROBOT, NameKind.GROUP)
 
