@@ -4,14 +4,18 @@ Every variant of every file runs (or the one named with --variant); the exit sta
 every run completed and every expectation held, 1 otherwise, 2 for bad input. A file that does
 not compile, or a run that ends in an error (a robot's controller that raised), is an ERROR line
 counted as failed, and the other files and runs go on. `--controller ROBOT=...` hands the class
-to that robot in every file that has one.
+to that robot in every file that has one. `--junit-xml REPORT.xml` also writes the verdicts as a
+JUnit XML report (one test case a run), which CI systems show beside their own tests.
 """
 
 from __future__ import annotations
 
 import argparse
+import time
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from hubero_dsl.cli.junit import TestOutcome
 from hubero_dsl.cli.run import (
     add_run_options,
     handed_controllers,
@@ -21,6 +25,8 @@ from hubero_dsl.cli.run import (
 )
 
 if TYPE_CHECKING:
+    from rich.console import Console
+
     from hubero_dsl.model.program import Program
 
 
@@ -30,6 +36,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("files", nargs="+", metavar="FILE", help="scenario files (.hub)")
     add_run_options(parser)
+    parser.add_argument("--junit-xml", metavar="REPORT.xml", type=Path,
+                        help="also write the verdicts as a JUnit XML report, for CI")
     refuse_live(parser, "hubero test runs without waiting or serving; watch a run with "
                 "hubero run FILE --live")
     parser.set_defaults(all_variants=True)
@@ -37,31 +45,17 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.markup import escape
-
     from hubero_dsl.cli.console import make_console
-    from hubero_dsl.cli.diagnostic_formats import report_error
-    from hubero_dsl.errors import HuberoError, InputError, SimulationError
-    from hubero_dsl.files import distinct_files
-    from hubero_dsl.pipeline import compile_file
+    from hubero_dsl.cli.junit import check_report_path, write_report
+    from hubero_dsl.errors import InputError
 
+    if args.junit_xml is not None:
+        check_report_path(args.junit_xml, [Path(f) for f in args.files])
     console = make_console()
-    failures = runs = 0
-    bad_input = False
     controllers = handed_controllers(args)
     if args.variant is not None:
         args.all_variants = False
-    programs: list[tuple[str, Program]] = []
-    for file in distinct_files(args.files):
-        try:
-            programs.append((file, compile_file(file)))
-        except HuberoError as exc:  # this file's mistakes are said; the other files still run
-            report_error(exc)
-            unreadable = isinstance(exc, InputError)
-            console.print(f"[red]ERROR[/] {escape(file)}: "
-                          f"{'cannot be read' if unreadable else 'does not compile'}")
-            runs, failures = runs + 1, failures + 1
-            bad_input = bad_input or unreadable
+    programs, outcomes = _compiled(args.files, console)
     # the options are checked against every file before anything runs
     planned = [(file, program, _variants(file, program, args)) for file, program in programs]
     robots = {robot.name for _, program, _ in planned for robot in program.robots}
@@ -72,27 +66,76 @@ def run(args: argparse.Namespace) -> int:
         mine = {name: cls for name, cls in controllers.items()
                 if name in {robot.name for robot in program.robots}}
         for variant in variants:
-            runs += 1
-            name = escape(file + (f" [{variant}]" if variant else ""))
-            try:
-                result = run_one(program, variant, args.seed, None, 10.0, quiet=True,
-                                 controllers=mine)
-            except SimulationError as exc:  # a controller raised: this run's error
-                failures += 1
-                console.print(f"[red]ERROR[/] {name}: {escape(exc.message)}")
-                continue
-            ok = result.succeeded
-            failures += not ok
-            if not ok or not args.quiet:
-                verdict = "[green]PASS[/]" if ok else "[red]FAIL[/]"
-                console.print(f"{verdict} {name}: {result.state.value} at "
-                              f"t = {result.time:.2f} s" + (f" ({escape(result.reason)})"
-                                                            if result.reason else ""))
-            for expectation in result.expectations:
-                if not expectation.held:
-                    console.print(f"    expectation fails: {escape(expectation.text)}")
-    console.print(f"{runs - failures} passed, {failures} failed")
-    return 2 if bad_input else 1 if failures else 0
+            outcomes.append(_run(file, program, variant, args, mine, console))
+    failures = sum(o.verdict != "pass" for o in outcomes)
+    console.print(f"{len(outcomes) - failures} passed, {failures} failed")
+    if args.junit_xml is not None:
+        write_report(args.junit_xml, outcomes)
+    unreadable = any(o.case == UNREADABLE for o in outcomes)
+    return 2 if unreadable else 1 if failures else 0
+
+
+UNREADABLE = "read"     # the report's case for a file that cannot be read
+UNCOMPILED = "compile"  # and for one that does not compile
+
+
+def _compiled(files: list[str], console: Console) -> tuple[list[tuple[str, Program]],
+                                                          list[TestOutcome]]:
+    """The files that compile, and an ERROR outcome for each that does not: its mistakes are
+    said, and the other files still run."""
+    from rich.markup import escape
+
+    from hubero_dsl.cli.diagnostic_formats import report_error
+    from hubero_dsl.errors import CompileError, HuberoError, InputError
+    from hubero_dsl.files import distinct_files
+    from hubero_dsl.pipeline import compile_file
+
+    programs: list[tuple[str, Program]] = []
+    outcomes: list[TestOutcome] = []
+    for file in distinct_files(files):
+        try:
+            programs.append((file, compile_file(file)))
+        except HuberoError as exc:
+            report_error(exc)
+            unreadable = isinstance(exc, InputError)
+            said = "cannot be read" if unreadable else "does not compile"
+            console.print(f"[red]ERROR[/] {escape(file)}: {said}")
+            found = exc.diagnostics if isinstance(exc, CompileError) else ()
+            outcomes.append(TestOutcome(
+                file, UNREADABLE if unreadable else UNCOMPILED, "error", f"{said}: {exc}",
+                tuple(f"{d.span or file}: {d.severity}[{d.code}]: {d.message}"
+                      for d in found if d.is_error)))
+    return programs, outcomes
+
+
+def _run(file: str, program: Program, variant: str | None, args: argparse.Namespace,
+         controllers: dict[str, type], console: Console) -> TestOutcome:
+    """Run one variant, say its verdict, and return it."""
+    from rich.markup import escape
+
+    from hubero_dsl.errors import SimulationError
+
+    name = escape(file + (f" [{variant}]" if variant else ""))
+    case = variant or "as written"
+    started = time.monotonic()  # the report's time: wall clock, as test reports keep it
+    try:
+        result = run_one(program, variant, args.seed, None, 10.0, quiet=True,
+                         controllers=controllers)
+    except SimulationError as exc:  # a plugin raised: this run's error
+        console.print(f"[red]ERROR[/] {name}: {escape(exc.message)}")
+        return TestOutcome(file, case, "error", exc.message, (),
+                           time.monotonic() - started)
+    seconds = time.monotonic() - started
+    ended = f"{result.state.value} at t = {result.time:.2f} s" + (
+        f" ({result.reason})" if result.reason else "")
+    failing = tuple(f"expectation fails: {e.text}" for e in result.expectations if not e.held)
+    if not result.succeeded or not args.quiet:
+        verdict = "[green]PASS[/]" if result.succeeded else "[red]FAIL[/]"
+        console.print(f"{verdict} {name}: {escape(ended)}")
+    for line in failing:
+        console.print(f"    {escape(line)}")
+    return TestOutcome(file, case, "pass" if result.succeeded else "fail", ended, failing,
+                       seconds)
 
 
 def _variants(file: str, program: Program, args: argparse.Namespace) -> list[str | None]:

@@ -10,6 +10,8 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+import junitparser
+
 from tests.cli.conftest import REPO_ROOT, Outcome
 
 LIVING_ROOM = str(REPO_ROOT / "scenarios" / "living_room.hub")
@@ -154,6 +156,43 @@ def test_hubero_test_judges_every_variant(cli: Callable[..., Outcome], tmp_path:
     assert outcome.status == 1
     assert "2 passed, 1 failed" in outcome.out
     assert "expectation fails: time > 5 s eventually" in outcome.out
+
+
+def test_hubero_test_writes_a_junit_report_its_readers_read(
+        cli: Callable[..., Outcome], tmp_path: Path) -> None:
+    failing = scenario(tmp_path, "activity { a stand for 1 s }\nexpect time > 5 s eventually\n")
+    broken = tmp_path / "broken.hub"
+    broken.write_text(f'scenario "t"\nmap "{MAP}"\nactivity {{ b stand for 1 s }}\n',
+                      encoding="utf-8")
+    report = tmp_path / "report.xml"
+    outcome = cli("test", LIVING_ROOM, failing, str(broken), "--junit-xml", str(report))
+    assert outcome.status == 1
+    read = junitparser.JUnitXml.fromfile(str(report))
+    assert (read.tests, read.failures, read.errors) == (4, 1, 1)
+    cases = {(suite.name, case.name): case for suite in read for case in suite}
+    assert set(cases) == {(LIVING_ROOM, "circle"), (LIVING_ROOM, "ellipse"),
+                          (failing, "as written"), (str(broken), "compile")}
+    assert cases[LIVING_ROOM, "circle"].is_passed
+    (failure,) = cases[failing, "as written"].result
+    assert isinstance(failure, junitparser.Failure)
+    assert "expectation fails: time > 5 s eventually" in failure.text
+    (error,) = cases[str(broken), "compile"].result
+    assert isinstance(error, junitparser.Error) and "unknown human 'b'" in error.text
+    again = cli("test", LIVING_ROOM, "--junit-xml", str(report))  # its own report it replaces
+    assert again.status == 0 and junitparser.JUnitXml.fromfile(str(report)).tests == 2
+
+
+def test_hubero_test_never_writes_its_report_over_another_file(
+        cli: Callable[..., Outcome], tmp_path: Path) -> None:
+    notes = tmp_path / "notes.xml"
+    notes.write_text("<?xml version='1.0'?><project/>", encoding="utf-8")
+    refused = cli("test", LIVING_ROOM, "--junit-xml", str(notes))
+    assert refused.status == 2 and "not a JUnit XML report of hubero test" in refused.err
+    assert notes.read_text(encoding="utf-8") == "<?xml version='1.0'?><project/>"
+    over_input = cli("test", LIVING_ROOM, "--junit-xml", LIVING_ROOM)
+    assert over_input.status == 2 and "PASS" not in over_input.out  # refused before any run
+    nowhere = cli("test", LIVING_ROOM, "--junit-xml", str(tmp_path / "no" / "r.xml"))
+    assert nowhere.status == 2 and "does not exist" in nowhere.err
 
 
 def test_ctrl_c_during_a_run_stops_cleanly(tmp_path: Path) -> None:

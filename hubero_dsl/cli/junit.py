@@ -1,0 +1,75 @@
+"""`hubero test --junit-xml FILE`: the runs' verdicts as a JUnit XML report, which CI systems
+(GitLab, Jenkins, GitHub actions that read test reports) show beside their own tests.
+
+One `testsuite` per scenario file, one `testcase` per run (its variant, or "as written"): a run
+whose expectations failed, or that did not complete, is a `failure`; a file that does not
+compile and a run that ended in an error (a controller or planner plugin that raised) are an
+`error`. Times are wall-clock seconds, as test reports keep them. Written by the standard
+library's ElementTree, whole or not at all.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+from hubero_dsl.files import check_output, refuse_other_kind, write_replacing
+
+Verdict = Literal["pass", "fail", "error"]
+# How the reports hubero writes begin: one of them may be written over, no other file
+BEGINNING = b"<?xml version='1.0' encoding='utf-8'?>\n<testsuites"
+
+
+@dataclass(frozen=True)
+class TestOutcome:
+    """One run's verdict, or one file's that did not compile (its variant then "compile")."""
+
+    file: str
+    case: str                 # the variant, "as written", or "compile"
+    verdict: Verdict
+    message: str              # one line: how the run ended, or the error
+    details: tuple[str, ...] = field(default_factory=tuple)  # the failing expectations
+    seconds: float = 0.0
+
+
+def check_report_path(path: Path, reads: Sequence[Path]) -> None:
+    """Refuse (InputError), before anything runs, a report that could not be written or
+    would go over a file that is no report of hubero's (a scenario among them)."""
+    check_output(path, reads)
+    refuse_other_kind(path, BEGINNING, "a JUnit XML report of hubero test",
+                      "give another --junit-xml name")
+
+
+def write_report(path: Path, outcomes: Sequence[TestOutcome]) -> Path:
+    """Write the report of `outcomes`, in their order, grouped by file."""
+    root = ET.Element("testsuites", _counts("hubero test", outcomes))
+    for file in dict.fromkeys(o.file for o in outcomes):
+        mine = [o for o in outcomes if o.file == file]
+        suite = ET.SubElement(root, "testsuite", _counts(file, mine))
+        for outcome in mine:
+            _testcase(suite, outcome)
+    ET.indent(root)
+    tree = ET.ElementTree(root)
+    return write_replacing(path, lambda temp: tree.write(temp, encoding="utf-8",
+                                                         xml_declaration=True))
+
+
+def _counts(name: str, outcomes: Sequence[TestOutcome]) -> dict[str, str]:
+    return {"name": name, "tests": str(len(outcomes)),
+            "failures": str(sum(o.verdict == "fail" for o in outcomes)),
+            "errors": str(sum(o.verdict == "error" for o in outcomes)),
+            "time": f"{sum(o.seconds for o in outcomes):.3f}"}
+
+
+def _testcase(suite: ET.Element, outcome: TestOutcome) -> None:
+    case = ET.SubElement(suite, "testcase", {"classname": outcome.file, "name": outcome.case,
+                                             "time": f"{outcome.seconds:.3f}"})
+    if outcome.verdict == "pass":
+        ET.SubElement(case, "system-out").text = outcome.message
+        return
+    tag = "failure" if outcome.verdict == "fail" else "error"
+    problem = ET.SubElement(case, tag, {"message": outcome.message, "type": tag})
+    problem.text = "\n".join([outcome.message, *outcome.details])
