@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from shapely.geometry import Polygon
 
     from hubero_dsl.model.program import RobotSpec
-    from hubero_dsl.world.grid import OccupancyGrid
+    from hubero_dsl.world.grid import FloatArray, IntArray, OccupancyGrid
 
 
 def map_path(source: ast.SourceFile, written: ast.String) -> Path:
@@ -75,6 +75,8 @@ def check_bodies(grid: OccupancyGrid,
         if not (bool(grid.contains((x, y))) and bool(grid.is_free((x, y)))):
             all_fit = False
             continue
+        if grid.body_fits((x, y), radius):
+            continue
         try:
             (fx, fy), distance = grid.nearest_free((x, y), radius)
         except MapError:
@@ -99,18 +101,11 @@ def check_overlapping_starts(starts: list[tuple[str, tuple[float, float], float,
     """W504: two humans or robots placed so that their bodies overlap (by more than
     OVERLAP_SLACK): the run's first tick pushes them apart, and a metric counts a collision at
     t = 0 that the scenario wrote, not the people did. Each body is judged against its nearest
-    neighbour (a k-d tree: thousands of people on one spot cost no more than spread out), and
-    the first OVERLAP_REPORTS pairs are named, the rest counted."""
-    from scipy.spatial import cKDTree
-
+    neighbour, and the first OVERLAP_REPORTS pairs are named, the rest counted."""
     if len(starts) < 2:
         return
     radii = np.array([radius for _, _, radius, _ in starts])
-    centres = np.array([xy for _, xy, _, _ in starts])
-    apart, nearest = cKDTree(centres).query(centres, k=2)
-    # the nearest other: a body sharing its spot with another may come second to it
-    own = nearest[:, 0] == np.arange(len(starts))
-    apart, other = apart[:, 1], np.where(own, nearest[:, 1], nearest[:, 0])
+    apart, other = _nearest_others(np.array([xy for _, xy, _, _ in starts]))
     close = np.flatnonzero(apart < radii + radii[other] - OVERLAP_SLACK)
     pairs = sorted({(min(i, j), max(i, j)) for i, j in zip(close.tolist(),
                                                           other[close].tolist(), strict=True)})
@@ -123,6 +118,29 @@ def check_overlapping_starts(starts: list[tuple[str, tuple[float, float], float,
         diagnostics.append(warning(
             "W504", f"{len(pairs) - OVERLAP_REPORTS} more pairs of bodies overlap where they "
             "are placed", starts[pairs[OVERLAP_REPORTS][1]][3]))
+
+
+PAIRWISE_AT_MOST = 1000  # bodies whose distances are all taken; beyond, a k-d tree's
+
+
+def _nearest_others(centres: FloatArray) -> tuple[FloatArray, IntArray]:
+    """Each body's distance to its nearest other body, and that body's index. Every distance,
+    for the few bodies of most scenarios: importing scipy.spatial would cost a cold `hubero
+    check` more than that. A k-d tree for more: thousands of people on one spot cost no more
+    than spread out."""
+    count = len(centres)
+    if count <= PAIRWISE_AT_MOST:
+        offsets = centres[:, None, :] - centres[None, :, :]
+        gaps = np.hypot(offsets[..., 0], offsets[..., 1])
+        np.fill_diagonal(gaps, np.inf)
+        other = gaps.argmin(axis=1)
+        return gaps[np.arange(count), other], other
+    from scipy.spatial import cKDTree
+
+    apart, nearest = cKDTree(centres).query(centres, k=2)
+    # the nearest other: a body sharing its spot with another may come second to it
+    own = nearest[:, 0] == np.arange(count)
+    return apart[:, 1], np.where(own, nearest[:, 1], nearest[:, 0])
 
 
 def check_robot_paths(grid: OccupancyGrid, robots: Sequence[RobotSpec],

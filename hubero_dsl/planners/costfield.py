@@ -60,13 +60,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
-from scipy import ndimage
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import dijkstra
-from skimage.graph import MCP_Geometric
 
 if TYPE_CHECKING:
+    from skimage.graph import MCP_Geometric
+
     from hubero_dsl.world.grid import OccupancyGrid
+
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -75,6 +74,27 @@ BoolArray = npt.NDArray[np.bool_]
 Cell = tuple[int, int]
 
 _EIGHT_CONNECTED = np.ones((3, 3), dtype=bool)  # MCP moves diagonally, so components must too
+
+
+# The compiled searches and fields are imported when a plan first needs them, not with this
+# module: `hubero check` loads it for the navigator's and navfn's parameters only, and these
+# imports were most of a cold check of a scenario with a robot.
+
+def _mcp(cost: FloatArray) -> MCP_Geometric:
+    """skimage's compiled Dijkstra over `cost`, moves in eight directions."""
+    from skimage.graph import MCP_Geometric
+
+    return MCP_Geometric(cost, fully_connected=True)
+
+
+def _label(passable: BoolArray) -> npt.NDArray[np.int32]:
+    """8-connected components of `passable`; 0 marks the rest."""
+    from scipy import ndimage
+
+    labels, _ = ndimage.label(passable, structure=_EIGHT_CONNECTED)
+    return labels.astype(np.int32)
+
+
 # The eight moves in MCP_Geometric's order (its `offsets`), their lengths, and the index of
 # each by (row step + 1, column step + 1).
 _MOVES = np.array([(-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1)],
@@ -192,10 +212,10 @@ class ComponentSearch:
         window = (slice(self.offset[0], self.offset[0] + self.shape[0]),
                   slice(self.offset[1], self.offset[1] + self.shape[1]))
         if until is not None:
-            mcp = MCP_Geometric(self._cost[window], fully_connected=True)
+            mcp = _mcp(self._cost[window])
             return _search(mcp, self.offset, goal, until, complete=False)
         if self._mcp is None:
-            self._mcp = MCP_Geometric(self._cost[window], fully_connected=True)
+            self._mcp = _mcp(self._cost[window])
         return _search(self._mcp, self.offset, goal, None, complete=True)
 
     def solve_between(self, goal: Cell, start: Cell, bound: float | None = None) -> CostToGo:
@@ -226,7 +246,7 @@ class ComponentSearch:
         """Dijkstra on one region: its proven field (None when the start's cost there exceeds
         `bound`, so that a path leaving the region might beat it) and the start's cost."""
         offset, cost, to_start = window
-        mcp = MCP_Geometric(cost, fully_connected=True)
+        mcp = _mcp(cost)
         cumulative, traceback = _find_costs(mcp, offset, goal, start)
         found = float(cumulative[start[0] - offset[0], start[1] - offset[1]])
         if found > bound:
@@ -268,6 +288,9 @@ class ComponentSearch:
         neighbour = number[around]
         outside = neighbour < 0
         neighbour[outside] = np.broadcast_to(np.arange(count)[:, None], neighbour.shape)[outside]
+        from scipy.sparse import csr_matrix
+        from scipy.sparse.csgraph import dijkstra
+
         graph = csr_matrix((weights.ravel(), neighbour.ravel(), np.arange(0, 8 * count + 1, 8)),
                            shape=(count, count))
         distance, previous = dijkstra(graph, indices=source, return_predecessors=True)
@@ -431,6 +454,8 @@ class CostGrid:
         high = np.minimum(path.max(axis=0) + width + 1, coarse.cost.shape)
         blocks = np.zeros(high - low, dtype=bool)
         blocks[path[:, 0] - low[0], path[:, 1] - low[1]] = True
+        from scipy import ndimage
+
         blocks = ndimage.binary_dilation(blocks, _EIGHT_CONNECTED, iterations=width)
         rows, cols = self.cost.shape
         fine = np.repeat(np.repeat(blocks, block, axis=0), block, axis=1)
@@ -449,9 +474,8 @@ class CostGrid:
             cost = padded.reshape(padded.shape[0] // block, block,
                                   padded.shape[1] // block, block).min(axis=(1, 3))
             lethal = np.isinf(cost)
-            labels, _ = ndimage.label(~lethal, structure=_EIGHT_CONNECTED)
             self._coarse = CostGrid(key=self.key, cost=cost, lethal=lethal,
-                                    labels=labels.astype(np.int32))
+                                    labels=_label(~lethal))
         return self._coarse
 
 
@@ -469,10 +493,8 @@ def build_cost_grid(clearance: FloatArray, resolution: float, key: CostKey,
         s = np.clip((key.comfort_radius - clearance) / depth, 0.0, 1.0)
         cost += comfort_weight * s * s
     cost[lethal] = np.inf
-    labels, _ = ndimage.label(~lethal, structure=_EIGHT_CONNECTED)
     block = max(2, round(CORRIDOR_BLOCK / resolution))
-    return CostGrid(key=key, cost=cost, lethal=lethal, labels=labels.astype(np.int32),
-                    block=block)
+    return CostGrid(key=key, cost=cost, lethal=lethal, labels=_label(~lethal), block=block)
 
 
 @dataclass(frozen=True, slots=True)

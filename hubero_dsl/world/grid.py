@@ -171,6 +171,7 @@ def _obstacle_field(occupied: BoolArray, resolution: float
 
 
 REACH_MARGIN = 0.05  # m beyond a body's radius that reachable cells keep from obstacles
+_TIE = 1e-9  # m: a clearance this near a radius is left to the distance field to judge
 _FAR = 1e15  # cells: a point further off than this is off every map (and floors exactly)
 
 
@@ -617,6 +618,39 @@ class OccupancyGrid:
         if len(self._cache) > _CACHE_ENTRIES:
             self._cache.popitem(last=False)
         return value
+
+    def body_fits(self, xy: tuple[float, float], body_radius: float) -> bool:
+        """Whether a body of this radius fits at the point's cell: `free_mask` there, found
+        from the cells within reach when they decide it, without the whole map's distance
+        field (and the import of scipy.ndimage that builds it, most of a cold `hubero
+        check`). Only a distance within a hair of the radius, where the two computations
+        could round apart, is left to the field."""
+        radius = _check_radius(body_radius)
+        cell = self.world_to_cell(np.asarray(xy, dtype=np.float64))
+        if not self._inside(cell):
+            return False
+        if "_obstacle_field" in self.__dict__:  # computed already: no cheaper answer
+            return bool(self.free_mask(radius)[self._clipped(cell)])
+        nearest = self._nearest_obstacle_within(int(cell[0]), int(cell[1]), radius)
+        if abs(nearest - radius) > _TIE:
+            return nearest > radius
+        return bool(self.free_mask(radius)[self._clipped(cell)])
+
+    def _nearest_obstacle_within(self, row: int, col: int, radius: float) -> float:
+        """Metres from cell (row, col)'s centre to the nearest occupied cell's within `radius`
+        (and a cell more), cells beyond the map counting as occupied; inf when there is none."""
+        reach = math.ceil(radius / self.resolution) + 1
+        rows, cols = self.shape
+        top, left = row - reach, col - reach
+        window = np.ones((2 * reach + 1, 2 * reach + 1), dtype=bool)  # beyond the map: walls
+        r0, r1 = max(top, 0), min(row + reach + 1, rows)
+        c0, c1 = max(left, 0), min(col + reach + 1, cols)
+        window[r0 - top:r1 - top, c0 - left:c1 - left] = self.occupied[r0:r1, c0:c1]
+        dr, dc = np.nonzero(window)
+        if not dr.size:
+            return math.inf
+        return float(np.hypot((dr - reach) * self.resolution,
+                              (dc - reach) * self.resolution).min())
 
     def free_mask(self, body_radius: float) -> BoolArray:
         """(rows, cols) cells with clearance > `body_radius`: where that body's centre fits."""

@@ -165,6 +165,29 @@ def test_obstacle_field_of_the_free_cells_box_equals_the_whole_grids(resolution:
         assert nearest.dtype == np.int32
 
 
+@pytest.mark.parametrize("resolution", [1.0, 0.05, 0.03])
+def test_a_body_fits_where_the_free_mask_says_it_does(resolution: float) -> None:
+    # found from the cells around it, without the map's field; ties at whole-cell radii
+    rng = np.random.default_rng(int(resolution * 1000))
+    for _ in range(200):
+        occupied = random_cells(rng)
+        rows, cols = occupied.shape
+        points = rng.uniform((-1.0, -1.0), (cols + 1.0, rows + 1.0), size=(8, 2)) * resolution
+        radii = np.concatenate([rng.integers(0, 6, size=4) * resolution,
+                                rng.uniform(0.0, 6 * resolution, size=4)])
+        for point, radius in zip(points, radii, strict=True):
+            xy = (float(point[0]), float(point[1]))
+            fresh = OccupancyGrid(occupied, resolution, (0.0, 0.0))
+            fits = fresh.body_fits(xy, float(radius))
+            assert "_obstacle_field" not in fresh.__dict__ or abs(
+                fresh._nearest_obstacle_within(*(int(i) for i in fresh.world_to_cell(xy)),
+                                               float(radius)) - radius) <= 1e-9
+            cell = fresh.world_to_cell(xy)
+            inside = bool(fresh._inside(cell))
+            expected = inside and bool(fresh.free_mask(float(radius))[fresh._clipped(cell)])
+            assert fits == expected, (xy, radius)
+
+
 def test_grids_with_the_same_cells_share_one_obstacle_field() -> None:
     first, second = furnished(4), furnished(4)
     assert first._obstacle_field[0] is second._obstacle_field[0]
