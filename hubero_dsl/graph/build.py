@@ -211,6 +211,10 @@ class _ActivityBuilder:
         if not step.branches:
             self.graph.add_edge(fork, join)
         self.graph.nodes[fork].update(join=join, branches=tuple(branches))
+        if isinstance(step, m.ParallelStep) and step.crowd is not None:
+            for made in branches:  # a member's step: told as the crowd's where it is quoted
+                if made.entry is not None and made.entry == made.exit:
+                    self.graph.nodes[made.entry]["crowd_fork"] = fork
         return (fork, join)
 
     def _repeat(self, step: m.RepeatStep) -> _Fragment:

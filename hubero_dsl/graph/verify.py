@@ -38,7 +38,7 @@ from itertools import pairwise
 
 import networkx as nx
 
-from hubero_dsl.diagnostics import Diagnostic, Related, Span, error, warning
+from hubero_dsl.diagnostics import Diagnostic, Related, error, warning
 from hubero_dsl.graph.build import (
     LabelScope,
     NodeKind,
@@ -52,7 +52,7 @@ from hubero_dsl.graph.build import (
     node_sort_key,
     nodes_of_kind,
 )
-from hubero_dsl.graph.render import describe_node
+from hubero_dsl.graph.render import crowd_words, describe_node
 from hubero_dsl.model import activities as m
 from hubero_dsl.model.conditions import (
     Condition,
@@ -110,29 +110,53 @@ _NAME_AFTER_BACKTICK = re.compile(r"`([A-Za-z_][A-Za-z0-9_]*)")
 
 def _in_crowds_words(found: list[Diagnostic], activities: Sequence[m.Activity]
                      ) -> list[Diagnostic]:
-    """A finding at a task given to a crowd or group speaks of the crowd, once: its members'
-    steps were each found alike, and a crowd of 1000 had 1000 errors naming `NAME_1` to
-    `NAME_1000`. Names are replaced where the words quote them (after a backtick), never in
-    the prose around them."""
-    crowds = _crowd_steps(activities)
-    told: dict[Diagnostic, None] = {}
-    for diagnostic in found:
-        if diagnostic.span in crowds:
-            diagnostic = _speaking_of(diagnostic, *crowds[diagnostic.span])
-        told.setdefault(diagnostic)
-    return list(told)
+    """A finding made alike of several members of a crowd or group (or of its only one) is
+    told once, of the crowd: a crowd of 1000 given two clashing steps had 1000 errors naming
+    `NAME_1` to `NAME_1000`. A finding of one member alone (given a step of its own) keeps
+    its name.
+    Names are replaced where the words quote them (after a backtick), never in the prose
+    around them."""
+    told = list(found)
+    # the smallest set first: a group of some of a crowd's members is named by the group
+    for crowd, members in sorted(_crowds(activities).items(), key=lambda c: len(c[1])):
+        told = _folded(told, crowd, members)
+    return told
 
 
-def _crowd_steps(activities: Sequence[m.Activity]) -> dict[Span, tuple[str, frozenset[str]]]:
-    """Where each task given to a crowd or group is written: the crowd, and its members."""
-    found: dict[Span, tuple[str, frozenset[str]]] = {}
+def _crowds(activities: Sequence[m.Activity]) -> dict[str, frozenset[str]]:
+    """Each crowd or group given a task, and its members."""
+    found: dict[str, frozenset[str]] = {}
     for activity in activities:
         for step in m.walk_steps(activity.steps):
             if isinstance(step, m.ParallelStep) and step.crowd is not None:
                 members = frozenset(s.actor for s in m.walk_steps(step.branches)
                                     if isinstance(s, m.TaskStep))
-                found[step.span] = (step.crowd, members)
+                found[step.crowd] = found.get(step.crowd, frozenset()) | members
     return found
+
+
+def _folded(found: list[Diagnostic], crowd: str, members: frozenset[str]) -> list[Diagnostic]:
+    """`found` with each finding that is the same of every member (but for its name) told
+    once, of the crowd, where the first of them was."""
+    alike: dict[Diagnostic, list[tuple[int, set[str]]]] = {}
+    for index, diagnostic in enumerate(found):
+        named = _quoted_names(diagnostic) & members
+        if named:
+            alike.setdefault(_speaking_of(diagnostic, crowd, members), []).append(
+                (index, named))
+    once: dict[int, Diagnostic] = {}
+    dropped: set[int] = set()
+    for told, where in alike.items():
+        named = set().union(*(named for _, named in where))
+        if named == members or len(named) > 1:  # not one member on a step of its own
+            once[where[0][0]] = told
+            dropped.update(index for index, _ in where[1:])
+    return [once.get(i, d) for i, d in enumerate(found) if i not in dropped]
+
+
+def _quoted_names(diagnostic: Diagnostic) -> set[str]:
+    texts = [diagnostic.message, diagnostic.hint or "", *(r.message for r in diagnostic.related)]
+    return {name for text in texts for name in _NAME_AFTER_BACKTICK.findall(text)}
 
 
 def _speaking_of(diagnostic: Diagnostic, crowd: str, members: frozenset[str]) -> Diagnostic:
@@ -214,6 +238,13 @@ def _structural_order(graph: nx.DiGraph) -> nx.DiGraph:
 
 
 def _quoted(graph: nx.DiGraph, node: str) -> str:
+    """A step in the scenario's words; a crowd member's, as the crowd's step was written."""
+    fork = graph.nodes[node].get("crowd_fork")
+    if fork is not None:
+        step: m.ParallelStep = graph.nodes[fork]["step"]
+        words = crowd_words(step)
+        if words is not None:
+            return f"`{step.label.name}: {words}`" if step.label is not None else f"`{words}`"
     return f"`{describe_node(graph, node)}`"
 
 

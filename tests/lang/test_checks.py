@@ -122,6 +122,37 @@ def test_a_member_commanded_on_its_own_is_told_by_its_name(check: Check) -> None
     assert clash.related[0].message.endswith("commands `c_2` here")
 
 
+@pytest.mark.parametrize("order", ["member first", "crowd first"])
+def test_a_member_on_a_step_of_its_own_keeps_its_name_whichever_comes_first(
+        check: Check, order: str) -> None:
+    steps = ["c_3 stand for 2 s", "c stand for 5 s"]
+    steps = steps if order == "member first" else steps[::-1]
+    result = check("crowd c 5 in rect((2, 1), (3, 2))\n"
+                   "activity {\n    parallel {\n" + "".join(f"        {s}\n" for s in steps)
+                   + "    }\n}")
+    (clash,) = result.errors
+    assert clash.message == "`c_3` is commanded by two steps that can run at the same time"
+    assert clash.related[0].message == "this step also commands `c_3`"
+
+
+def test_a_crowds_step_is_quoted_as_written_where_others_wait_for_it(check: Check) -> None:
+    # E312 at the wait quoted the first member's step: `c_1 stand forever`
+    result = check("crowd c 3 in rect((2, 1), (3, 2))\n"
+                   "activity { x: c stand forever }\n"
+                   "activity { wait until x done; actor1 stand for 1 s }")
+    (never,) = [d for d in result.errors if d.code == "E312"]
+    assert "`x: c stand forever` runs forever" in never.message
+
+
+def test_a_group_of_some_of_a_crowds_members_is_named_by_the_group(check: Check) -> None:
+    result = check("crowd c 4 in rect((2, 1), (3, 2))\n"
+                   "group pair of (c_1, c_2)\n"
+                   "activity {\n    parallel {\n        c stand for 2 s\n"
+                   "        pair stand for 2 s\n    }\n}")
+    (clash,) = result.errors
+    assert clash.message == "`pair` is commanded by two steps that can run at the same time"
+
+
 def test_a_slip_of_a_crowds_name_suggests_the_crowd(check: Check) -> None:
     (error,) = check("crowd shoppers 3 in rect((2, 1), (3, 2))\n"
                      "activity { shopers stand for 1 s }").errors
