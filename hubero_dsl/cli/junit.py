@@ -10,12 +10,15 @@ library's ElementTree, whole or not at all.
 
 from __future__ import annotations
 
+import re
+import tempfile
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
+from hubero_dsl.errors import InputError
 from hubero_dsl.files import check_output, refuse_other_kind, write_replacing
 
 Verdict = Literal["pass", "fail", "error"]
@@ -23,12 +26,16 @@ Verdict = Literal["pass", "fail", "error"]
 BEGINNING = b"<?xml version='1.0' encoding='utf-8'?>\n<testsuites"
 
 
+# The cases of a file that never ran: no variant can be so named (not an identifier)
+UNREADABLE, UNCOMPILED = "(cannot be read)", "(does not compile)"
+
+
 @dataclass(frozen=True)
 class TestOutcome:
-    """One run's verdict, or one file's that did not compile (its variant then "compile")."""
+    """One run's verdict, or one file's that could not be read or does not compile."""
 
     file: str
-    case: str                 # the variant, "as written", or "compile"
+    case: str                 # the variant, "as written", UNREADABLE or UNCOMPILED
     verdict: Verdict
     message: str              # one line: how the run ended, or the error
     details: tuple[str, ...] = field(default_factory=tuple)  # the failing expectations
@@ -36,11 +43,18 @@ class TestOutcome:
 
 
 def check_report_path(path: Path, reads: Sequence[Path]) -> None:
-    """Refuse (InputError), before anything runs, a report that could not be written or
-    would go over a file that is no report of hubero's (a scenario among them)."""
+    """Refuse (InputError), before anything runs, a report that could not be written (a
+    file is made beside it and removed, to know) or would go over a file that is no report
+    of hubero's (a scenario among them)."""
     check_output(path, reads)
     refuse_other_kind(path, BEGINNING, "a JUnit XML report of hubero test",
                       "give another --junit-xml name")
+    try:
+        with tempfile.NamedTemporaryFile(dir=path.parent, prefix=f".{path.name}.",
+                                         suffix=".probe"):
+            pass
+    except OSError as exc:
+        raise InputError(f"{path}: cannot be written ({exc.strerror or exc})") from None
 
 
 def write_report(path: Path, outcomes: Sequence[TestOutcome]) -> Path:
@@ -58,18 +72,29 @@ def write_report(path: Path, outcomes: Sequence[TestOutcome]) -> Path:
 
 
 def _counts(name: str, outcomes: Sequence[TestOutcome]) -> dict[str, str]:
-    return {"name": name, "tests": str(len(outcomes)),
+    return {"name": xml_text(name), "tests": str(len(outcomes)),
             "failures": str(sum(o.verdict == "fail" for o in outcomes)),
             "errors": str(sum(o.verdict == "error" for o in outcomes)),
             "time": f"{sum(o.seconds for o in outcomes):.3f}"}
 
 
 def _testcase(suite: ET.Element, outcome: TestOutcome) -> None:
-    case = ET.SubElement(suite, "testcase", {"classname": outcome.file, "name": outcome.case,
+    case = ET.SubElement(suite, "testcase", {"classname": xml_text(outcome.file),
+                                             "name": xml_text(outcome.case),
                                              "time": f"{outcome.seconds:.3f}"})
     if outcome.verdict == "pass":
-        ET.SubElement(case, "system-out").text = outcome.message
+        ET.SubElement(case, "system-out").text = xml_text(outcome.message)
         return
     tag = "failure" if outcome.verdict == "fail" else "error"
-    problem = ET.SubElement(case, tag, {"message": outcome.message, "type": tag})
-    problem.text = "\n".join([outcome.message, *outcome.details])
+    problem = ET.SubElement(case, tag, {"message": xml_text(outcome.message), "type": tag})
+    problem.text = xml_text("\n".join([outcome.message, *outcome.details]))
+
+
+# What XML 1.0 cannot hold, escaped or not: control characters (a plugin's message may carry
+# a terminal's colour codes) and lone surrogates (a file name that is not UTF-8)
+_NOT_XML = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
+
+
+def xml_text(text: str) -> str:
+    """`text` with each character XML cannot hold written as its Python escape (`\\x1b`)."""
+    return _NOT_XML.sub(lambda c: repr(c.group())[1:-1], text)

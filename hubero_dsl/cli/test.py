@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from hubero_dsl.cli.junit import TestOutcome
+from hubero_dsl.cli.junit import UNCOMPILED, UNREADABLE, TestOutcome
 from hubero_dsl.cli.run import (
     add_run_options,
     handed_controllers,
@@ -48,6 +48,7 @@ def run(args: argparse.Namespace) -> int:
     from hubero_dsl.cli.console import make_console
     from hubero_dsl.cli.junit import check_report_path, write_report
     from hubero_dsl.errors import InputError
+    from hubero_dsl.files import distinct_files
 
     if args.junit_xml is not None:
         check_report_path(args.junit_xml, [Path(f) for f in args.files])
@@ -69,14 +70,11 @@ def run(args: argparse.Namespace) -> int:
             outcomes.append(_run(file, program, variant, args, mine, console))
     failures = sum(o.verdict != "pass" for o in outcomes)
     console.print(f"{len(outcomes) - failures} passed, {failures} failed")
-    if args.junit_xml is not None:
-        write_report(args.junit_xml, outcomes)
+    if args.junit_xml is not None:  # in the files' order, as they were given
+        order = {file: index for index, file in enumerate(distinct_files(args.files))}
+        write_report(args.junit_xml, sorted(outcomes, key=lambda o: order[o.file]))
     unreadable = any(o.case == UNREADABLE for o in outcomes)
     return 2 if unreadable else 1 if failures else 0
-
-
-UNREADABLE = "read"     # the report's case for a file that cannot be read
-UNCOMPILED = "compile"  # and for one that does not compile
 
 
 def _compiled(files: list[str], console: Console) -> tuple[list[tuple[str, Program]],

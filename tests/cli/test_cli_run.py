@@ -171,15 +171,31 @@ def test_hubero_test_writes_a_junit_report_its_readers_read(
     assert (read.tests, read.failures, read.errors) == (4, 1, 1)
     cases = {(suite.name, case.name): case for suite in read for case in suite}
     assert set(cases) == {(LIVING_ROOM, "circle"), (LIVING_ROOM, "ellipse"),
-                          (failing, "as written"), (str(broken), "compile")}
+                          (failing, "as written"), (str(broken), "(does not compile)")}
     assert cases[LIVING_ROOM, "circle"].is_passed
     (failure,) = cases[failing, "as written"].result
     assert isinstance(failure, junitparser.Failure)
     assert "expectation fails: time > 5 s eventually" in failure.text
-    (error,) = cases[str(broken), "compile"].result
+    (error,) = cases[str(broken), "(does not compile)"].result
     assert isinstance(error, junitparser.Error) and "unknown human 'b'" in error.text
     again = cli("test", LIVING_ROOM, "--junit-xml", str(report))  # its own report it replaces
     assert again.status == 0 and junitparser.JUnitXml.fromfile(str(report)).tests == 2
+
+
+def test_a_report_holds_any_name_and_a_variant_may_be_called_read(
+        cli: Callable[..., Outcome], tmp_path: Path) -> None:
+    # a variant named `read` was taken for a file that could not be read (exit 2); a file
+    # name with a control character or a byte that is not UTF-8 made the report unreadable
+    odd = tmp_path / "caf\udce9 \x1b[31m.hub"
+    odd.write_text(f'scenario "t"\nmap "{MAP}"\nhuman a at (1, 1)\n'
+                   "variant read { speed 1.2 m/s }\nactivity { a stand for 1 s }\n",
+                   encoding="utf-8")
+    report = tmp_path / "report.xml"
+    outcome = cli("test", str(odd), "--junit-xml", str(report))
+    assert outcome.status == 0, outcome.out + outcome.err
+    (suite,) = junitparser.JUnitXml.fromfile(str(report))
+    assert suite.name == str(odd).replace("\udce9", "\\udce9").replace("\x1b", "\\x1b")
+    assert [case.name for case in suite] == ["read"]
 
 
 def test_hubero_test_never_writes_its_report_over_another_file(
