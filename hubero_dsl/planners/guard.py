@@ -4,7 +4,7 @@ A planner that is not hubero's own is wrapped as it is built (`guarded_global`,
 `guarded_local`). Whatever it raises (`sys.exit` too, but not a Ctrl-C) as it is set up, plans
 or steers, and whatever it answers that is no plan or no velocities, becomes a `PlannerError`
 naming the planner: the run ends with exit 1 and a message, as a robot controller's failure
-does, never as an internal error. It is given read-only views of the crowd and the drive, so
+does, never as an internal error. It is given read-only copies of the crowd and the drive, so
 that it cannot move people by writing into them. Velocities faster than a human's `max_speed`
 are capped at it, as the local planner's contract says they are.
 
@@ -128,8 +128,9 @@ class GuardedLocalPlanner:
     @classmethod
     def joined(cls, planners: list[GuardedLocalPlanner]) -> GuardedLocalPlanner | None:
         """The plugin's own joined planner, guarded, when its class offers one."""
-        inner = joined_planner([p.inner for p in planners])
-        return None if inner is None else cls(inner, planners[0].planner)
+        name = planners[0].planner
+        inner = built("local", name, lambda: joined_planner([p.inner for p in planners]))
+        return None if inner is None else cls(inner, name)
 
     def velocities(self, crowd: Crowd, drive: Drive, dt: float) -> FloatArray:
         try:
@@ -165,14 +166,15 @@ def _floats(value: object) -> FloatArray | None:
 
 
 def _read_only(snapshot: Any) -> Any:
-    """A copy of a dataclass of arrays whose arrays are read-only views of the originals."""
-    def view(value: Any) -> Any:
+    """A dataclass of arrays with read-only copies of the arrays: writing into one by mistake
+    raises, and writing into one on purpose moves nobody."""
+    def copied(value: Any) -> Any:
         if isinstance(value, np.ndarray):
-            seen = value.view()
-            seen.flags.writeable = False
-            return seen
+            copy = value.copy()
+            copy.flags.writeable = False
+            return copy
         return _read_only(value) if is_dataclass(value) and not isinstance(value, type) \
             else value
 
-    return replace(snapshot, **{f.name: view(getattr(snapshot, f.name))
+    return replace(snapshot, **{f.name: copied(getattr(snapshot, f.name))
                                 for f in fields(snapshot)})

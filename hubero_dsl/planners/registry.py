@@ -10,6 +10,8 @@ from functools import cache
 from importlib.metadata import EntryPoint, entry_points
 from typing import TYPE_CHECKING
 
+from pydantic import ValidationError
+
 from hubero_dsl.errors import OUTSIDE_STOPS, InputError, failure_of
 
 if TYPE_CHECKING:
@@ -64,6 +66,17 @@ def _checked(loaded: object, what: str, method: str) -> type:
     if not (isinstance(params, type) and issubclass(params, PlannerParams)):
         raise InputError(f"{what}: its `Params` must be a subclass of "
                          f"hubero_dsl.planners.base.PlannerParams, not {params!r}")
+    try:  # robots, and humans given none of its parameters, take them all as defaults
+        params()
+    except OUTSIDE_STOPS:
+        raise
+    except ValidationError as exc:
+        missing = ", ".join(".".join(map(str, e["loc"])) for e in exc.errors())
+        raise InputError(f"{what}: its `Params` must give every field a default, as hubero "
+                         f"builds it with none given; these have none: {missing}") from None
+    except BaseException as exc:  # user code
+        raise InputError(f"{what}: its `Params` cannot be built with no values: "
+                         f"{failure_of(exc)}") from None
     return loaded
 
 

@@ -28,7 +28,7 @@ from hubero_dsl.errors import OUTSIDE_STOPS, InputError, SimulationError, failur
 from hubero_dsl.model.params import HUMAN_PARAMS, REACTIONS, SEED_DIGITS, ParamKind
 from hubero_dsl.model.program import Distribution, ParamValue, Pose, Program, unknown_variants
 from hubero_dsl.planners.base import GlobalPlanner, LocalPlanner, PlannerParams
-from hubero_dsl.planners.guard import built, guarded_global, guarded_local
+from hubero_dsl.planners.guard import PlannerError, built, guarded_global, guarded_local
 from hubero_dsl.planners.registry import global_planner, local_planner
 from hubero_dsl.sim.arrays import FloatArray, HumanArrays
 from hubero_dsl.sim.conditions import Conditions, LabelBook
@@ -207,8 +207,11 @@ class Simulation:
 
     def step(self) -> None:
         """Advance one tick: the scheduler reacts to the world, then the world moves."""
-        steering = self.begin_step()
-        self.end_step(steering, self.engine.steer(steering))
+        try:
+            steering = self.begin_step()
+            self.end_step(steering, self.engine.steer(steering))
+        except PlannerError as exc:
+            raise exc.at(self.time) from None
 
     def begin_step(self) -> Steering | None:
         """`step` up to the local planners (`Lockstep.begin_step`); `end_step` finishes it."""

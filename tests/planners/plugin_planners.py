@@ -108,6 +108,25 @@ class TooFast(Direct):
         return super().velocities(crowd, drive, dt) * 1e6
 
 
+class Bypasses(Direct):
+    def velocities(self, crowd: Crowd, drive: Drive, dt: float) -> Any:
+        velocity = super().velocities(crowd, drive, dt)
+        crowd.position.flags.writeable = True  # on purpose: it writes a copy, moves nobody
+        crowd.position[:] = 0.0
+        return velocity
+
+
+class JoinRaises(Direct):
+    @classmethod
+    def joined(cls, planners: list[Any]) -> Any:
+        raise RuntimeError("cannot join")
+
+
+class Required(Direct):
+    class Params(PlannerParams):
+        gain: float
+
+
 GLOBAL = {"qa_straight": "Straight", "qa_plan_raises": "PlanRaises",
           "qa_plan_exits": "PlanExits", "qa_plan_nan": "PlanNaN",
           "qa_plan_outside": "PlanOutside", "qa_plan_list": "PlanList",
@@ -115,4 +134,5 @@ GLOBAL = {"qa_straight": "Straight", "qa_plan_raises": "PlanRaises",
           "qa_not_installed": "Missing"}
 LOCAL = {"qa_direct": "Direct", "qa_set_up_raises": "SetUpRaises",
          "qa_teleports": "Teleports", "qa_wrong_shape": "WrongShape", "qa_words": "Words",
-         "qa_too_fast": "TooFast"}
+         "qa_too_fast": "TooFast", "qa_bypasses": "Bypasses", "qa_join_raises": "JoinRaises",
+         "qa_required": "Required"}

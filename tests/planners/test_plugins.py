@@ -102,7 +102,37 @@ def test_a_local_planners_velocities_are_capped_at_the_humans_max_speed() -> Non
     assert fastest and max(fastest) <= 1e-9
 
 
+def test_a_plugin_writing_into_its_copy_of_the_crowd_on_purpose_moves_nobody() -> None:
+    result = checked(global_planner="qa_straight", local_planner="qa_bypasses")
+    assert result.program is not None
+    assert simulate(result.program).state.value == "completed"
+
+
+def test_a_plugin_that_cannot_join_its_copies_is_named() -> None:
+    from hubero_dsl.planners.guard import GuardedLocalPlanner
+
+    guarded = [GuardedLocalPlanner(plugin_planners.JoinRaises(None, []), "qa_join_raises")
+               for _ in range(2)]
+    with pytest.raises(PlannerError, match="local planner 'qa_join_raises' failed as it was "
+                                           "set up: RuntimeError: cannot join"):
+        GuardedLocalPlanner.joined(guarded)
+
+
+def test_a_plugins_failure_says_when_also_to_a_simulation_stepped_by_hand() -> None:
+    from hubero_dsl.sim.simulation import Simulation
+
+    result = checked(local_planner="qa_words")
+    assert result.program is not None
+    sim = Simulation(result.program)
+    with pytest.raises(PlannerError, match=r"^at t = 0 s, local planner 'qa_words' returned"):
+        for _ in range(3):
+            sim.step()
+
+
 @pytest.mark.parametrize(("planners", "code", "told"), [
+    ({"local_planner": "qa_required"}, "E110",
+     "local planner plugin 'qa_required': its `Params` must give every field a default, as "
+     "hubero builds it with none given; these have none: gain"),
     ({"global_planner": "qa_not_installed"}, "E110",
      "global planner plugin 'qa_not_installed' cannot be loaded: AttributeError"),
     ({"global_planner": "qa_no_params"}, "E110",
