@@ -107,8 +107,10 @@ class _Scene:
         for name, goal in robot_goals(run).items():
             axes.plot(*goal, marker="X", markersize=10, color=palette[name],
                       markeredgecolor="black", zorder=5)
-        # above the map, right of the run's title: over the map it hid a corner of it
-        self.clock = axes.set_title(" ", loc="right", fontsize=11, family="monospace")
+        # the run's title and the time, one text above the map: a clock over the map hid a
+        # corner of it, and one beside the title ran into a long title
+        self.title = run_title(run)
+        self.clock = axes.set_title(self.title, fontsize=11)
 
     def show(self, when: float) -> list[Artist]:
         for name, trail in self.trails.items():
@@ -132,7 +134,7 @@ class _Scene:
                                                  robot.position[shown, 1])
                 where = _at(robot.time, robot.position, when)
                 self.robots[name].set_center((float(where[0]), float(where[1])))
-        self.clock.set_text(f"t = {when:5.1f} s")
+        self.clock.set_text(f"{self.title}, t = {when:.1f} s")
         return [*self.trails.values(), *self.spaces.values(), *self.bodies.values(),
                 *self.robot_trails.values(), *self.robots.values(), self.clock]
 
@@ -150,7 +152,6 @@ def animate_run(run: LoggedRun, out: str | Path, *, max_frames: int = MAX_FRAMES
     figure, axes = View.around([run], whole_map).figure([str(h.get_label()) for h in handles])
     figure.set_dpi(GIF_DPI)
     draw_map(axes, run.grid)
-    axes.set_title(run_title(run), fontsize=11, loc="left")
     scene = _Scene(run, axes, palette, crowds)
     place_legend(figure, axes, handles)
     times = frame_times(run, max_frames)
