@@ -583,13 +583,20 @@ def _deadlocks(context: _Context, waits: list[_Wait]) -> list[Diagnostic]:
     order.add_edges_from(by_edge)
     found: list[Diagnostic] = []
     reported: set[str] = set()
+    siblings: dict[str, list[str]] = {}  # a crowd's task: its members' steps, one cycle for all
+    for action in context.actions():
+        fork = context.graph.nodes[action].get("crowd_fork")
+        if fork is not None:
+            siblings.setdefault(fork, []).append(action)
     for wait in waits:
         if wait.accept in reported or not nx.has_path(order, (wait.accept, "e"), wait.source):
             continue
         path = nx.shortest_path(order, (wait.accept, "e"), wait.source)
         later = [by_edge[edge] for edge in pairwise(path) if edge in by_edge]
         cycle = [wait, *reversed(later)]
-        reported.update(w.accept for w in cycle)
+        for waiting in cycle:
+            fork = context.graph.nodes[waiting.accept].get("crowd_fork")
+            reported.update(siblings.get(fork, [waiting.accept]))
         found.append(_deadlock(context, cycle))
     return found
 

@@ -144,6 +144,18 @@ def test_a_crowds_step_is_quoted_as_written_where_others_wait_for_it(check: Chec
     assert "`x: c stand forever` runs forever" in never.message
 
 
+def test_a_deadlock_with_a_crowds_step_is_told_once(check: Check) -> None:
+    # once from each side: at the human's step, and (folded) at the crowd's
+    result = check("crowd c 3 in rect((2, 1), (3, 2))\n"
+                   "activity {\n    parallel {\n"
+                   "        b: actor1 move_around in rect((2, 1), (3, 2)) until a done\n"
+                   "        a: c move_around in rect((2, 1), (3, 2)) until b done\n"
+                   "    }\n}")
+    (deadlock,) = result.errors
+    assert deadlock.code == "E305"
+    assert "`a: c move_around in rect((2, 1), (3, 2)) until b done`" in deadlock.message
+
+
 def test_a_group_of_some_of_a_crowds_members_is_named_by_the_group(check: Check) -> None:
     result = check("crowd c 4 in rect((2, 1), (3, 2))\n"
                    "group pair of (c_1, c_2)\n"
