@@ -38,7 +38,7 @@ from itertools import pairwise
 
 import networkx as nx
 
-from hubero_dsl.diagnostics import Diagnostic, Related, error, warning
+from hubero_dsl.diagnostics import Diagnostic, Related, Span, error, warning
 from hubero_dsl.graph.build import (
     LabelScope,
     NodeKind,
@@ -118,30 +118,35 @@ def _in_crowds_words(found: list[Diagnostic], activities: Sequence[m.Activity]
     around them."""
     told = list(found)
     # the smallest set first: a group of some of a crowd's members is named by the group
-    for crowd, members in sorted(_crowds(activities).items(), key=lambda c: len(c[1])):
-        told = _folded(told, crowd, members)
+    for crowd, (members, spans) in sorted(_crowds(activities).items(),
+                                          key=lambda c: len(c[1][0])):
+        told = _folded(told, crowd, members, spans)
     return told
 
 
-def _crowds(activities: Sequence[m.Activity]) -> dict[str, frozenset[str]]:
-    """Each crowd or group given a task, and its members."""
-    found: dict[str, frozenset[str]] = {}
+def _crowds(activities: Sequence[m.Activity]
+            ) -> dict[str, tuple[frozenset[str], frozenset[Span]]]:
+    """Each crowd or group given a task: its members, and where its tasks are written."""
+    found: dict[str, tuple[frozenset[str], frozenset[Span]]] = {}
     for activity in activities:
         for step in m.walk_steps(activity.steps):
             if isinstance(step, m.ParallelStep) and step.crowd is not None:
                 members = frozenset(s.actor for s in m.walk_steps(step.branches)
                                     if isinstance(s, m.TaskStep))
-                found[step.crowd] = found.get(step.crowd, frozenset()) | members
+                known, spans = found.get(step.crowd, (frozenset(), frozenset()))
+                found[step.crowd] = (known | members, spans | {step.span})
     return found
 
 
-def _folded(found: list[Diagnostic], crowd: str, members: frozenset[str]) -> list[Diagnostic]:
-    """`found` with each finding that is the same of every member (but for its name) told
-    once, of the crowd, where the first of them was."""
+def _folded(found: list[Diagnostic], crowd: str, members: frozenset[str],
+            spans: frozenset[Span]) -> list[Diagnostic]:
+    """`found` with each finding at one of the crowd's tasks (`spans`) that is the same of
+    several members, or of its only one, but for their names, told once, of the crowd, where
+    the first of them was. A finding at a member's own step is never folded."""
     alike: dict[Diagnostic, list[tuple[int, set[str]]]] = {}
     for index, diagnostic in enumerate(found):
         named = _quoted_names(diagnostic) & members
-        if named:
+        if named and diagnostic.span in spans:
             alike.setdefault(_speaking_of(diagnostic, crowd, members), []).append(
                 (index, named))
     once: dict[int, Diagnostic] = {}

@@ -135,6 +135,19 @@ def test_a_member_on_a_step_of_its_own_keeps_its_name_whichever_comes_first(
     assert clash.related[0].message == "this step also commands `c_3`"
 
 
+def test_members_own_steps_keep_their_names_in_a_crowd_of_one_and_between_two(
+        check: Check) -> None:
+    one = check("crowd c 1 in rect((2, 1), (3, 2))\n"
+                "activity { c stand for 1 s }\n"
+                "activity { c_1 stand forever; actor1 stand for 1 s }")
+    assert [d.message.split(" ")[0] for d in one.errors] == ["`c_1`", "`c_1"]
+    two = check("crowd c 3 in rect((2, 1), (3, 2))\n"
+                "activity { c_1 stand forever; c_2 stand for 1 s }")
+    (forever,) = two.errors
+    assert forever.message.startswith("`c_1 stand forever` runs forever")
+    assert forever.related[0].message == "`c_2 stand for 1 s` never runs"
+
+
 def test_a_crowds_step_is_quoted_as_written_where_others_wait_for_it(check: Check) -> None:
     # E312 at the wait quoted the first member's step: `c_1 stand forever`
     result = check("crowd c 3 in rect((2, 1), (3, 2))\n"
