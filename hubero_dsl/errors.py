@@ -89,7 +89,10 @@ OUTSIDE_STOPS = (KeyboardInterrupt, Stopped)
 def shown(value: object) -> str:
     """What user code returned, as its repr cut short; a placeholder when even that fails."""
     try:
-        return f"{' '.join(repr(value).split()):.80}"  # an array's repr, on one line
+        text = repr(value)
+        if type(value).__module__ == "numpy":  # an array's repr, on one line
+            text = " ".join(text.split())
+        return f"{text:.80}"
     except Exception:  # user code again
         return f"a {type(value).__name__}"
 

@@ -2,10 +2,10 @@
 (GitLab, Jenkins, GitHub actions that read test reports) show beside their own tests.
 
 One `testsuite` per scenario file, one `testcase` per run (its variant, or "as written"): a run
-whose expectations failed, or that did not complete, is a `failure`; a file that does not
-compile and a run that ended in an error (a controller or planner plugin that raised) are an
-`error`. Times are wall-clock seconds, as test reports keep them. Written by the standard
-library's ElementTree, whole or not at all.
+whose expectations failed, or that did not complete, is a `failure`; a file that cannot be
+read or does not compile, and a run that ended in an error (a controller or planner plugin
+that raised) are an `error`. Times are wall-clock seconds, as test reports keep them. Written
+by the standard library's ElementTree, whole or not at all.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from typing import Literal
 from hubero_dsl.errors import InputError
 from hubero_dsl.files import check_output, refuse_other_kind, write_replacing
 
-Verdict = Literal["pass", "fail", "error"]
+CaseResult = Literal["pass", "fail", "error"]
 # How the reports hubero writes begin: one of them may be written over, no other file
 BEGINNING = b"<?xml version='1.0' encoding='utf-8'?>\n<testsuites"
 
@@ -34,9 +34,11 @@ UNREADABLE, UNCOMPILED = "(cannot be read)", "(does not compile)"
 class TestOutcome:
     """One run's verdict, or one file's that could not be read or does not compile."""
 
+    __test__ = False  # a report's case, not a test for pytest to collect
+
     file: str
     case: str                 # the variant, "as written", UNREADABLE or UNCOMPILED
-    verdict: Verdict
+    verdict: CaseResult
     message: str              # one line: how the run ended, or the error
     details: tuple[str, ...] = field(default_factory=tuple)  # the failing expectations
     seconds: float = 0.0
@@ -87,7 +89,10 @@ def _testcase(suite: ET.Element, outcome: TestOutcome) -> None:
         return
     tag = "failure" if outcome.verdict == "fail" else "error"
     problem = ET.SubElement(case, tag, {"message": xml_text(outcome.message), "type": tag})
-    problem.text = xml_text("\n".join([outcome.message, *outcome.details]))
+    # a failure's text: how the run ended, then what failed; an error's: every error found
+    said = list(outcome.details) if tag == "error" and outcome.details else [outcome.message,
+                                                                             *outcome.details]
+    problem.text = xml_text("\n".join(said))
 
 
 # What XML 1.0 cannot hold, escaped or not: control characters (a plugin's message may carry

@@ -88,16 +88,28 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def program() -> int:
-    """The `hubero` program (`python -m hubero_dsl` too): `main`, and then, for a command
-    that was stopped, deaf to Ctrl-C and SIGTERM while the process ends. A user pressing
-    Ctrl-C again and again had the press after the stopping kill the ending process, which
-    then did not exit with `main`'s status."""
+    """The `hubero` program (`python -m hubero_dsl` too): `main`, and, once a command has
+    been stopped, deaf to Ctrl-C while the process ends. A user pressing Ctrl-C again and
+    again had a press after the stopping kill the ending process, which then did not exit
+    with `main`'s status. SIGTERM then ends the process at once, as it ends any: a shutdown
+    that hangs can still be stopped without SIGKILL."""
+    global _AS_PROGRAM
+    _AS_PROGRAM = True
     status = main()
-    if status in (EXIT_INTERRUPTED, EXIT_TERMINATED) and \
-            threading.current_thread() is threading.main_thread():
-        for number in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(number, signal.SIG_IGN)
+    if status in (EXIT_INTERRUPTED, EXIT_TERMINATED):
+        _deaf_while_ending()
     return status
+
+
+_AS_PROGRAM = False  # `main` runs as the process's program, not called by other code
+
+
+def _deaf_while_ending() -> None:
+    """A stopped program: Ctrl-C goes unheard from now on, SIGTERM kills. Only as the program:
+    code that calls `main` (tests among it) keeps its handlers."""
+    if _AS_PROGRAM and threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 def _exit_status(argv: Sequence[str] | None) -> int:
@@ -112,9 +124,11 @@ def _exit_status(argv: Sequence[str] | None) -> int:
         _discard_stdout()
         return EXIT_BROKEN_PIPE
     except Terminated:
+        _deaf_while_ending()
         _say("terminated")
         return EXIT_TERMINATED
     except KeyboardInterrupt:
+        _deaf_while_ending()
         _say("interrupted")
         return EXIT_INTERRUPTED
     except HuberoError as exc:

@@ -2,10 +2,11 @@
 
 Every variant of every file runs (or the one named with --variant); the exit status is 0 when
 every run completed and every expectation held, 1 otherwise, 2 for bad input. A file that does
-not compile, or a run that ends in an error (a robot's controller that raised), is an ERROR line
-counted as failed, and the other files and runs go on. `--controller ROBOT=...` hands the class
-to that robot in every file that has one. `--junit-xml REPORT.xml` also writes the verdicts as a
-JUnit XML report (one test case a run), which CI systems show beside their own tests.
+not compile, or a run that ends in an error (a controller or planner plugin that raised), is
+an ERROR line counted as failed, and the other files and runs go on. `--controller
+ROBOT=...` hands the class to that robot in every file that has one. `--junit-xml
+REPORT.xml` also writes the verdicts as a JUnit XML report (one test case a run), which CI
+systems show beside their own tests.
 """
 
 from __future__ import annotations
@@ -56,7 +57,8 @@ def run(args: argparse.Namespace) -> int:
     controllers = handed_controllers(args)
     if args.variant is not None:
         args.all_variants = False
-    programs, outcomes = _compiled(args.files, console)
+    files = distinct_files(args.files)
+    programs, outcomes = _compiled(files, console)
     # the options are checked against every file before anything runs
     planned = [(file, program, _variants(file, program, args)) for file, program in programs]
     robots = {robot.name for _, program, _ in planned for robot in program.robots}
@@ -71,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     failures = sum(o.verdict != "pass" for o in outcomes)
     console.print(f"{len(outcomes) - failures} passed, {failures} failed")
     if args.junit_xml is not None:  # in the files' order, as they were given
-        order = {file: index for index, file in enumerate(distinct_files(args.files))}
+        order = {file: index for index, file in enumerate(files)}
         write_report(args.junit_xml, sorted(outcomes, key=lambda o: order[o.file]))
     unreadable = any(o.case == UNREADABLE for o in outcomes)
     return 2 if unreadable else 1 if failures else 0
@@ -85,12 +87,11 @@ def _compiled(files: list[str], console: Console) -> tuple[list[tuple[str, Progr
 
     from hubero_dsl.cli.diagnostic_formats import report_error
     from hubero_dsl.errors import CompileError, HuberoError, InputError
-    from hubero_dsl.files import distinct_files
     from hubero_dsl.pipeline import compile_file
 
     programs: list[tuple[str, Program]] = []
     outcomes: list[TestOutcome] = []
-    for file in distinct_files(files):
+    for file in files:
         try:
             programs.append((file, compile_file(file)))
         except HuberoError as exc:

@@ -40,9 +40,10 @@ MIN_STEP, MAX_STEP = 1e-3, 1.0  # s: the range of `step`
 MAX_TICKS = 1e8  # ticks in a run (time_limit / step): about 14 h of computing at 2000 ticks/s
 MAX_VARIANTS = 10_000  # variants of a scenario (named variants times sweep values)
 MAX_HUMANS = 20_000    # humans of a scenario, crowds included (a log has 65,535 channels)
-# People and robots times ticks: what a run computes and logs grows with both, and each bound
-# alone lets their product reach 1e10 (10,000 people for 1e6 s at a 1 s step, a log of more
-# than a terabyte). 5e8 is 10,000 people for 42 min at the default step, or 1,000 for 7 h.
+# People and robots times ticks: what a run computes and logs grows with both, and the other
+# bounds alone let their product reach 2e12 (20,000 humans for 1e8 ticks; 10,000 people for
+# 1e6 s at a 1 s step are already 1e10 and a log of more than a terabyte). 5e8 is 10,000
+# people for 42 min at the default step, or 1,000 for 7 h.
 MAX_BODY_TICKS = 5e8
 TARGETS = (NameKind.PLACE, NameKind.HUMAN, NameKind.ROBOT, NameKind.GROUP)
 

@@ -71,11 +71,15 @@ def check_bodies(grid: OccupancyGrid,
     from hubero_dsl.errors import MapError
 
     all_fit = True
+    # each body judged from the cells around it, while those are fewer than the map's: for
+    # more, the map's distance field, built once, costs less
+    reach = math.ceil(max((b[2] for b in bodies), default=0.0) / grid.resolution)
+    by_window = len(bodies) * (2 * reach + 3) ** 2 < grid.occupied.size
     for what, (x, y), radius, span in bodies:
         if not (bool(grid.contains((x, y))) and bool(grid.is_free((x, y)))):
             all_fit = False
             continue
-        if grid.body_fits((x, y), radius):
+        if by_window and grid.body_fits((x, y), radius):
             continue
         try:
             (fx, fy), distance = grid.nearest_free((x, y), radius)

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import fields, is_dataclass, replace
-from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
+from typing import TYPE_CHECKING, Any, ClassVar, TypeVar, cast
 
 import numpy as np
 
@@ -31,12 +31,12 @@ from hubero_dsl.planners.base import (
     PlannerParams,
     joined_planner,
 )
+from hubero_dsl.planners.registry import OWN_PACKAGE
 
 if TYPE_CHECKING:
     from hubero_dsl.world.grid import OccupancyGrid
 
 T = TypeVar("T")
-OWN_MODULES = "hubero_dsl."
 
 
 class PlannerError(SimulationError):
@@ -49,7 +49,7 @@ class PlannerError(SimulationError):
 
 def is_plugin(cls: type) -> bool:
     """Whether a planner class is a third party's, not one of hubero's own."""
-    return not cls.__module__.startswith(OWN_MODULES)
+    return not cls.__module__.startswith(OWN_PACKAGE)
 
 
 def built(kind: str, name: str, build: Callable[[], T]) -> T:
@@ -64,22 +64,26 @@ def built(kind: str, name: str, build: Callable[[], T]) -> T:
 
 
 def guarded_global(planner: GlobalPlanner, name: str, grid: OccupancyGrid) -> GlobalPlanner:
-    return GuardedGlobalPlanner(planner, name, grid) if is_plugin(type(planner)) else planner
+    if not is_plugin(type(planner)):
+        return planner
+    # its `name` is the plugin's, an instance's attribute where the protocol has a class's
+    return cast(GlobalPlanner, GuardedGlobalPlanner(planner, name, grid))
 
 
 def guarded_local(planner: LocalPlanner, name: str) -> LocalPlanner:
-    return GuardedLocalPlanner(planner, name) if is_plugin(type(planner)) else planner
+    if not is_plugin(type(planner)):
+        return planner
+    return cast(LocalPlanner, GuardedLocalPlanner(planner, name))
 
 
 class GuardedGlobalPlanner:
     """A global planner plugin whose plans are checked: points of the map, finite."""
 
-    name: ClassVar[str] = "guarded"
     Params: ClassVar[type[PlannerParams]] = PlannerParams
 
     def __init__(self, inner: GlobalPlanner, name: str, grid: OccupancyGrid) -> None:
         self.inner = inner
-        self.planner = name
+        self.name = name  # the plugin's, for messages and for whoever asks
         xmin, ymin, xmax, ymax = grid.bounds
         margin = grid.resolution
         self._bounds = (xmin - margin, ymin - margin, xmax + margin, ymax + margin)
@@ -95,7 +99,7 @@ class GuardedGlobalPlanner:
         except OUTSIDE_STOPS:
             raise
         except BaseException as exc:  # user code
-            raise PlannerError(f"global planner '{self.planner}', asked for {asked}, raised "
+            raise PlannerError(f"global planner '{self.name}', asked for {asked}, raised "
                                f"{failure_of(exc)}") from None
         return Plan(self._waypoints(answer, asked))
 
@@ -104,11 +108,11 @@ class GuardedGlobalPlanner:
         xmin, ymin, xmax, ymax = self._bounds
         if waypoints is None or waypoints.ndim != 2 or waypoints.shape[1:] != (2,) \
                 or not len(waypoints) or not np.isfinite(waypoints).all():
-            raise PlannerError(f"global planner '{self.planner}', asked for {asked}, returned "
+            raise PlannerError(f"global planner '{self.name}', asked for {asked}, returned "
                                f"{shown(answer)}, not a Plan of (K, 2) finite waypoints")
         x, y = waypoints[:, 0], waypoints[:, 1]
         if ((x < xmin) | (x > xmax) | (y < ymin) | (y > ymax)).any():
-            raise PlannerError(f"global planner '{self.planner}', asked for {asked}, returned "
+            raise PlannerError(f"global planner '{self.name}', asked for {asked}, returned "
                                f"waypoints outside the map (x {xmin:g} .. {xmax:g}, y "
                                f"{ymin:g} .. {ymax:g} m)")
         return waypoints
@@ -118,33 +122,32 @@ class GuardedLocalPlanner:
     """A local planner plugin that reads the crowd without writing it, and whose velocities
     are checked: one finite pair per human steered, capped at the human's `max_speed`."""
 
-    name: ClassVar[str] = "guarded"
     Params: ClassVar[type[PlannerParams]] = PlannerParams
 
     def __init__(self, inner: LocalPlanner, name: str) -> None:
         self.inner = inner
-        self.planner = name
+        self.name = name  # the plugin's, for messages and for whoever asks
 
     @classmethod
     def joined(cls, planners: list[GuardedLocalPlanner]) -> GuardedLocalPlanner | None:
         """The plugin's own joined planner, guarded, when its class offers one."""
-        name = planners[0].planner
+        name = planners[0].name
         inner = built("local", name, lambda: joined_planner([p.inner for p in planners]))
         return None if inner is None else cls(inner, name)
 
     def velocities(self, crowd: Crowd, drive: Drive, dt: float) -> FloatArray:
         try:
-            answer = self.inner.velocities(_read_only(crowd), _read_only(drive), dt)
+            answer = self.inner.velocities(_read_only_copy(crowd), _read_only_copy(drive), dt)
         except OUTSIDE_STOPS:
             raise
         except BaseException as exc:  # user code
-            raise PlannerError(f"local planner '{self.planner}' raised "
+            raise PlannerError(f"local planner '{self.name}' raised "
                                f"{failure_of(exc)}") from None
         velocity = _floats(answer)
         steered = len(drive.index)
         if velocity is None or velocity.shape != (steered, 2) or \
                 not np.isfinite(velocity).all():
-            raise PlannerError(f"local planner '{self.planner}' returned {shown(answer)}, "
+            raise PlannerError(f"local planner '{self.name}' returned {shown(answer)}, "
                                f"not a ({steered}, 2) array of finite velocities")
         speed = np.hypot(velocity[:, 0], velocity[:, 1])
         over = speed > drive.max_speed
@@ -165,7 +168,7 @@ def _floats(value: object) -> FloatArray | None:
     return array
 
 
-def _read_only(snapshot: Any) -> Any:
+def _read_only_copy(snapshot: Any) -> Any:
     """A dataclass of arrays with read-only copies of the arrays: writing into one by mistake
     raises, and writing into one on purpose moves nobody."""
     def copied(value: Any) -> Any:
@@ -173,7 +176,7 @@ def _read_only(snapshot: Any) -> Any:
             copy = value.copy()
             copy.flags.writeable = False
             return copy
-        return _read_only(value) if is_dataclass(value) and not isinstance(value, type) \
+        return _read_only_copy(value) if is_dataclass(value) and not isinstance(value, type) \
             else value
 
     return replace(snapshot, **{f.name: copied(getattr(snapshot, f.name))

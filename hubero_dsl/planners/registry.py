@@ -71,13 +71,23 @@ def _checked(loaded: object, what: str, method: str) -> type:
     except OUTSIDE_STOPS:
         raise
     except ValidationError as exc:
-        missing = ", ".join(".".join(map(str, e["loc"])) for e in exc.errors())
-        raise InputError(f"{what}: its `Params` must give every field a default, as hubero "
-                         f"builds it with none given; these have none: {missing}") from None
+        missing = [".".join(map(str, e["loc"])) for e in exc.errors() if e["type"] == "missing"]
+        if missing:
+            raise InputError(f"{what}: its `Params` must give every field a default, as "
+                             "hubero builds it with none given; these have none: "
+                             f"{', '.join(missing)}") from None
+        problems = "; ".join(f"{'.'.join(map(str, e['loc'])) or 'Params'}: {e['msg']}"
+                             for e in exc.errors())
+        raise InputError(f"{what}: its `Params` cannot be built with no values: "
+                         f"{problems}") from None
     except BaseException as exc:  # user code
         raise InputError(f"{what}: its `Params` cannot be built with no values: "
-                         f"{failure_of(exc)}") from None
+                         f"{_first_line(failure_of(exc))}") from None
     return loaded
+
+
+def _first_line(text: str) -> str:
+    return text.splitlines()[0] if text else text
 
 
 def check_plugin(kind: str, name: str) -> None:
@@ -90,7 +100,7 @@ def check_plugin(kind: str, name: str) -> None:
         _load(group, name)
 
 
-OWN_PACKAGE = "hubero_dsl."
+OWN_PACKAGE = "hubero_dsl."  # hubero's own planners' modules: not plugins
 
 
 def global_planner_names() -> list[str]:

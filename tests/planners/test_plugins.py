@@ -8,6 +8,7 @@ The plugins are registered here as entry points would register them (`plugin_pla
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from importlib.metadata import EntryPoint
 from pathlib import Path
 
@@ -27,7 +28,7 @@ WALK = "activity { actor1 move_to (5.0, 1.2) }\n"
 
 
 @pytest.fixture(autouse=True)
-def installed(monkeypatch: pytest.MonkeyPatch) -> None:
+def installed(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
     """hubero's own planners and the test's, as if a package had registered them."""
     own = {group: registry._entry_points(group) for group in
            (registry.GLOBAL_GROUP, registry.LOCAL_GROUP)}
@@ -38,6 +39,8 @@ def installed(monkeypatch: pytest.MonkeyPatch) -> None:
               for group in own}
     monkeypatch.setattr(registry, "_entry_points", lambda group: points[group])
     registry._load.cache_clear()  # nothing loaded under these names before counts
+    yield
+    registry._load.cache_clear()  # and the test's planners stay nobody else's
 
 
 def defaults(global_planner: str = "navfn", local_planner: str = "social_force") -> str:

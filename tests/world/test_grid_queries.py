@@ -259,3 +259,21 @@ def test_one_point_and_a_few_segments_get_the_arrays_answers(seed: int) -> None:
                 in zip(chunk.tolist(), ends.tolist(), strict=True)] == expected
         crossed_some |= any(expected) and not all(expected)
     assert crossed_some
+
+
+def test_nearest_others_by_all_distances_and_by_a_tree_agree(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from hubero_dsl.lang import placement
+
+    rng = np.random.default_rng(5)
+    centres = rng.uniform(0.0, 10.0, size=(300, 2))
+    centres[7] = centres[3]  # two bodies on one spot
+    pairwise = placement._nearest_others(centres)
+    monkeypatch.setattr(placement, "PAIRWISE_AT_MOST", 0)
+    tree = placement._nearest_others(centres)
+    np.testing.assert_allclose(pairwise[0], tree[0], rtol=0, atol=1e-12)
+    # the same other, or one as near (the bodies 3 and 7 share a spot: a tie for their
+    # neighbours)
+    to_others = np.hypot(*(centres - centres[tree[1]]).T)
+    np.testing.assert_allclose(to_others, pairwise[0], rtol=0, atol=1e-12)
+    assert pairwise[0][3] == pairwise[0][7] == 0.0 and pairwise[1][3] == 7
