@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from hubero_dsl.world.grid import OccupancyGrid
 
 FREE, OCCUPIED, UNKNOWN = (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), (0.62, 0.62, 0.62)
-MAX_LABELLED = 60  # starts labelled by name; a crowd's members beyond are dots
+MAX_LABELLED = 60  # humans outside crowds and flows named at their starts; those beyond are dots
 
 
 def map_colours(grid: OccupancyGrid) -> np.ndarray:
