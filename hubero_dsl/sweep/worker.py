@@ -95,7 +95,7 @@ def error_record(variant: str | None, seed: int, reason: str) -> RunRecord:
 def execute_run(task: RunTask) -> RunRecord:
     """Run one variant with one seed into its log; every failure becomes the record's reason."""
     try:
-        with _running():
+        with _running(task.log_path):
             return _execute(task)
     except WorkerTerminated:
         # The log writer has dropped its temporary file on the way out; leave at once, as the
@@ -173,7 +173,7 @@ class WorkerTerminated(Stopped):
     """Raised in a worker process's run by SIGTERM: the sweep was stopped."""
 
 
-_state = {"running": False}
+_state: dict[str, Any] = {"running": False, "log": None}  # the run under way, and its log
 
 
 def install_worker_signals(parent: int | None = None) -> None:
@@ -192,7 +192,22 @@ def _watch(parent: int) -> None:
         time.sleep(PARENT_POLL)
     _thread.interrupt_main(signal.SIGTERM)
     time.sleep(5.0)  # the run's clean-up has had its chance
+    _drop_own_temporary_log()  # the stop was lost (raised where it could not be) or is slow
     os._exit(EXIT_TERMINATED)
+
+
+def _drop_own_temporary_log() -> None:
+    """Remove the temporary log this process was writing, if it is still there."""
+    from hubero_dsl.log.writer import temporary_logs
+
+    log = _state["log"]
+    if not isinstance(log, str):
+        return
+    mine = f".{os.getpid()}."
+    for temp in temporary_logs(Path(log)):
+        if mine in temp.name:
+            with contextlib.suppress(OSError):
+                temp.unlink()
 
 
 def _alive(pid: int) -> bool:
@@ -212,9 +227,9 @@ def _on_terminate(signum: int, frame: Any) -> None:
 
 
 @contextlib.contextmanager
-def _running() -> Iterator[None]:
-    _state["running"] = True
+def _running(log: str) -> Iterator[None]:
+    _state["running"], _state["log"] = True, log
     try:
         yield
     finally:
-        _state["running"] = False
+        _state["running"], _state["log"] = False, None

@@ -244,3 +244,21 @@ def test_a_script_without_a_main_guard_ends_with_a_reason_instead_of_restarting_
     reasons = json.loads(done.stdout.strip().splitlines()[-1])
     assert reasons and set(reasons) == {WORKERS_DIE}
     assert not [p for p in (tmp_path / "out").rglob("*") if p.name.endswith(".part")]
+
+
+def test_a_worker_whose_stop_was_lost_removes_its_own_temporary_log_as_it_ends(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # a sweep killed outright: the worker's stop can be lost (raised where it cannot be) or
+    # slow, and it ended without its clean-up, its `.part` left behind
+    import os
+
+    from hubero_dsl.sweep import worker
+
+    log = tmp_path / "seed-1.mcap"
+    mine = tmp_path / f".seed-1.mcap.{os.getpid()}.0.part"
+    another = tmp_path / f".seed-1.mcap.{os.getpid() + 1}.0.part"  # another worker's
+    for temp in (mine, another):
+        temp.write_bytes(b"")
+    monkeypatch.setitem(worker._state, "log", str(log))
+    worker._drop_own_temporary_log()
+    assert not mine.exists() and another.exists()
