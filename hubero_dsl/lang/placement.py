@@ -90,11 +90,14 @@ def check_bodies(grid: OccupancyGrid,
             continue
         if distance > 0:
             all_fit = False
-            clearance = float(grid.clearance_at((x, y)))
+            # the clearance that decided: its cell's centre's (between cells' centres, the
+            # point's own could read more than the radius, beside "does not fit")
+            row, col = (int(i) for i in grid.world_to_cell((x, y)))
+            clearance = float(grid.clearance[row, col])
             origin = (origins or {}).get(what, "")
             diagnostics.append(error(
-                "E405", f"{what} ({x:g}, {y:g}) is {clearance:.2f} m from an obstacle; a body "
-                f"of radius {radius:g} m{origin} does not fit", span,
+                "E405", f"{what} ({x:g}, {y:g}) is {clearance:.2f} m from an obstacle at its "
+                f"cell's centre; a body of radius {radius:g} m{origin} does not fit", span,
                 f"the nearest point where it fits is {distance:.2f} m away, at "
                 f"({fx:.2f}, {fy:.2f})"))
     return all_fit
