@@ -46,7 +46,6 @@ if TYPE_CHECKING:
     from hubero_dsl.controllers.base import RobotController
     from hubero_dsl.diagnostics import Span
     from hubero_dsl.model.tasks import Task
-    from hubero_dsl.world.grid import OccupancyGrid
 
 
 def stable_seed(*parts: int | str) -> list[int]:
@@ -103,15 +102,9 @@ class GlobalPlanners:
         kept = self._kept.get(key)
         if kept is not None:
             return kept
-        cls = global_planner(key[0])
-        params = cls.Params.model_validate(dict(key[1]))
-        share = getattr(cls, "for_sharing", None)
-        if share is None:
-            return _global_planner_built(key[0], lambda: cls(program.grid, params),
-                                         program.grid)
-        planner = _global_planner_built(key[0], lambda: share(program.grid, params),
-                                        program.grid)
-        self._kept[key] = planner
+        planner, shared = _new_global_planner(program, key, sharing=True)
+        if shared:
+            self._kept[key] = planner
         return planner
 
 
@@ -310,16 +303,20 @@ class Simulation:
     def _global_planner(self, key: PlannerKey) -> GlobalPlanner:
         if self._shared_planners is not None:
             return self._shared_planners.build(self.program, key)
-        cls = global_planner(key[0])
-        params = cls.Params.model_validate(dict(key[1]))
-        return _global_planner_built(key[0], lambda: cls(self.program.grid, params),
-                                     self.program.grid)
+        return _new_global_planner(self.program, key, sharing=False)[0]
 
 
-def _global_planner_built(name: str, build: Callable[[], GlobalPlanner],
-                          grid: OccupancyGrid) -> GlobalPlanner:
-    """A global planner `build` makes; a plugin's failures told as its own (`guard`)."""
-    return guarded_global(built("global", name, build), name, grid)
+def _new_global_planner(program: Program, key: PlannerKey, *,
+                       sharing: bool) -> tuple[GlobalPlanner, bool]:
+    """A new global planner for `key` (a name and its parameters) on the program's map, and
+    whether it may be shared: built by its class's `for_sharing` when `sharing` asks for it
+    and the class offers it. A plugin's failures are told as its own (`guard`)."""
+    cls = global_planner(key[0])
+    params = cls.Params.model_validate(dict(key[1]))
+    share = getattr(cls, "for_sharing", None) if sharing else None
+    build = cls if share is None else share
+    planner = built("global", key[0], lambda: build(program.grid, params))
+    return guarded_global(planner, key[0], program.grid), share is not None
 
 
 def crowds_placed(program: Program, seed: int) -> Program:
