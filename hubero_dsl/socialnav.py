@@ -154,7 +154,7 @@ def social_metrics(subject: Track, people: Sequence[Track], *,
         "jerk": _jerk(time, position),
         "social_work": float((FORCE_A * np.exp(-np.maximum(gaps, 0.0) / FORCE_B)
                               * weights).sum()) if len(people) else 0.0,
-        **_distance_extremes(nearest, centres, weights, total),
+        **_distance_extremes(nearest, centres, weights),
         **motion_metrics(time, position),
         "min_time_to_collision": _min_time_to_collision(subject, people, others),
         "social_force": _social_force(subject, others, gaps, centres, weights, total),
@@ -302,8 +302,8 @@ def _jerk(time: FloatArray, position: FloatArray) -> float:
     return float(np.hypot(derivative[:, 0], derivative[:, 1]).mean())
 
 
-def _distance_extremes(nearest: FloatArray, centres: FloatArray, weights: FloatArray,
-                       total: float) -> dict[str, float]:
+def _distance_extremes(nearest: FloatArray, centres: FloatArray, weights: FloatArray
+                       ) -> dict[str, float]:
     present = np.isfinite(nearest)
     if not present.any():
         return {"max_distance": math.inf, "avg_centre_distance": math.inf,

@@ -73,9 +73,9 @@ class Robots:
         self.personal_space = ShapeArrays.from_shapes([Circle(s.radius) for s in specs])
         self.commanded: dict[int, tuple[float, float]] = {}
         self.driven: dict[int, tuple[float, float]] = {}
-        self._holonomic = [i for i, s in enumerate(specs) if s.kinematics == "holonomic"]
         # which may slide along a wall that stops them: a unicycle cannot move sideways
         self.slides: BoolArray = np.array([s.kinematics == "holonomic" for s in specs], bool)
+        self._holonomic = np.flatnonzero(self.slides).tolist()
         self.controllers: list[RobotController] = [
             (controllers or {})[s.name] for s in specs] if count else []
         self.tasks: list[RobotTask | None] = [None] * count

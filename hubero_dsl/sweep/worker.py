@@ -173,7 +173,7 @@ class WorkerTerminated(Stopped):
     """Raised in a worker process's run by SIGTERM: the sweep was stopped."""
 
 
-_state: dict[str, Any] = {"running": False, "log": None}  # the run under way, and its log
+_state: dict[str, Any] = {"log": None}  # the log of the run under way; None between runs
 
 
 def install_worker_signals(parent: int | None = None) -> None:
@@ -221,15 +221,15 @@ def _alive(pid: int) -> bool:
 
 
 def _on_terminate(signum: int, frame: Any) -> None:
-    if _state["running"]:
+    if _state["log"] is not None:
         raise WorkerTerminated
     os._exit(EXIT_TERMINATED)  # idle between runs: nothing to clean up
 
 
 @contextlib.contextmanager
 def _running(log: str) -> Iterator[None]:
-    _state["running"], _state["log"] = True, log
+    _state["log"] = log
     try:
         yield
     finally:
-        _state["running"], _state["log"] = False, None
+        _state["log"] = None
