@@ -28,11 +28,11 @@ from hubero_dsl.analysis.plot import (
     View,
     colours,
     draw_map,
+    draw_robot_goals,
     people_legend,
     personal_space_of,
     place_legend,
     robot_colours,
-    robot_goals,
     run_title,
     set_colours,
 )
@@ -104,9 +104,7 @@ class _Scene:
             self.robots[name] = axes.add_patch(CirclePatch(
                 (0.0, 0.0), run.robots[name].radius or DEFAULT_ROBOT_RADIUS, facecolor=colour,
                 zorder=4))
-        for name, goal in robot_goals(run).items():
-            axes.plot(*goal, marker="X", markersize=10, color=palette[name],
-                      markeredgecolor="black", zorder=5)
+        draw_robot_goals(axes, run, palette)
         # the run's title and the time, one text above the map: a clock over the map hid a
         # corner of it, and one beside the title ran into a long title
         self.title = run_title(run)

@@ -220,6 +220,11 @@ def draw_robots(axes: Axes, run: LoggedRun, dashed: bool = False) -> None:
                       zorder=3)
             axes.plot(*robot.position[0], marker="s", markersize=7, color=palette[name],
                       zorder=5)
+    draw_robot_goals(axes, run, palette)
+
+
+def draw_robot_goals(axes: Axes, run: LoggedRun, palette: dict[str, Any]) -> None:
+    """Each robot's declared goal: a cross in its colour."""
     for name, goal in robot_goals(run).items():
         axes.plot(*goal, marker="X", markersize=10, color=palette[name],
                   markeredgecolor="black", zorder=5)

@@ -42,8 +42,7 @@ def drawn_graph(activities: Sequence[m.Activity]) -> nx.DiGraph:
 
 
 def _fold(step: m.Step) -> m.Step:
-    if isinstance(step, m.ParallelStep) and step.crowd is not None and \
-            (folded := _crowd_task(step, step.crowd)) is not None:
+    if isinstance(step, m.ParallelStep) and (folded := _crowd_task(step)) is not None:
         return folded
     match step:
         case m.ParallelStep() | m.RaceStep():
@@ -55,15 +54,15 @@ def _fold(step: m.Step) -> m.Step:
     return step
 
 
-def _crowd_task(step: m.ParallelStep, crowd: str) -> m.TaskStep | None:
+def _crowd_task(step: m.ParallelStep) -> m.TaskStep | None:
     """The members' one task as the crowd's, or None when they are not one task said alike
     (then the fork of members is drawn as it runs)."""
     words = crowd_words(step)
     if words is None:
         return None
     first = step.branches[0]
-    assert isinstance(first, m.TaskStep)
-    return replace(first, actor=crowd, span=step.span, label=step.label,
+    assert isinstance(first, m.TaskStep) and step.crowd is not None  # as crowd_words found
+    return replace(first, actor=step.crowd, span=step.span, label=step.label,
                    text=f"{words}, each of {len(step.branches)}")
 
 
