@@ -50,6 +50,7 @@ MAX_FRAMES = 120
 FPS = 10
 GIF_DPI = 70
 _NAMED_TRAIL = {"linewidth": 1.6}
+FIGURE_SPACE = "\u2007"
 
 
 def frame_times(run: LoggedRun, max_frames: int) -> FloatArray:
@@ -64,6 +65,12 @@ def frame_times(run: LoggedRun, max_frames: int) -> FloatArray:
     return np.linspace(every[0], every[-1], max_frames)
 
 
+def clock_text(when: float, digits: int) -> str:
+    """`when` to a tenth of a second, padded to `digits` characters with figure spaces (as
+    wide as a digit), so that the centred title does not shift as the clock's digits grow."""
+    return f"{when:.1f}".rjust(digits, FIGURE_SPACE)
+
+
 def _at(time: FloatArray, values: FloatArray, when: float) -> FloatArray:
     """Position (or heading) at `when`: the last logged frame not after it."""
     index = max(int(np.searchsorted(time, when, side="right")) - 1, 0)
@@ -74,8 +81,9 @@ class _Scene:
     """The artists of one replay, moved to each instant in turn."""
 
     def __init__(self, run: LoggedRun, axes: Any, palette: dict[str, Any],
-                 crowds: dict[str, Any]) -> None:
+                 crowds: dict[str, Any], last: float) -> None:
         self.run = run
+        self.clock_digits = len(f"{last:.1f}")  # the widest time shown, the last frame's
         self.trails: dict[str, Line2D] = {}
         self.bodies: dict[str, CirclePatch] = {}
         self.spaces: dict[str, Polygon] = {}
@@ -132,7 +140,7 @@ class _Scene:
                                                  robot.position[shown, 1])
                 where = _at(robot.time, robot.position, when)
                 self.robots[name].set_center((float(where[0]), float(where[1])))
-        self.clock.set_text(f"{self.title}, t = {when:.1f} s")
+        self.clock.set_text(f"{self.title}, t = {clock_text(when, self.clock_digits)} s")
         return [*self.trails.values(), *self.spaces.values(), *self.bodies.values(),
                 *self.robot_trails.values(), *self.robots.values(), self.clock]
 
@@ -150,9 +158,9 @@ def animate_run(run: LoggedRun, out: str | Path, *, max_frames: int = MAX_FRAMES
     figure, axes = View.around([run], whole_map).figure([str(h.get_label()) for h in handles])
     figure.set_dpi(GIF_DPI)
     draw_map(axes, run.grid)
-    scene = _Scene(run, axes, palette, crowds)
-    place_legend(figure, axes, handles)
     times = frame_times(run, max_frames)
+    scene = _Scene(run, axes, palette, crowds, float(times[-1]))
+    place_legend(figure, axes, handles)
     animation = FuncAnimation(figure, scene.show, frames=list(times), blit=False)
     # beside it first, then renamed: an interrupted animation leaves no half a GIF
     return write_replacing(Path(out), lambda temp: animation.save(

@@ -256,7 +256,7 @@ def test_a_replay_draws_robots_as_the_picture_does(build_run: Factory, track: Fa
     vacuum = replace(robot("vacuum", [0.0, 1.0, 2.0], [(0, 0), (1, 0), (2, 0)]), radius=0.17)
     run = build_run([track("h", [0.0, 2.0], [(0, 1), (2, 1)])], robots=[vacuum])
     axes = Figure().add_subplot()
-    scene = _Scene(run, axes, {"h": "tab:blue"}, {})
+    scene = _Scene(run, axes, {"h": "tab:blue"}, {}, 2.0)
     scene.show(1.0)
     assert scene.robots["vacuum"].radius == pytest.approx(0.17)
     assert np.asarray(scene.robot_trails["vacuum"].get_xdata()).tolist() == [0.0, 1.0]
@@ -274,10 +274,32 @@ def test_a_replays_clock_is_above_the_map_not_over_it(build_run: Factory,
     figure = Figure()
     canvas = FigureCanvasAgg(figure)
     axes = figure.add_subplot()
-    scene = _Scene(run, axes, {"h": "tab:blue"}, {})
+    scene = _Scene(run, axes, {"h": "tab:blue"}, {}, 2.0)
     scene.show(1.0)
     assert scene.clock.get_text().endswith(", t = 1.0 s")
     canvas.draw()  # the title's place is decided as the figure is drawn
     renderer = canvas.get_renderer()
     clock, map_area = scene.clock.get_window_extent(renderer), axes.get_window_extent(renderer)
     assert clock.y0 >= map_area.y1
+
+
+def test_a_replays_title_keeps_its_place_as_the_clock_grows(build_run: Factory,
+                                                            track: Factory) -> None:
+    # a centred title whose clock went from 9.9 to 10.0 s moved half a digit to the left
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from hubero_dsl.analysis.animate import _Scene
+
+    run = build_run([track("h", [0.0, 120.0], [(0, 1), (2, 1)])])
+    figure = Figure()
+    canvas = FigureCanvasAgg(figure)
+    scene = _Scene(run, figure.add_subplot(), {"h": "tab:blue"}, {}, 120.0)
+    extents = []
+    for when in (0.0, 9.9, 10.0, 120.0):
+        scene.show(when)
+        canvas.draw()
+        extents.append(scene.clock.get_window_extent(canvas.get_renderer()))
+    assert {(round(e.x0, 3), round(e.x1, 3)) for e in extents} == {
+        (round(extents[0].x0, 3), round(extents[0].x1, 3))}
+    assert scene.clock.get_text().endswith(", t = 120.0 s")
