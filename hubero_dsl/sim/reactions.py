@@ -16,6 +16,12 @@ another reaction have that velocity adjusted while a robot is near (surface gap 
   moving robot) for up to `MENACE` seconds, then carries on.
 
 An encounter ends when the robot is more than `FORGOTTEN` away. All of it is deterministic.
+
+A reaction that sends a person somewhere (approach, step into the way) sets the velocity the
+person wants; the person changes its velocity towards it by at most its desired speed per
+relaxation time (about 2.5 m/s^2 by default), and slows down on arriving within `ARRIVING` of
+the point it goes to. Set outright, a threatening person ahead of a turning robot turned round
+within a tick, at tens of m/s^2. A surprised person freezes: it stops within the tick.
 """
 
 from __future__ import annotations
@@ -37,6 +43,7 @@ CLOSE = 0.6           # m: the gap a curious human keeps
 MENACE = 40.0         # s a threatening human blocks a robot's way (HuNavSim's BT timer)
 SCARED_PUSH = 1.5     # m/s away from a robot at contact
 SCARED_RANGE = 1.0    # m over which that push decays (e-fold)
+ARRIVING = 0.5        # m: nearer than this to its point, a reacting person slows (as walkers do)
 
 
 class Reactions:
@@ -93,7 +100,9 @@ class Reactions:
             if not self.spent[i]:
                 self.spent[i], self.until[i] = True, tick + round(CURIOSITY / self.dt)
             if self.until[i] > tick:
-                return toward * speed if gap > CLOSE else np.zeros(2)
+                # up to CLOSE from the robot, slowing on the way there
+                wanted = toward * speed * min(1.0, max(gap - CLOSE, 0.0) / ARRIVING)
+                return self._relaxed(i, wanted, humans)
             return velocity
         # threatening: to the point just ahead of the robot, in its way, for MENACE seconds
         # of an encounter (HuNavSim's timer), then its own way again
@@ -105,7 +114,16 @@ class Reactions:
         ahead = robot + robot_velocity / moving * (float(humans.radius[i]) + 0.8)
         way = ahead - humans.position[i]
         distance = float(np.hypot(*way))
-        return way / distance * speed if distance > 0.1 else np.zeros(2)
+        wanted = way / max(distance, 1e-9) * speed * min(1.0, distance / ARRIVING)
+        return self._relaxed(i, wanted, humans)
+
+    def _relaxed(self, i: int, wanted: FloatArray, humans: HumanArrays) -> FloatArray:
+        """Human i's velocity this tick on its way to `wanted`: changed by at most its desired
+        speed per relaxation time (reaching `wanted` exactly, unlike an exponential approach,
+        so that a stop is a stop)."""
+        current = humans.velocity[i]
+        most = self.dt * float(humans.desired_speed[i]) / float(humans.relaxation_time[i])
+        return current + _capped(wanted - current, most)
 
 
 def _capped(velocity: FloatArray, limit: float) -> FloatArray:

@@ -3,6 +3,7 @@ y = 4 while a person crosses its way (from (5, 7) to (5, 1)) or walks at it head
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 
@@ -73,6 +74,20 @@ def test_a_threatening_person_steps_into_the_robots_way(room_map: Path) -> None:
     threatening = _run(room_map, "threatening", CROSSING)
     assert _closest(threatening) < regular - 0.8
     assert _closest(threatening) > -0.05
+
+
+@pytest.mark.parametrize("reaction", ["curious", "threatening"])
+@pytest.mark.parametrize("setup", [CROSSING, HEAD_ON], ids=["crossing", "head-on"])
+def test_a_reaction_changes_a_walk_as_a_person_could(room_map: Path, reaction: str,
+                                                     setup: tuple[str, str]) -> None:
+    """Out of contact, a person sent somewhere by its reaction speeds up, turns and stops at
+    a walker's accelerations (regular walkers here: under 2.6 m/s^2): set outright, the
+    velocity a threatening person wanted ahead of a turning robot reversed within a tick, at
+    tens of m/s^2."""
+    samples = _run(room_map, reaction, setup)
+    for (gap, speed, _, _), (next_gap, next_speed, _, _) in itertools.pairwise(samples):
+        if min(gap, next_gap) > 0.3:  # a touch, or the robot's push at close range, aside
+            assert abs(next_speed - speed) / 0.05 < 5.0
 
 
 def test_an_unknown_reaction_is_reported(room_map: Path) -> None:
