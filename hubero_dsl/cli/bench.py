@@ -10,7 +10,12 @@ and, with --controller, with yours beside them; with --seeds, every variant with
 OUT/NAME.png per scenario, OUT/summary.csv and OUT/summary.md, and the logs under OUT/runs/.
 
 Exit 0 when every run completed and met its expectations, 1 when any did not (a controller
-that raises is reported in its run's row and the bench goes on), 2 for bad input.
+that raises is reported in its run's row and the bench goes on), 2 for bad input, 130 when
+interrupted (143 for SIGTERM): the tables are written with the runs that had not finished as
+`interrupted`, so a summary never reads as whole when it is not.
+
+The tables and pictures are written over earlier ones of `hubero bench` only, never over
+other files, and never into the suite's own folder.
 """
 
 from __future__ import annotations
@@ -40,16 +45,23 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     from hubero_dsl.cli.console import make_console
+    from hubero_dsl.cli.main import EXIT_INTERRUPTED, EXIT_TERMINATED
     from hubero_dsl.cli.run import handed_controllers
     from hubero_dsl.errors import InputError
     from hubero_dsl.sweep.bench import (
+        INTERRUPTED,
         find_suite,
         plot_paths,
         robots_of,
         run_bench,
         write_tables,
     )
-    from hubero_dsl.sweep.executors import available_cores, check_jobs, open_executor
+    from hubero_dsl.sweep.executors import (
+        available_cores,
+        check_jobs,
+        open_executor,
+        stopped_once,
+    )
     from hubero_dsl.sweep.plan import parse_seeds, variant_label
 
     check_jobs(args.jobs)
@@ -60,36 +72,59 @@ def run(args: argparse.Namespace) -> int:
     if unknown:
         raise InputError(f"--controller: no robot named '{unknown[0]}' in every scenario of "
                          f"{args.folder}")
-    _refuse_writing_over_inputs(scenarios, args.out_dir)
+    _check_out_dir(args.folder, scenarios, args.out_dir)
     args.out_dir.mkdir(parents=True, exist_ok=True)
-    with open_executor("process", jobs=args.jobs or available_cores()) as executor:
-        rows = run_bench(scenarios, args.out_dir, executor, controllers=controllers,
-                         seeds=seeds)
-    written = write_tables(rows, args.out_dir) + plot_paths(rows, args.out_dir)
-    console = make_console()
-    for row in rows:
-        if not row.succeeded:
-            console.print(f"{row.scenario} [{variant_label(row.variant)}] seed {row.seed} "
-                          f"{row.controller}: "
-                          f"{row.status}: {row.reason or 'an expectation failed'}",
-                          highlight=False, soft_wrap=True,
-                          markup=False)
-    console.print(f"{len(rows)} runs; {sum(r.succeeded for r in rows)} ok; wrote "
-                  f"{len(written)} files to {args.out_dir}", highlight=False, soft_wrap=True)
+    with stopped_once():  # once stopped, deaf until the tables are written and said
+        with open_executor("process", jobs=args.jobs or available_cores()) as executor:
+            outcome = run_bench(scenarios, args.out_dir, executor, controllers=controllers,
+                                seeds=seeds)
+        rows = outcome.rows
+        written = write_tables(rows, args.out_dir) + plot_paths(rows, args.out_dir)
+        console = make_console()
+        for row in rows:
+            if not row.succeeded and row.status != INTERRUPTED:
+                console.print(f"{row.scenario} [{variant_label(row.variant)}] seed {row.seed} "
+                              f"{row.controller}: "
+                              f"{row.status}: {row.reason or 'an expectation failed'}",
+                              highlight=False, soft_wrap=True, markup=False)
+        ran = sum(r.status != INTERRUPTED for r in rows)
+        console.print(f"{ran} runs; {sum(r.succeeded for r in rows)} ok; wrote "
+                      f"{len(written)} files to {args.out_dir}", highlight=False,
+                      soft_wrap=True)
+        if not outcome.complete:
+            stop = "terminated" if outcome.terminated else "interrupted"
+            make_console(stderr=True).print(
+                f"hubero: {stop}: {ran} of {len(rows)} runs finished; the tables mark the "
+                f"others {INTERRUPTED}", highlight=False, soft_wrap=True)
+            return EXIT_TERMINATED if outcome.terminated else EXIT_INTERRUPTED
     return 0 if all(r.succeeded for r in rows) else 1
 
 
-def _refuse_writing_over_inputs(scenarios: list[Path], out_dir: Path) -> None:
-    """The tables and pictures the bench writes (OUT/NAME.csv, .md, .png and the summary's)
-    must not land on a scenario, its map or its map's image (a suite's folder as OUT)."""
-    from hubero_dsl.files import check_output
+def _check_out_dir(folder: Path, scenarios: list[Path], out_dir: Path) -> None:
+    """The bench's tables and pictures (OUT/NAME.csv, .md, .png and the summary's) go into a
+    folder that is not the suite's, over files of the bench's own only, and never onto a
+    scenario, its map or its map's image."""
+    from hubero_dsl.errors import InputError
+    from hubero_dsl.files import PNG_MAGIC, check_output, refuse_other_kind
     from hubero_dsl.pipeline import compile_file
+    from hubero_dsl.sweep.bench import COLUMNS
     from hubero_dsl.world.mapfile import map_files
 
+    # how each of the bench's own tables and pictures begins: it writes over these only
+    own = {".csv": ",".join(COLUMNS[:4]).encode(),
+           ".md": ("| " + " | ".join(COLUMNS[:4])).encode(), ".png": PNG_MAGIC}
+
+    if out_dir.exists() and not out_dir.is_dir():
+        raise InputError(f"{out_dir}: cannot be the bench's output folder (it is a file)")
     if not out_dir.is_dir():
         return  # a new folder holds no input
+    if out_dir.samefile(folder):
+        raise InputError(f"{out_dir}: is the suite's own folder: give the tables another "
+                         "with -o")
     reads = [file for scenario in scenarios
              for file in (scenario, *map_files(compile_file(scenario).map_path))]
     for name in [*(scenario.stem for scenario in scenarios), "summary"]:
-        for suffix in (".csv", ".md", ".png"):
+        for suffix, beginning in own.items():
             check_output(out_dir / f"{name}{suffix}", reads)
+            refuse_other_kind(out_dir / f"{name}{suffix}", beginning,
+                              "a table or picture of hubero bench", "give another -o")

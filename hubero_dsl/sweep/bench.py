@@ -23,7 +23,8 @@ from hubero_dsl.log.reader import LoggedRun, load_run
 from hubero_dsl.pipeline import compile_file
 from hubero_dsl.sweep.index import write_atomically
 from hubero_dsl.sweep.plan import plan_sweep, variant_label
-from hubero_dsl.sweep.runner import prepare_out_dir, run_sweep
+from hubero_dsl.sweep.runner import SweepOutcome, prepare_out_dir, run_sweep
+from hubero_dsl.sweep.worker import RunRecord
 
 REFERENCE, YOURS = "reference", "yours"
 METRICS = ("min_distance", "collisions", "intimate_intrusions", "personal_intrusions",
@@ -72,32 +73,60 @@ def robots_of(scenarios: Sequence[Path]) -> set[str]:
     return set.intersection(*names) if names else set()
 
 
+@dataclass(frozen=True, slots=True)
+class BenchOutcome:
+    """The rows of every planned run, in plan order; when the bench was stopped, the runs that
+    had not finished are rows with the status INTERRUPTED."""
+
+    rows: list[BenchRow]
+    complete: bool
+    terminated: bool = False  # stopped by SIGTERM, not Ctrl-C
+
+
+INTERRUPTED = "interrupted"
+
+
 def run_bench(scenarios: Sequence[Path], out_dir: Path, executor: Executor, *,
-              controllers: Mapping[str, type], seeds: Sequence[int] = ()) -> list[BenchRow]:
+              controllers: Mapping[str, type], seeds: Sequence[int] = ()) -> BenchOutcome:
     """Every scenario's every variant (with each of `seeds`, else the scenario's own seed) with
     the reference, then (when given) the caller's controllers; a run that goes wrong is a row,
-    never an exception."""
+    never an exception. Stopped (Ctrl-C, SIGTERM), it runs nothing more."""
     rows: list[BenchRow] = []
     sides: list[tuple[str, dict[str, type]]] = [(REFERENCE, {})]
     if controllers:
         sides.append((YOURS, dict(controllers)))
+    stopped: SweepOutcome | None = None
     for path in scenarios:
         program = compile_file(path)
         plan = plan_sweep(path, program, list(program.variants) or [None],
                           tuple(seeds) or (program.seed,))
         robots = sorted(robot.name for robot in program.robots)
         for side, handed in sides:
-            folder = out_dir / "runs" / path.stem / side
-            prepare_out_dir(plan, folder)
-            outcome = run_sweep(plan, folder, executor, metrics=None, controllers=handed)
-            for record in outcome.records:
-                log = str(folder / record.log) if record.log else None
-                metrics, ended, hits = _measure(log, robots)
-                rows.append(BenchRow(path.stem, record.variant, side, record.status,
-                                     record.succeeded, record.reason, metrics, log,
-                                     record.seed, ended or _no_log_cause(record.status),
-                                     "true" if ended == "reached_goal" else "false", hits))
-    return rows
+            finished: dict[tuple[str | None, int], BenchRow] = {}
+            if stopped is None:
+                folder = out_dir / "runs" / path.stem / side
+                prepare_out_dir(plan, folder)
+                outcome = run_sweep(plan, folder, executor, metrics=None, controllers=handed)
+                finished = {(record.variant, record.seed): _measured(path.stem, side, record,
+                                                                     folder, robots)
+                            for record in outcome.records}
+                stopped = None if outcome.complete else outcome
+            rows += [finished.get((run.variant, run.seed)) or BenchRow(
+                path.stem, run.variant, side, INTERRUPTED, False,
+                "the bench was stopped before this run finished", seed=run.seed,
+                termination=INTERRUPTED)
+                for run in plan.runs]
+    return BenchOutcome(rows, stopped is None, stopped is not None and stopped.terminated)
+
+
+def _measured(scenario: str, side: str, record: RunRecord, folder: Path,
+              robots: Sequence[str]) -> BenchRow:
+    log = str(folder / record.log) if record.log else None
+    metrics, ended, hits = _measure(log, robots)
+    return BenchRow(scenario, record.variant, side, record.status, record.succeeded,
+                    record.reason, metrics, log, record.seed,
+                    ended or _no_log_cause(record.status),
+                    "true" if ended == "reached_goal" else "false", hits)
 
 
 def _measure(log: str | None, robots: Sequence[str]

@@ -70,14 +70,21 @@ def test_diff_never_draws_over_a_log_it_compares(cli: Callable[..., Outcome],
 
 def test_bench_never_writes_over_a_scenarios_map_image(cli: Callable[..., Outcome],
                                                        tmp_path: Path) -> None:
-    _png_map(tmp_path)
-    (tmp_path / "room.hub").write_text(
-        'scenario "room"\nmap "room.yaml"\n'
+    # the suite's scenario `room.hub` draws on `../out/room.yaml`, whose image `room.png` is
+    # the name of the picture `bench -o out` would draw of it
+    out = tmp_path / "out"
+    out.mkdir()
+    _png_map(out)
+    (out / "room.hub").unlink()
+    suite = tmp_path / "suite"
+    suite.mkdir()
+    (suite / "room.hub").write_text(
+        'scenario "room"\nmap "../out/room.yaml"\n'
         "robot r at (1, 1) { controller navigator; goal (3, 1) }\n"
         "activity { r move_to (3, 1) }\n", encoding="utf-8")
-    kept = _unchanged(tmp_path)
-    outcome = cli("bench", str(tmp_path), "-o", str(tmp_path), "--seeds", "1")
-    assert outcome.status == 2 and "room.png" in outcome.err
+    kept = _unchanged(out)
+    outcome = cli("bench", str(suite), "-o", str(out), "--seeds", "1")
+    assert outcome.status == 2 and "room.png: cannot be written" in outcome.err
     assert kept()
 
 

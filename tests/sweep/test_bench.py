@@ -5,7 +5,12 @@ from __future__ import annotations
 
 import csv
 import math
+import os
 import shutil
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -158,3 +163,67 @@ def test_a_failed_run_of_a_scenario_without_variants_is_named_as_written(
     assert main(["bench", str(suite), "-o", str(tmp_path / "out"), "--jobs", "1"]) == 1
     out = capsys.readouterr().out
     assert "tiny [(as written)] seed" in out and "[None]" not in out
+
+
+@pytest.mark.parametrize("name", ["summary.md", "crossing.csv", "doorway.png"])
+def test_the_tables_are_written_over_the_benchs_own_only(name: str, small_suite: Path,
+                                                         tmp_path: Path,
+                                                         capsys: pytest.CaptureFixture[str]
+                                                         ) -> None:
+    # a user's notes called summary.md, or a picture of theirs, were silently replaced
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / name).write_text("my notes\n", encoding="utf-8")
+    assert main(["bench", str(small_suite), "-o", str(out), "--jobs", "1"]) == 2
+    err = capsys.readouterr().err
+    assert f"{out / name} exists and is not a table or picture of hubero bench" in err
+    assert (out / name).read_text(encoding="utf-8") == "my notes\n"
+    assert not (out / "runs").exists()
+
+
+def test_the_tables_do_not_go_into_the_suites_folder_or_onto_a_file(
+        small_suite: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["bench", str(small_suite), "-o", str(small_suite)]) == 2
+    assert "is the suite's own folder" in capsys.readouterr().err
+    assert not (small_suite / "runs").exists()
+    a_file = tmp_path / "notes.txt"
+    a_file.write_text("x", encoding="utf-8")
+    assert main(["bench", str(small_suite), "-o", str(a_file)]) == 2
+    assert "cannot be the bench's output folder (it is a file)" in capsys.readouterr().err
+
+
+def test_a_bench_is_written_over_its_own_earlier_tables(small_suite: Path,
+                                                         tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    for _ in range(2):
+        assert main(["bench", str(small_suite), "-o", str(out), "--jobs", "2"]) == 0
+    assert len(_rows(out / "summary.csv")) == 2
+
+
+def test_ctrl_c_stops_the_bench_and_marks_the_runs_it_did_not_finish(small_suite: Path,
+                                                                    tmp_path: Path) -> None:
+    # it went on to the next scenario, wrote "5 runs; 5 ok" of 9 and exited 0
+    out = tmp_path / "out"
+    environment = {k: v for k, v in os.environ.items() if k != "HUBERO_DEBUG"}
+    process = subprocess.Popen(
+        [sys.executable, "-m", "hubero_dsl", "bench", str(small_suite), "-o", str(out),
+         "--jobs", "1", "--seeds", "1..4"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True, env=environment)
+    deadline = time.monotonic() + 60
+    # one worker: when the second log is there, the first run has been reported
+    while len(list(out.glob("runs/*/*/runs/*/seed-*.mcap"))) < 2 and time.monotonic() < deadline:
+        time.sleep(0.02)
+    process.send_signal(signal.SIGINT)
+    stdout, stderr = process.communicate(timeout=60)
+    assert "Traceback" not in stderr
+    assert process.returncode == 130, stderr
+    assert "hubero: interrupted:" in stderr and "the tables mark the others interrupted" in stderr
+    rows = _rows(out / "crossing.csv") + _rows(out / "doorway.csv")
+    assert len(rows) == 4 * (3 + 4)  # every planned run has its row
+    stopped = [r for r in rows if r["status"] == "interrupted"]
+    assert 1 <= len(stopped) < len(rows)
+    assert all((r["succeeded"], r["termination"]) == ("false", "interrupted") for r in stopped)
+    summary = {r["scenario"]: r for r in _rows(out / "summary.csv")}
+    assert summary["doorway"]["variant"] == "0/16 ok"
+    assert summary["doorway"]["termination"] == "interrupted:16"
+    assert f"{len(rows) - len(stopped)} runs;" in stdout
