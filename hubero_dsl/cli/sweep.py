@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import time
 from collections import Counter
 from pathlib import Path
@@ -108,6 +109,22 @@ def _variant_names(args: argparse.Namespace) -> list[str] | None:
     return split_variant_list(args.variants) if args.variants is not None else None
 
 
+def _refuse_unwritable(out_dir: Path) -> None:
+    """An --out-dir that is a file, or that cannot be made or written in (the nearest folder
+    that exists, itself or above it, is not writable), is refused before any worker starts:
+    found only as the logs' folder was made, after the pool had started."""
+    from hubero_dsl.errors import InputError
+
+    existing = out_dir
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if existing.exists() and not existing.is_dir():
+        raise InputError(f"cannot write logs into {out_dir}: {existing} is a file, not a "
+                         "directory")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise InputError(f"cannot write logs into {out_dir}: {existing} is not writable")
+
+
 def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
     from hubero_dsl.cli.console import make_console
     from hubero_dsl.files import check_output
@@ -116,11 +133,19 @@ def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
         open_executor,
         stopped_once,
     )
-    from hubero_dsl.sweep.index import INDEX_CSV, INDEX_JSON, refuse_other_indexes, write_index
+    from hubero_dsl.sweep.index import (
+        INDEX_CSV,
+        INDEX_JSON,
+        earlier_logs,
+        refuse_other_indexes,
+        write_index,
+    )
     from hubero_dsl.sweep.runner import prepare_out_dir, run_sweep
     from hubero_dsl.sweep.worker import standard_metrics
 
     refuse_other_indexes(args.out_dir)  # before any earlier log there is cleared away
+    _refuse_unwritable(args.out_dir)     # before any worker starts
+    earlier = earlier_logs(args.out_dir)
     jobs = min(args.jobs or available_cores(), len(plan.runs))
     errors = make_console(stderr=True)
     started = time.monotonic()  # wall time for the terminal only, never for the index
@@ -128,7 +153,8 @@ def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
         with open_executor(args.executor, jobs=jobs, scheduler=args.scheduler,
                            connect_timeout=args.connect_timeout) as executor, \
                 _SweepProgress(errors, plan, quiet=args.quiet) as on_done:
-            folder = prepare_out_dir(plan, args.out_dir)  # after connecting: nothing for nothing
+            # after connecting: nothing for nothing
+            folder = prepare_out_dir(plan, args.out_dir, earlier)
             for index in (INDEX_JSON, INDEX_CSV):  # before any run, not after them all
                 check_output(folder / index)
             outcome = run_sweep(plan, args.out_dir, executor, log_rate=args.log_rate,

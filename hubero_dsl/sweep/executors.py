@@ -183,16 +183,22 @@ class ProcessExecutor(Executor):
         from hubero_dsl.sweep.worker import install_worker_signals
 
         context: Any
-        if "forkserver" in multiprocessing.get_all_start_methods():
-            context = multiprocessing.get_context("forkserver")
-            # Import the simulator once in the fork server; every worker forked from it then
-            # starts at once instead of importing numpy, scipy and shapely again.
-            context.set_forkserver_preload(list(WORKER_MODULES))
-            _start_fork_server()
-        else:
-            context = multiprocessing.get_context("spawn")
-        return ProcessPoolExecutor(max_workers=self.slots, mp_context=context,
-                                   initializer=install_worker_signals, initargs=(os.getpid(),))
+        try:
+            if "forkserver" in multiprocessing.get_all_start_methods():
+                context = multiprocessing.get_context("forkserver")
+                # Import the simulator once in the fork server; every worker forked from it
+                # then starts at once instead of importing numpy, scipy and shapely again.
+                context.set_forkserver_preload(list(WORKER_MODULES))
+                _start_fork_server()
+            else:
+                context = multiprocessing.get_context("spawn")
+            return ProcessPoolExecutor(max_workers=self.slots, mp_context=context,
+                                       initializer=install_worker_signals,
+                                       initargs=(os.getpid(),))
+        except OSError as exc:  # the system's to mend (no processes, no sockets): not a bug
+            raise InputError(f"cannot start worker processes: {exc.strerror or exc}",
+                             hint="`hubero sweep --executor serial` runs without them"
+                             ) from None
 
     def submit(self, fn: Callable[P, T], /, *args: P.args, **kwargs: P.kwargs) -> Future[T]:
         with _signals_after():

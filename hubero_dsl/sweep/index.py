@@ -53,6 +53,34 @@ def refuse_other_indexes(out_dir: str | Path) -> None:
         refuse_other_kind(path, beginning, "a sweep's index", "give another --out-dir")
 
 
+def earlier_logs(out_dir: str | Path) -> list[Path]:
+    """The logs an earlier sweep into `out_dir` wrote, as its index names them: those that are
+    MCAP files inside the folder's `runs/`. None when there is no index, or a damaged one (what
+    it names is not surely the sweep's own)."""
+    from hubero_dsl.analysis.diff import load_index
+    from hubero_dsl.errors import InputError
+    from hubero_dsl.files import MCAP_MAGIC
+
+    if not (Path(out_dir) / INDEX_JSON).is_file():
+        return []
+    try:
+        runs = load_index(out_dir).runs
+    except InputError:
+        return []
+    folder = (Path(out_dir) / "runs").resolve()
+    logs = []
+    for run in runs:
+        try:
+            log = run.log.resolve() if run.log is not None else None
+            if log is not None and log.is_relative_to(folder) and log.is_file():
+                with log.open("rb") as stream:
+                    if stream.read(len(MCAP_MAGIC)) == MCAP_MAGIC:
+                        logs.append(log)
+        except (OSError, RuntimeError):  # RuntimeError: a loop of symbolic links
+            continue
+    return logs
+
+
 def build_index(plan: SweepPlan, outcome: SweepOutcome) -> dict[str, Any]:
     """The index as JSON values, in a fixed key order."""
     return {

@@ -19,7 +19,7 @@ import contextlib
 import itertools
 import os
 import tempfile
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, Executor, Future, wait
 from dataclasses import dataclass
 from pathlib import Path
@@ -54,10 +54,12 @@ class SweepOutcome:
         return self.complete and all(record.succeeded for record in self.records)
 
 
-def prepare_out_dir(plan: SweepPlan, out_dir: str | Path) -> Path:
+def prepare_out_dir(plan: SweepPlan, out_dir: str | Path, earlier: Sequence[Path] = ()
+                    ) -> Path:
     """Create the output folders, check they are writable, and remove the logs of an earlier
-    sweep at this sweep's log paths (so a log the index names is always this sweep's); a file
-    there that is not a log is the user's, and refused."""
+    sweep at this sweep's log paths (so a log the index names is always this sweep's) and
+    `earlier`, the other logs its index named (so that none is left that no index names); a
+    file at a log path that is not a log is the user's, and refused."""
     from hubero_dsl.log.reader import refuse_unless_run_log
     from hubero_dsl.log.writer import ensure_directory
 
@@ -70,6 +72,11 @@ def prepare_out_dir(plan: SweepPlan, out_dir: str | Path) -> Path:
     for spec in plan.runs:
         log = folder / spec.log
         refuse_unless_run_log(log, "give another --out-dir")
+    for log in earlier:  # first: a variant's folder left empty goes, then this sweep's come
+        with contextlib.suppress(FileNotFoundError):
+            log.unlink()
+        with contextlib.suppress(OSError):  # not empty
+            log.parent.rmdir()
     for spec in plan.runs:
         log = folder / spec.log
         if not log.parent.is_dir():

@@ -90,6 +90,21 @@ def test_variants_with_commas_are_chosen_by_name(cli: Run, tmp_path: Path) -> No
     assert [r["variant"] for r in index(both)["runs"]] == ["speed=1.0 m/s", "speed=1.4 m/s"]
 
 
+def test_a_sweep_into_an_earlier_ones_folder_leaves_only_its_own_logs(cli: Run,
+                                                                     tmp_path: Path) -> None:
+    # seeds 0, then 1 and 2, then 1: the index named seed-1 only, and seed-0 and seed-2 stayed
+    out = tmp_path / "out"
+    file = scenario(tmp_path, PLAIN)
+    for seeds in ("0", "1,2", "1"):
+        assert cli("sweep", file, "--seeds", seeds, "--out-dir", str(out), "-q").status == 0
+        if seeds == "1,2":  # a log of the user's own in the folder, which no index names
+            mine = out / "runs" / "mine.mcap"
+            mine.write_bytes((out / "runs" / "default" / "seed-1.mcap").read_bytes())
+    logs = sorted(p.relative_to(out).as_posix() for p in out.glob("runs/**/*.mcap"))
+    assert logs == ["runs/default/seed-1.mcap", "runs/mine.mcap"]
+    assert [r["log"] for r in index(out)["runs"]] == ["runs/default/seed-1.mcap"]
+
+
 def test_a_scenario_without_variants_runs_as_written(cli: Run, tmp_path: Path) -> None:
     out = tmp_path / "out"
     outcome = cli("sweep", scenario(tmp_path, PLAIN), "--executor", "serial",
@@ -133,10 +148,45 @@ def test_unusable_inputs_exit_2(cli: Run, tmp_path: Path) -> None:
     path = scenario(tmp_path, SWEPT)
     blocker = tmp_path / "file"
     blocker.write_text("")
-    outcome = cli("sweep", path, "--out-dir", str(blocker))
-    assert outcome.status == 2 and "it is a file, not a directory" in outcome.out + outcome.err
+    for out in (blocker, blocker / "sweep"):
+        outcome = cli("sweep", path, "--out-dir", str(out))
+        assert outcome.status == 2
+        assert "is a file, not a directory" in outcome.out + outcome.err
     assert cli("sweep", str(tmp_path / "missing.hub"), "--out-dir", str(tmp_path)).status == 2
     assert cli("sweep", path).status == 2  # --out-dir is required
+
+
+def test_an_out_dir_that_cannot_be_written_is_refused_before_any_worker_starts(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from hubero_dsl.cli.main import main
+    from hubero_dsl.sweep import executors
+
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    monkeypatch.setattr(os, "access", lambda path, mode: Path(path) != locked)
+    monkeypatch.setattr(executors, "ProcessExecutor", None)  # started, it would fail at once
+    assert main(["sweep", scenario(tmp_path, SWEPT), "--out-dir", str(locked / "s")]) == 2
+    assert f"cannot write logs into {locked / 's'}: {locked} is not writable" in \
+        capsys.readouterr().err
+
+
+def test_worker_processes_that_cannot_start_are_reported_not_an_internal_error(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    # where the fork server cannot be reached (a user without a usable temporary folder), a
+    # BrokenPipeError ended hubero as "internal error (please report)"
+    from hubero_dsl.cli.main import main
+    from hubero_dsl.sweep import executors
+
+    def refused(*args: object, **kwargs: object) -> None:
+        raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(executors, "ProcessPoolExecutor", refused)
+    assert main(["sweep", scenario(tmp_path, SWEPT), "--out-dir", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "cannot start worker processes: Broken pipe" in err
+    assert "--executor serial" in err and "internal error" not in err
 
 
 def free_port() -> int:
