@@ -38,6 +38,8 @@ if TYPE_CHECKING:
 
 T = TypeVar("T")
 
+MAX_WAYPOINTS = 100_000  # a cell-by-cell plan 2 km long on a 2 cm map
+
 
 class PlannerError(SimulationError):
     """A planner plugin raised, or answered something that is not a plan or velocities."""
@@ -104,7 +106,15 @@ class GuardedGlobalPlanner:
         return Plan(self._waypoints(answer, asked))
 
     def _waypoints(self, answer: object, asked: str) -> FloatArray:
-        waypoints = _floats(answer.waypoints if isinstance(answer, Plan) else None)
+        given = answer.waypoints if isinstance(answer, Plan) else None
+        try:
+            count = len(given) if given is not None else 0
+        except Exception:  # user code: whatever it returned has no length
+            count = 0
+        if count > MAX_WAYPOINTS:  # followed waypoint by waypoint, it would never end
+            raise PlannerError(f"global planner '{self.name}', asked for {asked}, returned a "
+                               f"plan of {count:,} waypoints (at most {MAX_WAYPOINTS:,})")
+        waypoints = _floats(given)
         xmin, ymin, xmax, ymax = self._bounds
         if waypoints is None or waypoints.ndim != 2 or waypoints.shape[1:] != (2,) \
                 or not len(waypoints) or not np.isfinite(waypoints).all():

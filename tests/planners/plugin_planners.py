@@ -49,6 +49,11 @@ class PlanOutside(Straight):
         return np.array([start, (1e300, 0.0), goal])
 
 
+class PlanHuge(Straight):
+    def answer(self, start: tuple[float, float], goal: tuple[float, float]) -> Any:
+        return np.zeros((10**7, 2)) + start  # followed waypoint by waypoint: a hung run
+
+
 class PlanList(Straight):
     def plan(self, start: tuple[float, float], goal: tuple[float, float], *,
              body_radius: float, comfort_radius: float) -> Plan:
@@ -129,7 +134,7 @@ class Required(Direct):
 
 GLOBAL = {"qa_straight": "Straight", "qa_plan_raises": "PlanRaises",
           "qa_plan_exits": "PlanExits", "qa_plan_nan": "PlanNaN",
-          "qa_plan_outside": "PlanOutside", "qa_plan_list": "PlanList",
+          "qa_plan_outside": "PlanOutside", "qa_plan_list": "PlanList", "qa_plan_huge": "PlanHuge",
           "qa_no_params": "NoParams", "qa_plain_params": "PlainParams",
           "qa_not_installed": "Missing"}
 LOCAL = {"qa_direct": "Direct", "qa_set_up_raises": "SetUpRaises",

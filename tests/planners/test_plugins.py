@@ -71,6 +71,7 @@ def test_working_plugins_walk_the_humans_there() -> None:
     ("qa_plan_nan", "not a Plan of (K, 2) finite waypoints"),
     ("qa_plan_list", "returned [(6.3, 2.5), (5.0, 1.2)], not a Plan of (K, 2) finite"),
     ("qa_plan_outside", "returned waypoints outside the map (x -5.77 .. 8.51"),
+    ("qa_plan_huge", "returned a plan of 10,000,000 waypoints (at most 100,000)"),
 ])
 def test_a_global_planner_that_fails_is_the_runs_error(planner: str, told: str) -> None:
     message = run_error(global_planner=planner)
