@@ -74,7 +74,7 @@ def test_the_replay_draws_a_crowd_as_the_picture_does(lounge: Path, tmp_path: Pa
     assert not any(label.startswith("visitors_") for label in legends[0])
     named = [n for n in run.humans if run.metadata.set_of(n) is None]
     scene = animate._Scene(run, Canvas().subplots(), plot_module.colours(named),
-                           plot_module.set_colours(run))
+                           plot_module.set_colours(run), 30.0)
     members = [n for n in run.humans if run.metadata.set_of(n) == "visitors"]
     assert members and not any(m in scene.spaces for m in members)   # no personal spaces
     assert len({tuple(scene.trails[m].get_color()) for m in members}) == 1  # one colour
@@ -89,7 +89,7 @@ def test_a_replay_shows_someone_only_while_they_are_in_the_scene(build_run: Any,
 
     late = build_run([track("early", [0.0, 1.0, 2.0, 3.0], [(0, 0), (1, 0), (2, 0), (3, 0)]),
                       track("late", [1.0, 2.0], [(0, 1), (1, 1)])])
-    scene = _Scene(late, Canvas().subplots(), {"early": "red", "late": "blue"}, {})
+    scene = _Scene(late, Canvas().subplots(), {"early": "red", "late": "blue"}, {}, 3.0)
     scene.show(0.5)
     assert scene.bodies["early"].get_visible() and not scene.bodies["late"].get_visible()
     scene.show(1.5)
