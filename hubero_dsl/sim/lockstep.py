@@ -58,7 +58,7 @@ class Lockstep:
             _check_shared(driving)
             move_fleets([e.robots for e in driving],
                         [e.robots.wanted(e.dt, e.tick, e.humans, e.position_of)
-                         for e in driving], driving[0].dt)
+                         for e in driving], driving[0].dt, [e.humans for e in driving])
         alone = len(engines) == 1
         return [engine.steering(crowd=alone) for engine in engines]
 

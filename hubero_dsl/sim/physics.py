@@ -132,6 +132,30 @@ def separate_bodies(position: FloatArray, radius: FloatArray, movable: BoolArray
     return corrected
 
 
+def contact_fractions(old: FloatArray, new: FloatArray, radius: FloatArray,
+                      bodies: FloatArray, body_radius: FloatArray,
+                      facing: BoolArray | None = None) -> FloatArray:
+    """(M,) share of each move old -> new (rows of (M, 2)) that its body (`radius`) makes
+    before it touches one of `bodies` (rows of (K, 2), radii `body_radius`; only those that
+    `facing[m, k]` allows, all when None), the bodies standing still: 1 where it touches none.
+    A move that starts overlapping a body may go on only if it does not close on it (0 else)."""
+    step = new - old                                    # (M, 2)
+    offset = old[:, None, :] - bodies[None, :, :]       # (M, K, 2)
+    reach = radius[:, None] + body_radius[None, :]
+    a = (step * step).sum(axis=1)[:, None]
+    b = 2.0 * (offset * step[:, None, :]).sum(axis=2)
+    c = (offset * offset).sum(axis=2) - reach * reach
+    closing = b < 0.0
+    root = np.sqrt(np.maximum(b * b - 4.0 * a * c, 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        entry = np.where(a > 0.0, (-b - root) / (2.0 * a), np.inf)
+    share = np.where(c <= 0.0, np.where(closing, 0.0, 1.0),
+                     np.where(closing & (b * b > 4.0 * a * c), np.clip(entry, 0.0, 1.0), 1.0))
+    if facing is not None:
+        share = np.where(facing, share, 1.0)
+    return share.min(axis=1, initial=1.0)
+
+
 def keep_out_of_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
                       radius: FloatArray, *, keep: tuple[float, float] = HUMAN_WALL_KEEP,
                       slides: BoolArray | None = None) -> FloatArray:

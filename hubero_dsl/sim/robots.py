@@ -344,12 +344,51 @@ def in_view(spec: RobotSpec, offset: FloatArray, surface: FloatArray,
 
 
 def move_fleets(fleets: Sequence[Robots], wanted: Sequence[list[tuple[float, float]]],
-                dt: float) -> None:
+                dt: float, people: Sequence[HumanArrays] = ()) -> None:
     """Move the robots of one simulation, or of many at once (a vector environment's copies,
-    on one map), at the velocities `wanted` (`Robots.wanted`), never through a wall. Each
-    robot moves as it would alone: the walls are kept out for all rows in one call, and a
-    fleet in which a wall stopped or bent someone's move takes the velocities of its steps
-    (every row's, as alone)."""
+    on one map), at the velocities `wanted` (`Robots.wanted`), never through a wall, nor
+    into a person of `people` (each fleet's simulation's humans). Each robot moves as it would
+    alone: the walls are kept out for all rows in one call, and a fleet in which a wall
+    stopped or bent someone's move takes the velocities of its steps (every row's, as
+    alone)."""
+    olds = [fleet.position for fleet in fleets]  # replaced by the moves, never written into
+    _move_fleets(fleets, wanted, dt)
+    if people:
+        _stop_short_of_people(fleets, olds, people, dt)
+
+
+def _stop_short_of_people(fleets: Sequence[Robots], olds: list[FloatArray],
+                          people: Sequence[HumanArrays], dt: float) -> None:
+    """Each robot's move ends where its body would touch a person's, people where they stand
+    as the tick begins. People then yield (the tick's separation pushes whoever a robot
+    touches off it), but one who cannot (seated, lying, pressed against a wall or a crowd) is
+    no longer driven through. The bodies touch (a collision, as the metrics count it)."""
+    humans = [h.position for h in people]
+    if not sum(len(h) for h in humans):
+        return
+    old = np.concatenate(olds)
+    new = np.concatenate([fleet.position for fleet in fleets])
+    world = np.repeat(np.arange(len(fleets)), [fleet.count for fleet in fleets])
+    body_world = np.repeat(np.arange(len(people)), [len(h) for h in humans])
+    share = physics.contact_fractions(
+        old, new, np.concatenate([fleet.radius for fleet in fleets]), np.concatenate(humans),
+        np.concatenate([h.radius for h in people]), world[:, None] == body_world[None, :])
+    if (share >= 1.0).all():
+        return
+    start = 0
+    for fleet, before in zip(fleets, olds, strict=True):
+        part = share[start:start + fleet.count]
+        start += fleet.count
+        for i in np.flatnonzero(part < 1.0).tolist():
+            step = (fleet.position[i] - before[i]) * part[i]
+            fleet.path_length[i] += math.hypot(*step) - math.hypot(
+                *(fleet.position[i] - before[i]))
+            fleet.position[i] = before[i] + step
+            fleet.velocity[i] = step / dt
+
+
+def _move_fleets(fleets: Sequence[Robots], wanted: Sequence[list[tuple[float, float]]],
+                 dt: float) -> None:
     if len(fleets) == 1 and fleets[0].count <= physics.FEW_BODIES:
         few = fleets[0]._moved_few(list(wanted[0]), dt)
         if few is not None:

@@ -194,3 +194,20 @@ def test_a_position_that_is_not_a_number_ends_the_run(scenario: ScenarioFactory)
     sim.engine.humans.teleop_velocity[0] = (math.inf, 0.0)
     with pytest.raises(SimulationError, match=r"diverged at t = 0\.05 s: the position of alice"):
         sim.step()
+
+
+def test_a_move_stops_where_its_body_first_touches_another() -> None:
+    from hubero_dsl.sim.physics import contact_fractions
+
+    bodies, body_radius = np.array([[2.0, 0.0], [2.0, 5.0]]), np.array([0.5, 0.5])
+    old = np.array([[0.0, 0.0],     # straight at the first: touches after 1.0 of 4 m
+                    [0.0, 0.6],     # beside it: passes 0.6 from its centre, beyond 0.5 + 0.1
+                    [1.5, 0.0],     # already overlapping it (0.1 of 0.6), closing further
+                    [1.6, 0.0],     # overlapping it, leaving
+                    [0.0, 5.0]])    # at the second, which it may not touch (not facing it)
+    new = old + np.array([[4.0, 0.0], [4.0, 0.0], [0.5, 0.0], [-1.0, 0.0], [4.0, 0.0]])
+    radius = np.full(5, 0.1)
+    facing = np.array([[True, False]] * 4 + [[False, False]])
+    share = contact_fractions(old, new, radius, bodies, body_radius, facing)
+    assert share.tolist() == pytest.approx([(2.0 - 0.6) / 4.0, 1.0, 0.0, 1.0, 1.0])
+    assert contact_fractions(old[:1], old[:1], radius[:1], bodies, body_radius)[0] == 1.0

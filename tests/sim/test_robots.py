@@ -140,6 +140,25 @@ def test_a_robot_driven_into_a_wall_stops_at_its_surface_and_slides_along(
     assert sim.robot("r").position[0] == pytest.approx(2.9, abs=0.06)   # it slid on
 
 
+@pytest.mark.parametrize("posture", ["sit_down", "lie_down", "stand"])
+def test_a_robot_driven_at_a_person_stops_where_their_bodies_touch(
+        scenario: ScenarioFactory, posture: str) -> None:
+    # seated or lying, a person cannot yield, and a robot's command drove it through them
+    sim = Simulation(scenario("human bob at (5, 4)\n"
+                              "robot r at (2, 4) { radius 0.3 m; max_speed 1.0 m/s }\n"))
+    getattr(sim.human("bob"), posture)(duration=30.0)
+    sim.set_robot_velocity("r", 1.0, 0.0)
+    gaps = []
+    for _ in range(120):
+        sim.step()
+        gaps.append(math.dist(sim.robot("r").position, sim.human("bob").position) - 0.5)
+    assert min(gaps) >= -1e-9                     # bodies of 0.3 + 0.2 m: never overlapping
+    assert gaps[-1] < 1e-6 or posture == "stand"  # it stopped at their body, touching it
+    if posture != "stand":                        # the seated and lying do not move
+        assert sim.human("bob").position == pytest.approx((5.0, 4.0))
+        assert sim.robot("r").velocity == pytest.approx((0.0, 0.0))
+
+
 def test_a_unicycle_driven_into_a_wall_at_an_angle_does_not_slide_sideways(
         scenario: ScenarioFactory) -> None:
     heading = -math.pi / 3
