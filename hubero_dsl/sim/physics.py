@@ -24,6 +24,7 @@ if TYPE_CHECKING:
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
+IntArray = npt.NDArray[np.intp]
 Point = tuple[float, float]
 
 TURN_RATE = 2.5          # rad/s a human turns at
@@ -134,26 +135,54 @@ def separate_bodies(position: FloatArray, radius: FloatArray, movable: BoolArray
 
 def contact_fractions(old: FloatArray, new: FloatArray, radius: FloatArray,
                       bodies: FloatArray, body_radius: FloatArray,
-                      facing: BoolArray | None = None) -> FloatArray:
+                      pairs: tuple[IntArray, IntArray]) -> FloatArray:
     """(M,) share of each move old -> new (rows of (M, 2)) that its body (`radius`) makes
-    before it touches one of `bodies` (rows of (K, 2), radii `body_radius`; only those that
-    `facing[m, k]` allows, all when None), the bodies standing still: 1 where it touches none.
-    A move that starts overlapping a body may go on only if it does not close on it (0 else)."""
-    step = new - old                                    # (M, 2)
-    offset = old[:, None, :] - bodies[None, :, :]       # (M, K, 2)
-    reach = radius[:, None] + body_radius[None, :]
-    a = (step * step).sum(axis=1)[:, None]
-    b = 2.0 * (offset * step[:, None, :]).sum(axis=2)
-    c = (offset * offset).sum(axis=2) - reach * reach
+    before it touches one of `bodies` (rows of (K, 2), radii `body_radius`) that `pairs` (move
+    rows, body rows) sets it against, the bodies standing still: 1 where it touches none. A
+    move that starts overlapping a body may go on only if it does not close on it (0 else)."""
+    move, body = pairs
+    step = (new - old)[move]
+    offset = old[move] - bodies[body]
+    reach = radius[move] + body_radius[body]
+    a = (step * step).sum(axis=1)
+    b = 2.0 * (offset * step).sum(axis=1)
+    c = (offset * offset).sum(axis=1) - reach * reach
     closing = b < 0.0
     root = np.sqrt(np.maximum(b * b - 4.0 * a * c, 0.0))
     with np.errstate(divide="ignore", invalid="ignore"):
         entry = np.where(a > 0.0, (-b - root) / (2.0 * a), np.inf)
-    share = np.where(c <= 0.0, np.where(closing, 0.0, 1.0),
-                     np.where(closing & (b * b > 4.0 * a * c), np.clip(entry, 0.0, 1.0), 1.0))
-    if facing is not None:
-        share = np.where(facing, share, 1.0)
-    return share.min(axis=1, initial=1.0)
+    pair_share = np.where(c <= 0.0, np.where(closing, 0.0, 1.0),
+                          np.where(closing & (b * b > 4.0 * a * c), np.clip(entry, 0.0, 1.0),
+                                   1.0))
+    share = np.ones(len(old))
+    np.minimum.at(share, move, pair_share)
+    return share
+
+
+def few_contact_fractions(old: list[Point], new: list[Point], radius: list[float],
+                          bodies: list[Point], body_radius: list[float]) -> list[float]:
+    """`contact_fractions` for a few moves and bodies (all facing), in floats with the arrays'
+    arithmetic, bit for bit; a body further from a move's start than the move is long is
+    passed over (the arrays' answer for it is 1, exactly)."""
+    shares = []
+    for (x0, y0), (x1, y1), r in zip(old, new, radius, strict=True):
+        sx, sy = x1 - x0, y1 - y0
+        a = sx * sx + sy * sy
+        share = 1.0
+        for (bx, by), br in zip(bodies, body_radius, strict=True):
+            ox, oy = x0 - bx, y0 - by
+            reach = r + br
+            if math.sqrt(ox * ox + oy * oy) > reach + math.sqrt(a) + 1e-9:
+                continue  # out of reach of this move
+            b = 2.0 * (ox * sx + oy * sy)
+            c = (ox * ox + oy * oy) - reach * reach
+            if c <= 0.0:
+                share = min(share, 0.0 if b < 0.0 else 1.0)
+            elif b < 0.0 and b * b > 4.0 * a * c:
+                root = math.sqrt(max(b * b - 4.0 * a * c, 0.0))
+                share = min(share, min(max((-b - root) / (2.0 * a), 0.0), 1.0))
+        shares.append(share)
+    return shares
 
 
 def keep_out_of_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,

@@ -357,6 +357,9 @@ def move_fleets(fleets: Sequence[Robots], wanted: Sequence[list[tuple[float, flo
         _stop_short_of_people(fleets, olds, people, dt)
 
 
+_FEW_PAIRS = 64  # robots x people up to which a robot's stop at people is found in floats
+
+
 def _stop_short_of_people(fleets: Sequence[Robots], olds: list[FloatArray],
                           people: Sequence[HumanArrays], dt: float) -> None:
     """Each robot's move ends where its body would touch a person's, people where they stand
@@ -364,15 +367,19 @@ def _stop_short_of_people(fleets: Sequence[Robots], olds: list[FloatArray],
     touches off it), but one who cannot (seated, lying, pressed against a wall or a crowd) is
     no longer driven through. The bodies touch (a collision, as the metrics count it)."""
     humans = [h.position for h in people]
-    if not sum(len(h) for h in humans):
+    count = sum(len(h) for h in humans)
+    if not count:
         return
-    old = np.concatenate(olds)
-    new = np.concatenate([fleet.position for fleet in fleets])
-    world = np.repeat(np.arange(len(fleets)), [fleet.count for fleet in fleets])
-    body_world = np.repeat(np.arange(len(people)), [len(h) for h in humans])
-    share = physics.contact_fractions(
-        old, new, np.concatenate([fleet.radius for fleet in fleets]), np.concatenate(humans),
-        np.concatenate([h.radius for h in people]), world[:, None] == body_world[None, :])
+    if len(fleets) == 1 and fleets[0].count * count <= _FEW_PAIRS:
+        share = np.array(physics.few_contact_fractions(
+            olds[0].tolist(), fleets[0].position.tolist(), fleets[0].radius.tolist(),
+            humans[0].tolist(), people[0].radius.tolist()))
+    else:
+        share = physics.contact_fractions(
+            np.concatenate(olds), np.concatenate([fleet.position for fleet in fleets]),
+            np.concatenate([fleet.radius for fleet in fleets]), np.concatenate(humans),
+            np.concatenate([h.radius for h in people]),
+            _pairs_within([fleet.count for fleet in fleets], [len(h) for h in humans]))
     if (share >= 1.0).all():
         return
     start = 0
@@ -385,6 +392,16 @@ def _stop_short_of_people(fleets: Sequence[Robots], olds: list[FloatArray],
                 *(fleet.position[i] - before[i]))
             fleet.position[i] = before[i] + step
             fleet.velocity[i] = step / dt
+
+
+def _pairs_within(robots: list[int], people: list[int]) -> tuple[IntArray, IntArray]:
+    """Every (robot row, person row) of the same simulation, simulations' rows stacked one
+    after another (`robots[k]` and `people[k]` rows of simulation k)."""
+    per_robot = np.repeat(people, robots)               # each robot's simulation's people
+    first_person = np.repeat(np.cumsum([0, *people[:-1]]), robots)
+    robot = np.repeat(np.arange(len(per_robot)), per_robot)
+    before = np.repeat(np.cumsum(per_robot) - per_robot, per_robot)  # pairs of earlier robots
+    return robot, np.repeat(first_person, per_robot) + np.arange(len(robot)) - before
 
 
 def _move_fleets(fleets: Sequence[Robots], wanted: Sequence[list[tuple[float, float]]],

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from hubero_dsl.sim.lockstep import Lockstep
 from hubero_dsl.sim.simulation import Simulation
@@ -56,3 +57,28 @@ def test_simulations_ticked_together_tick_as_each_alone(scenario: ScenarioFactor
     assert events > 100  # tasks started, ended, people came and left, in every copy
     assert all(sim.engine.humans.present is not None and sim.engine.humans.present.any()
                for sim in together)
+
+
+def test_robots_stopped_at_people_stop_alike_together_and_alone(
+        scenario: ScenarioFactory) -> None:
+    # alone, a robot's stop at people is found in floats; together, in arrays
+    program = scenario("human a at (5, 4)\nhuman b at (5, 6)\n"
+                       "robot r at (2, 4.1) { radius 0.3 m; max_speed 1.0 m/s }\n")
+    together = [Simulation(program, seed=seed) for seed in (1, 2)]
+    alone = [Simulation(program, seed=seed) for seed in (1, 2)]
+    for sim in (*together, *alone):
+        sim.human("a").sit_down(duration=30.0)
+        sim.set_robot_velocity("r", 1.0, 0.0)
+    lockstep = Lockstep()
+    for _ in range(80):
+        steerings = Simulation.begin_steps(together, lockstep)
+        steered = [sim.engine.steer(steering) for sim, steering in zip(together, steerings,
+                                                                           strict=True)]
+        Simulation.end_steps(together, steerings, steered, lockstep)
+        for sim in alone:
+            sim.step()
+        for mine, theirs in zip(together, alone, strict=True):
+            for got, expected in zip(_state(mine), _state(theirs), strict=True):
+                np.testing.assert_array_equal(got, expected)
+    robot, seated = together[0].robot("r").position, together[0].human("a").position
+    assert np.hypot(*(np.asarray(robot) - seated)) == pytest.approx(0.5, abs=1e-6)  # touching

@@ -204,10 +204,30 @@ def test_a_move_stops_where_its_body_first_touches_another() -> None:
                     [0.0, 0.6],     # beside it: passes 0.6 from its centre, beyond 0.5 + 0.1
                     [1.5, 0.0],     # already overlapping it (0.1 of 0.6), closing further
                     [1.6, 0.0],     # overlapping it, leaving
-                    [0.0, 5.0]])    # at the second, which it may not touch (not facing it)
+                    [0.0, 5.0]])    # at the second, which it is not set against
     new = old + np.array([[4.0, 0.0], [4.0, 0.0], [0.5, 0.0], [-1.0, 0.0], [4.0, 0.0]])
     radius = np.full(5, 0.1)
-    facing = np.array([[True, False]] * 4 + [[False, False]])
-    share = contact_fractions(old, new, radius, bodies, body_radius, facing)
+    pairs = (np.array([0, 1, 2, 3]), np.array([0, 0, 0, 0]))
+    share = contact_fractions(old, new, radius, bodies, body_radius, pairs)
     assert share.tolist() == pytest.approx([(2.0 - 0.6) / 4.0, 1.0, 0.0, 1.0, 1.0])
-    assert contact_fractions(old[:1], old[:1], radius[:1], bodies, body_radius)[0] == 1.0
+    assert contact_fractions(old[:1], old[:1], radius[:1], bodies, body_radius,
+                             _every_pair(1, 2))[0] == 1.0
+
+
+def _every_pair(moves: int, bodies: int) -> tuple[np.ndarray, np.ndarray]:
+    return np.repeat(np.arange(moves), bodies), np.tile(np.arange(bodies), moves)
+
+
+def test_a_few_moves_stop_at_bodies_as_the_arrays_stop_them() -> None:
+    from hubero_dsl.sim.physics import contact_fractions, few_contact_fractions
+
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        old = rng.uniform(0.0, 3.0, (3, 2))
+        new = old + rng.normal(0.0, 0.4, (3, 2)) * rng.integers(0, 2, (3, 1))
+        bodies = rng.uniform(0.0, 3.0, (4, 2))
+        radius, body_radius = rng.uniform(0.1, 0.4, 3), rng.uniform(0.1, 0.4, 4)
+        arrays = contact_fractions(old, new, radius, bodies, body_radius, _every_pair(3, 4))
+        floats = few_contact_fractions(old.tolist(), new.tolist(), radius.tolist(),
+                                       bodies.tolist(), body_radius.tolist())
+        assert floats == arrays.tolist()  # bit for bit
