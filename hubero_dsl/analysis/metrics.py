@@ -14,7 +14,8 @@ Definitions (docs/analysis.md says the same with examples):
 - `path_length`: sum of segment lengths. `mean_speed`: length over time of the moving segments.
   `max_speed`: the fastest segment.
 - `duration`: from the earlier of the first movement and the first task start to the later of
-  the last movement and the last task end; 0 for an actor that never moved nor had a task.
+  the last movement and the last task end (the run's end, for a task still under way then); 0
+  for an actor that never moved nor had a task.
 - `min_distance`: smallest centre-to-centre distance to each other actor over the frames both
   were logged (the other's track interpolated at this actor's frame times).
 - `personal_space_intrusion_time`: total time during which another actor's centre lay inside
@@ -185,7 +186,7 @@ def compute_metrics(run: LoggedRun) -> RunMetrics:
     humans = {}
     for name, track in sorted(run.humans.items()):
         events = [e for e in run.events if e.human == name]
-        speeds = _Motion.of(actors[name], events)
+        speeds = _Motion.of(actors[name], events, run.result.time if run.result else None)
         humans[name] = HumanMetrics(
             name=name, path_length=speeds.path_length, duration=speeds.duration,
             task_finish_times=task_finish_times(events, spans),
@@ -274,7 +275,8 @@ class _Motion:
     max_speed: float
 
     @staticmethod
-    def of(actor: _Actor, events: list[TaskEvent]) -> _Motion:
+    def of(actor: _Actor, events: list[TaskEvent], end: float | None = None) -> _Motion:
+        """`end`: when the run ended, which a task still under way then lasted to."""
         steps = np.diff(actor.position, axis=0)
         lengths = np.hypot(steps[:, 0], steps[:, 1])
         dt = np.diff(actor.time)
@@ -282,6 +284,9 @@ class _Motion:
         moving = speed > MOVING_SPEED
         moving_time = float(dt[moving].sum())
         moments = [e.time for e in events]
+        ended = {e.task_id for e in events if e.status.is_final}
+        if end is not None and any(e.task_id not in ended for e in events):
+            moments.append(end)  # a task cut off by the run's end lasted until then
         if np.any(moving):
             index = np.flatnonzero(moving)
             moments += [float(actor.time[index[0]]), float(actor.time[index[-1] + 1])]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 from unittest.mock import patch
 
@@ -260,3 +261,20 @@ def test_a_run_of_more_bodies_than_can_be_paired_is_refused(
     with pytest.raises(InputError, match=r"2 people and robots are too many to compare pair "
                        r"by pair .* a sweep of such runs takes --no-metrics"):
         compute_metrics(run)
+
+
+def test_a_task_cut_off_by_the_runs_end_lasts_until_it(tmp_path: Path) -> None:
+    # a talk of 30 s in a run of 10 s read as 0.2 s: its start and a step of the listener
+    from hubero_dsl.pipeline import compile_source
+    from hubero_dsl.simulate import simulate
+
+    root = Path(__file__).resolve().parents[2]
+    program = compile_source(
+        f'scenario "talk"\nmap "{root / "maps" / "living_room.yaml"}"\ntime_limit 10 s\n'
+        "human ana at (-3.0, 2.0)\nhuman ben at (-2.2, 2.0)\n"
+        "activity { parallel { ana talk to ben for 30 s\n ben stand for 4 s } }\n",
+        str(tmp_path / "talk.hub"))
+    simulate(program, log=tmp_path / "talk.mcap")
+    humans = compute_metrics(load_run(tmp_path / "talk.mcap")).humans
+    assert humans["ana"].duration == pytest.approx(10.0, abs=0.06)  # still talking at the end
+    assert humans["ben"].duration == pytest.approx(4.0, abs=0.06)   # done after 4 s
