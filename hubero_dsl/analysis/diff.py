@@ -16,6 +16,7 @@ from __future__ import annotations
 import itertools
 import json
 import math
+import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -175,13 +176,35 @@ def _side(run: LoggedRun) -> RunSide:
 
 
 def _check_same_humans(a: LoggedRun, b: LoggedRun) -> None:
-    only_a, only_b = sorted(set(a.humans) - set(b.humans)), sorted(set(b.humans) - set(a.humans))
+    only_a, only_b = set(a.humans) - set(b.humans), set(b.humans) - set(a.humans)
     if not only_a and not only_b:
         return
-    parts = [f"only in {run.path}: {', '.join(names)}"
+    parts = [f"only in {run.path}: {_named(run, names)}"
              for run, names in ((a, only_a), (b, only_b)) if names]
     raise InputError(f"the runs have different humans ({'; '.join(parts)}): are they runs of "
                      f"the same scenario? ('{a.metadata.title}' and '{b.metadata.title}')")
+
+
+_SHOWN_NAMES = 10
+
+
+def _named(run: LoggedRun, names: set[str]) -> str:
+    """The people of `names` who were in the run's scene, in the order of their numbers
+    (walkers_2 before walkers_10), at most _SHOWN_NAMES; a flow's members who never came are
+    counted, not named."""
+    came = sorted((n for n in names if len(run.humans[n].time)), key=_in_number_order)
+    never = len(names) - len(came)
+    words = ", ".join(came[:_SHOWN_NAMES])
+    if len(came) > _SHOWN_NAMES:
+        words += f" and {len(came) - _SHOWN_NAMES} more"
+    if never:
+        words += f"{', and ' if came else ''}{never} flow member{'s' * (never != 1)} who " \
+                 "never came"
+    return words
+
+
+def _in_number_order(name: str) -> list[str | int]:
+    return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", name)]
 
 
 def _notes(a: LoggedRun, b: LoggedRun) -> tuple[str, ...]:

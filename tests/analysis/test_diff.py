@@ -118,6 +118,20 @@ def test_different_humans_are_named(build_run: Factory, track: Factory) -> None:
         diff_runs(a, b)
 
 
+def test_a_flows_members_who_never_came_are_counted_not_named(build_run: Factory,
+                                                              track: Factory) -> None:
+    # 53 names, 26 of them never in the scene, sorted as strings (walkers_1, walkers_10, ...)
+    came = [track(f"walkers_{i}", [0.0], [(0, 0)]) for i in range(1, 13)]
+    never = [track(f"walkers_{i}", [], []) for i in range(13, 16)]
+    a = build_run([track("alice", [0.0], [(0, 0)])], title="first")
+    b = build_run([track("alice", [0.0], [(0, 0)]), *came, *never], title="second")
+    with pytest.raises(InputError) as failed:
+        diff_runs(a, b)
+    assert ("only in second.mcap: walkers_1, walkers_2, walkers_3, walkers_4, walkers_5, "
+            "walkers_6, walkers_7, walkers_8, walkers_9, walkers_10 and 2 more, and 3 flow "
+            "members who never came)") in failed.value.message
+
+
 def test_other_scenario_text_is_noted(build_run: Factory, track: Factory) -> None:
     humans = [track("alice", [0.0], [(0, 0)])]
     diff = diff_runs(build_run(humans, source="a"), build_run(humans, source="b"))
