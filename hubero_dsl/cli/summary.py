@@ -114,8 +114,12 @@ def _percent(value: float) -> str:
 
 
 def _finite(value: float, unit: str) -> str:
-    """The value in its unit; "-" for infinity (never happened, nobody there)."""
-    return f"{value:.2f} {unit}" if value != float("inf") else "-"
+    """The value in its unit; "-" for infinity (never happened, nobody there). A gap that
+    rounds to zero reads 0.00, whichever side of it the rounding fell (bodies touching)."""
+    if value == float("inf"):
+        return "-"
+    shown = f"{value:.2f}"
+    return f"{'0.00' if shown == '-0.00' else shown} {unit}"
 
 
 def _actors_table(actors: list[HumanSummary], column: str, title: str) -> Table:

@@ -6,6 +6,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
+import pytest
+
 from tests.cli.conftest import Outcome
 
 ROOM = Path(__file__).resolve().parents[1] / "hostile" / "room.yaml"
@@ -77,3 +79,12 @@ def test_control_characters_never_reach_the_terminal(cli: Callable[..., Outcome]
     assert "\x1b" not in outcome.out + outcome.err and "\x07" not in outcome.out + outcome.err
     missing = cli("check", str(tmp_path / "no\x1b[31mred.hub"))
     assert missing.status == 2 and "\x1b" not in missing.out + missing.err
+
+
+@pytest.mark.parametrize(("value", "shown"), [(-0.004, "0.00 m"), (0.004, "0.00 m"),
+                                              (-0.13, "-0.13 m"), (float("inf"), "-")])
+def test_a_gap_that_rounds_to_zero_reads_zero_not_minus_zero(value: float, shown: str) -> None:
+    # "min distance -0.00 m" in the summary of a robot touching a person
+    from hubero_dsl.cli.summary import _finite
+
+    assert _finite(value, "m") == shown
