@@ -373,7 +373,8 @@ def build_controllers(program: Program, given: Mapping[str, type | RobotControll
             params = params_model.model_validate(dict(values))
         except ValidationError as exc:  # the class handed over does not fit the file: input
             raise InputError(f"robot '{spec.name}': controller {cls.__name__} "
-                             f"{_refused_params(exc, spec.controller, cls.__name__)}") from None
+                             f"{_refused_params(exc, spec.controller, cls.__name__)}",
+                             span=spec.span) from None
         try:
             built[spec.name] = cls(body, params)
         except OUTSIDE_STOPS:

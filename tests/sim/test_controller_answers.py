@@ -232,7 +232,9 @@ def test_a_class_handed_over_without_a_parameter_the_scenario_gives_is_told_whic
     program = scenario("robot r at (2, 4) { controller navigator; navigator.safety_margin 0.25 m "
                        "}\n")
     with pytest.raises(InputError, match=(
-            r"^robot 'r': controller Tuned does not take the scenario's "
+            r"test.hub:3:1: robot 'r': controller Tuned does not take the scenario's "
             r"`navigator.safety_margin` \(declare safety_margin in Tuned.Params, or leave it "
-            r"out\)$")):
+            r"out\)$")) as refused:
         Simulation(program, activities=False, controllers={"r": Tuned})
+    span = refused.value.span  # the robot's statement, where its parameters are written
+    assert span is not None and (span.line, span.column) == (3, 1)
