@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -65,7 +66,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     from hubero_dsl.errors import InputError
 
-    if not args.epsilon > 0:
+    if not (math.isfinite(args.epsilon) and args.epsilon > 0):
         raise InputError(f"--epsilon must be a positive distance in metres, got {args.epsilon}")
     if args.plot is not None:
         from hubero_dsl.cli.outputs import check_picture

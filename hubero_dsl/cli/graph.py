@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from hubero_dsl.cli.diagnostic_formats import FileReport, Printer, text_report
+from hubero_dsl.cli.outputs import named_file
 
 FORMATS = ("mermaid", "dot", "png")
 _FORMAT_OF_SUFFIX = {".mmd": "mermaid", ".mermaid": "mermaid", ".dot": "dot", ".gv": "dot",
@@ -43,7 +44,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     parser.add_argument("file", metavar="FILE", help="scenario file (.hub)")
     parser.add_argument("--format", choices=FORMATS, default=None,
                         help="output format (default: from OUT's suffix, else mermaid)")
-    parser.add_argument("-o", "--output", metavar="OUT", default=None,
+    parser.add_argument("-o", "--output", metavar="OUT", default=None, type=named_file,
                         help="write to OUT instead of standard output")
     return parser
 
@@ -122,7 +123,7 @@ def _checked_program(path: str) -> Any:
     return result.program
 
 
-def _format_from_suffix(output: str | None) -> str:
+def _format_from_suffix(output: Path | None) -> str:
     from hubero_dsl.errors import InputError
 
     if output is None:

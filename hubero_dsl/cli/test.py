@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from hubero_dsl.cli.junit import UNCOMPILED, UNREADABLE, TestOutcome
+from hubero_dsl.cli.outputs import named_file
 from hubero_dsl.cli.run import (
     add_run_options,
     handed_controllers,
@@ -37,7 +38,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("files", nargs="+", metavar="FILE", help="scenario files (.hub)")
     add_run_options(parser)
-    parser.add_argument("--junit-xml", metavar="REPORT.xml", type=Path,
+    parser.add_argument("--junit-xml", metavar="REPORT.xml", type=named_file,
                         help="also write the verdicts as a JUnit XML report, for CI")
     refuse_live(parser, "hubero test runs without waiting or serving; watch a run with "
                 "hubero run FILE --live")

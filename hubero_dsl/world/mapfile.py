@@ -32,7 +32,7 @@ from PIL import Image
 
 from hubero_dsl.diagnostics import Span
 from hubero_dsl.errors import MapError
-from hubero_dsl.files import read_bounded, regular_file
+from hubero_dsl.files import read_bounded
 from hubero_dsl.world.grid import MAX_MAP_CELLS, BoolArray, OccupancyGrid
 
 UInt8Array = npt.NDArray[np.uint8]
@@ -44,6 +44,7 @@ EXAMPLE = ("image: map.pgm\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\nnegate: 0
 PGM_MAGIC = b"P5"  # how a binary PGM, the image a map is saved as, starts
 MAX_YAML_BYTES = 1 << 20          # a map YAML file is a few lines
 MAX_RESOLUTION = 100.0            # m a cell: coarser is no floor plan a person walks on
+MIN_RESOLUTION = 0.001            # m a cell: finer draws no furniture a person walks round
 MAX_YAML_DEPTH = 32               # levels of nesting: a map or shape file needs a handful
 MAX_IMAGE_BYTES = 512 << 20       # bytes of a map image file
 SHOWN_VALUE = 60                  # characters of a field's value a message quotes
@@ -214,9 +215,9 @@ def _check_fields(document: _Document) -> MapMetadata:
                        Span.whole_file(str(document.path)),
                        hint=f"a map file looks like:\n{EXAMPLE}")
     resolution = _number(document, "resolution")
-    if not 0.0 < resolution <= MAX_RESOLUTION:
-        raise document.error("resolution", f"must be > 0 and at most {MAX_RESOLUTION:g} metres "
-                             f"per cell, got {resolution:g}")
+    if not MIN_RESOLUTION <= resolution <= MAX_RESOLUTION:
+        raise document.error("resolution", f"must be {MIN_RESOLUTION:g} to {MAX_RESOLUTION:g} "
+                             f"metres per cell, got {resolution:g}")
     occupied_thresh = _threshold(document, "occupied_thresh")
     free_thresh = _threshold(document, "free_thresh")
     if free_thresh > occupied_thresh:
@@ -308,7 +309,9 @@ def _read_image(path: Path, document: _Document) -> tuple[UInt8Array, bool]:
         raise document.error("image", f"names a file that does not exist: {path}")
     if path.is_dir():
         raise document.error("image", f"names a directory, not an image: {path}")
-    regular_file(path, "map image", lambda message: document.error("image", message))
+    if not path.is_file():
+        raise document.error("image", f"names a device, a FIFO or a socket, not an image: "
+                                       f"{path}")
     if path.stat().st_size > MAX_IMAGE_BYTES:
         raise document.error("image", f"is larger than {MAX_IMAGE_BYTES >> 20} MiB: {path}")
     try:

@@ -154,6 +154,7 @@ def test_bad_logs(cli: Cli, logs: dict[str, Path], tmp_path: Path, make: Callabl
     ((), "give two run logs"),
     (("{far}", "--baseline", "near"), "--baseline goes with a sweep folder"),
     (("{far}", "--epsilon", "0"), "--epsilon must be a positive"),
+    (("{far}", "--epsilon", "inf"), "--epsilon must be a positive distance in metres, got inf"),
     (("{far}", "--human", "zed"), "no human zed in these runs (humans: a, b)"),
 ])
 def test_usage_errors(cli: Cli, logs: dict[str, Path], extra: tuple[str, ...],

@@ -269,8 +269,12 @@ def test_an_unknown_option_is_told_with_its_commands_usage(cli: Cli) -> None:
     assert "hubero check: error: unrecognized arguments: --bogus" in outcome.err
 
 
-def test_an_output_named_empty_is_refused_as_naming_no_file(cli: Cli) -> None:
-    outcome = cli("run", "a.hub", "-o", "")
+@pytest.mark.parametrize("argv", [("run", "a.hub", "-o"), ("graph", "a.hub", "-o"),
+                                  ("test", "a.hub", "--junit-xml")])
+def test_an_output_named_empty_is_refused_as_naming_no_file(cli: Cli,
+                                                            argv: tuple[str, ...]) -> None:
+    # graph and test said ".: cannot be written (it is a directory)"
+    outcome = cli(*argv, "")
     assert outcome.status == 2 and "'' names no file: give a file name" in outcome.err
 
 

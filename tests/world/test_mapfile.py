@@ -172,8 +172,10 @@ def expect_map_error(yaml_path: Path, *fragments: str) -> MapError:
 
 
 @pytest.mark.parametrize(("field", "value", "fragment"), [
-    ("resolution", 0, "must be > 0"),
-    ("resolution", -0.05, "must be > 0"),
+    ("resolution", 0, "must be 0.001 to 100 metres per cell, got 0"),
+    ("resolution", -0.05, "must be 0.001 to 100 metres per cell"),
+    ("resolution", 1e-300, "got 1e-300"),  # a map of 7e-298 m was accepted
+    ("resolution", 1000, "must be 0.001 to 100 metres per cell"),
     ("resolution", "abc", "must be a number"),
     ("resolution", ".nan", "must be a number"),
     ("resolution", "true", "must be a number"),
@@ -245,6 +247,15 @@ def test_missing_image(tmp_path: Path) -> None:
     yaml_path = tmp_path / "map.yaml"
     yaml_path.write_text(yaml_text({"image": "gone.pgm", **FIELDS}))
     expect_map_error(yaml_path, "'image'", "gone.pgm", "does not exist")
+
+
+def test_image_is_a_device(tmp_path: Path) -> None:
+    # "field 'image' of map map.yaml map image /dev/zero is not a regular file"
+    yaml_path = tmp_path / "map.yaml"
+    yaml_path.write_text(yaml_text({"image": "/dev/zero", **FIELDS}))
+    error = expect_map_error(yaml_path, "'image'", "names a device, a FIFO or a socket, not an "
+                             "image: /dev/zero")
+    assert "map image" not in error.message
 
 
 def test_image_is_a_directory(tmp_path: Path) -> None:
