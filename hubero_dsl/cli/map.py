@@ -13,6 +13,7 @@ read or an output that cannot be written.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -62,9 +63,27 @@ def run(args: argparse.Namespace) -> int:
         from hubero_dsl.pipeline import compile_file
 
         program = compile_file(args.scenario)
+        if not _same_file(program.map_path, args.map):
+            print(f"hubero: warning: {args.scenario} is written for the map "
+                  f"{_shown(program.map_path)}, not {args.map}: its places are drawn where "
+                  "its coordinates fall on this one", file=sys.stderr)
     show_map(args.map, output, program=program)
     print(f"wrote {output}")
     return 0
+
+
+def _shown(path: Path) -> str:
+    """`path` without its `..` steps, from the working folder when it lies below it."""
+    resolved = path.resolve()
+    return str(resolved.relative_to(Path.cwd()) if resolved.is_relative_to(Path.cwd())
+               else resolved)
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return a.samefile(b)
+    except OSError:  # one of them is gone: they are not one file
+        return False
 
 
 def _refuse_to_overwrite_other_files(yaml_path: Path, image: Path) -> None:

@@ -14,7 +14,8 @@ from PIL import Image
 
 from hubero_dsl.world.mapfile import load_map
 
-DOCS = Path(__file__).resolve().parents[2] / "docs" / "maps.md"
+ROOT = Path(__file__).resolve().parents[2]
+DOCS = ROOT / "docs" / "maps.md"
 UNKNOWN_GREY = (158, 158, 158)  # mapview's 0.62 grey
 
 
@@ -151,3 +152,16 @@ def test_a_crowds_starts_are_named_once_with_its_size() -> None:
     texts = [t.get_text() for t in axes.texts]
     assert texts.count("visitors (8)") == 1 and not any("visitors_" in t for t in texts)
     assert {"mum", "dad", "kid", "cart", "lounge"} <= set(texts)
+
+
+def test_a_scenario_written_for_another_map_is_drawn_with_a_warning(tmp_path: Path,
+                                                                    cli: Any) -> None:
+    # the living room's people were drawn on the car park without a word
+    out = tmp_path / "x.png"
+    shown = cli("map", "show", str(ROOT / "maps" / "parking.yaml"), "-o", str(out),
+                "--scenario", str(ROOT / "scenarios" / "living_room.hub"))
+    assert shown.status == 0 and out.is_file()
+    assert "is written for the map" in shown.err and "not " in shown.err
+    own = cli("map", "show", str(ROOT / "maps" / "living_room.yaml"), "-o", str(out),
+              "--scenario", str(ROOT / "scenarios" / "living_room.hub"))
+    assert own.status == 0 and "warning" not in own.err
