@@ -74,7 +74,8 @@ def test_a_fifo_as_the_map_image_does_not_hang(tmp_path: Path) -> None:
     (tmp_path / "s.hub").write_text('scenario "s"\nmap "room.yaml"\nhuman a at (1, 1)\n'
                                     "activity { a stand for 1 s }\n")
     done = _hubero("check", "s.hub", cwd=tmp_path, timeout=30)
-    assert done.returncode == 1 and "names a device, a FIFO or a socket, not an image" in done.stdout
+    assert done.returncode == 1
+    assert "names a device, a FIFO or a socket, not an image" in done.stdout
 
 
 @pytest.mark.parametrize("output", ["/dev/null", "s.hub", "room.yaml", "."])

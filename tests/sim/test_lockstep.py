@@ -33,15 +33,11 @@ def _state(sim: Simulation) -> list[np.ndarray]:
             r.position, r.velocity, r.heading]
 
 
-def test_simulations_ticked_together_tick_as_each_alone(scenario: ScenarioFactory) -> None:
-    program = scenario(CROWD)
-    together = [Simulation(program, seed=seed) for seed in (1, 2, 3)]
-    alone = [Simulation(program, seed=seed) for seed in (1, 2, 3)]
-    for sim in (together[2], alone[2]):  # copies at different ticks: their own clocks
-        for _ in range(37):
-            sim.step()
-    lockstep, events = Lockstep(), 0
-    for _ in range(400):
+def _tick_alike(together: list[Simulation], alone: list[Simulation], ticks: int) -> None:
+    """Tick `together` in lockstep and `alone` one by one, `ticks` times; after every tick
+    each copy's state and events are those of its twin, bit for bit."""
+    lockstep = Lockstep()
+    for _ in range(ticks):
         steerings = Simulation.begin_steps(together, lockstep)
         steered = [sim.engine.steer(steering) for sim, steering in zip(together, steerings,
                                                                            strict=True)]
@@ -53,7 +49,17 @@ def test_simulations_ticked_together_tick_as_each_alone(scenario: ScenarioFactor
             for got, expected in zip(_state(mine), _state(theirs), strict=True):
                 np.testing.assert_array_equal(got, expected)
             assert mine.events == theirs.events
-        events = sum(len(sim.events) for sim in together)
+
+
+def test_simulations_ticked_together_tick_as_each_alone(scenario: ScenarioFactory) -> None:
+    program = scenario(CROWD)
+    together = [Simulation(program, seed=seed) for seed in (1, 2, 3)]
+    alone = [Simulation(program, seed=seed) for seed in (1, 2, 3)]
+    for sim in (together[2], alone[2]):  # copies at different ticks: their own clocks
+        for _ in range(37):
+            sim.step()
+    _tick_alike(together, alone, 400)
+    events = sum(len(sim.events) for sim in together)
     assert events > 100  # tasks started, ended, people came and left, in every copy
     assert all(sim.engine.humans.present is not None and sim.engine.humans.present.any()
                for sim in together)
@@ -69,16 +75,6 @@ def test_robots_stopped_at_people_stop_alike_together_and_alone(
     for sim in (*together, *alone):
         sim.human("a").sit_down(duration=30.0)
         sim.set_robot_velocity("r", 1.0, 0.0)
-    lockstep = Lockstep()
-    for _ in range(80):
-        steerings = Simulation.begin_steps(together, lockstep)
-        steered = [sim.engine.steer(steering) for sim, steering in zip(together, steerings,
-                                                                           strict=True)]
-        Simulation.end_steps(together, steerings, steered, lockstep)
-        for sim in alone:
-            sim.step()
-        for mine, theirs in zip(together, alone, strict=True):
-            for got, expected in zip(_state(mine), _state(theirs), strict=True):
-                np.testing.assert_array_equal(got, expected)
+    _tick_alike(together, alone, 80)
     robot, seated = together[0].robot("r").position, together[0].human("a").position
     assert np.hypot(*(np.asarray(robot) - seated)) == pytest.approx(0.5, abs=1e-6)  # touching
