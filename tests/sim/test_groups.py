@@ -358,3 +358,25 @@ activity { couple move_around in rect((2.0, 2.0), (28.0, 12.0)) for 30 s }
     assert max(apart) < 2.5 and np.mean(apart) < 1.2
     walked = {e.human for e in result.events if e.status is TaskStatus.SUCCEEDED}
     assert walked == {"mia", "leo"}
+
+
+def test_a_group_of_mixed_speeds_slows_its_fast_members_at_a_walkers_pace() -> None:
+    # held back by a cap set outright, they braked from 1.2 to 0.3 m/s within a tick, at up
+    # to 25 m/s^2, every second or two as a companion came level and fell behind
+    hall = Path(__file__).resolve().parents[2] / "maps" / "benchmark" / "hall.yaml"
+    sim = Simulation(compile_source(_text(hall, """\
+seed 3
+human a at (1.5, 4.0) heading 0 deg
+human b at (1.5, 5.0) heading 0 deg
+human c at (1.0, 4.5) heading 0 deg { speed 1.0 m/s }
+human d at (2.0, 6.0) heading 0 deg { speed 1.5 m/s }
+group friends of (a, b, c, d)
+activity { friends move_to (12.0, 6.0) }
+"""), "t.hub"))
+    speeds: list[list[float]] = []
+    while sim.time < 8.0:
+        sim.step()
+        speeds.append([math.hypot(*sim.human(n).velocity) for n in "abcd"])
+    drops = [before - after for was, now in itertools.pairwise(speeds[20:])
+             for before, after in zip(was, now, strict=True)]
+    assert max(drops) / sim.dt < 3.0  # m/s^2: 1.5 m/s over 0.54 s is 2.8
