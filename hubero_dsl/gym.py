@@ -61,11 +61,13 @@ from hubero_dsl.errors import InputError
 from hubero_dsl.model.program import Program, RobotSpec, unknown_variants
 from hubero_dsl.sim.arrays import FloatArray, IntArray
 from hubero_dsl.sim.joint import JointSteering
-from hubero_dsl.sim.judge import Judge, PlanQuery
+from hubero_dsl.sim.judge import Judge, PlanQuery, Verdict
 from hubero_dsl.sim.lockstep import Lockstep, joined
+from hubero_dsl.sim.loop import RunResult, summarise, summarise_robots
 from hubero_dsl.sim.robots import Robots, in_view
+from hubero_dsl.sim.scheduler import RunState
 from hubero_dsl.sim.simulation import GlobalPlanners, Simulation
-from hubero_dsl.socialnav import CONTACT
+from hubero_dsl.socialnav import CONTACT, GOAL_SLACK
 
 # observation, reward, terminated, truncated, info: what `Env.step` returns
 Outcome = tuple[dict[str, npt.NDArray[Any]], float, bool, bool, dict[str, Any]]
@@ -164,6 +166,8 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         self._sim: Simulation | None = None
         self._judge: Judge | None = None
         self._log: Any = None
+        self._ended = False   # the episode ended: step() needs a reset() first
+        self._closed = False
         # episodes (and a vector env's copies) share the planners' cached fields and the
         # reference plans of the metrics' plan efficiency
         self._planners = GlobalPlanners()
@@ -173,8 +177,10 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[dict[str, npt.NDArray[Any]], dict[str, Any]]:
+        self._refuse_closed()
         super().reset(seed=seed)
-        self._close_log(None)
+        self._drop_log()
+        self._ended = False
         run_seed = seed if seed is not None else int(self.np_random.integers(2**31))
         variant = self._variant_of(options)
         sim = Simulation(self.program, variant=variant, seed=run_seed, planners=self._planners)
@@ -202,6 +208,9 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         return known_variant(self.program, options["variant"])
 
     def step(self, action: npt.NDArray[np.float32]) -> Outcome:
+        if self._ended:
+            raise gymnasium.error.ResetNeeded("the episode has ended: call reset() before "
+                                              "step()")
         self._act(action)
         sim = self._simulation()
         sim.step()
@@ -221,21 +230,28 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
                                    spec.goal_tolerance)
 
     def close(self) -> None:
-        self._close_log(None)
+        self._drop_log()
+        self._closed = True
         super().close()
+
+    def _refuse_closed(self) -> None:
+        if self._closed:
+            raise gymnasium.error.ClosedEnvironmentError("the environment is closed")
 
     # ---- a step in two parts, around the world's tick (a vector env ticks its copies together)
 
     def _simulation(self) -> Simulation:
+        self._refuse_closed()
         if self._sim is None:
-            raise gymnasium.error.ResetNeeded("call reset() before step()")
+            raise gymnasium.error.ResetNeeded("call reset() first")
         return self._sim
 
     def _act(self, action: npt.NDArray[np.float32]) -> None:
         """Hand the robot the action for the coming tick (the controller is not asked)."""
         given = real_numbers(action, "an action is two finite numbers")
-        if given.size != 2:
-            raise ValueError(f"an action is two finite numbers, not {action!r}")
+        if given.shape != (2,):  # the action space's shape: (1, 2) or (2, 1) are no actions
+            raise ValueError(f"an action is two finite numbers, not {action!r} (an array "
+                             f"of shape {given.shape}; the action space's is (2,))")
         self._act_floats(given.reshape(2).tolist(), action)
 
     def _act_floats(self, action: list[float], given: object) -> None:
@@ -261,7 +277,8 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         distance = self._goal_distance(senses, index)
         gained, self._distance = self._distance - distance, distance
         gap = float(senses.gap[index])
-        reached = distance <= self.robot_spec.goal_tolerance
+        # as the metrics and `reaches` judge it: rounding does not leave a reached goal out
+        reached = distance <= self.robot_spec.goal_tolerance + GOAL_SLACK
         collided = gap < CONTACT
         assert self._judge is not None
         self._judge.observe()
@@ -273,7 +290,7 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         if terminated or truncated:
             outcome = "reached" if reached else "collision" if collided else "time limit"
             info = self._episode_info(outcome)
-            self._close_log(outcome)
+            self._ended = True
         return reward, terminated, truncated, info
 
     # ---- observations ------------------------------------------------------------------------
@@ -298,15 +315,28 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
                 "expectations": {v.text: bool(v.held) for v in verdicts}}
         if self.metrics and judge.tracks is not None:
             info["metrics"] = judge.tracks.metrics(sim, self.robot_name)
+        if self._log is not None:
+            self._log.close(self._episode_result(outcome, verdicts))
+            self._log = None
         return info
 
-    def _close_log(self, outcome: str | None) -> None:
+    def _episode_result(self, outcome: str, verdicts: list[Verdict]) -> RunResult:
+        """How the episode ended, as a run's result, for its log (`hubero diff` and `plot`
+        read it as a run's): reached is a completed run, a collision a failed one."""
+        sim = self._sim
+        assert sim is not None
+        state, reason = {
+            "reached": (RunState.COMPLETED, f"robot '{self.robot_name}' reached its goal"),
+            "collision": (RunState.FAILED, f"robot '{self.robot_name}' collided"),
+        }.get(outcome, (RunState.TIMED_OUT, "the time limit"))
+        return RunResult(state, reason, sim.time, sim.tick, sim.variant, sim.seed,
+                         list(sim.events), verdicts, summarise(sim), summarise_robots(sim))
+
+    def _drop_log(self) -> None:
+        """An episode's log that did not end (reset, closed) is dropped, not left half."""
         if self._log is None:
             return
-        if outcome is None:
-            self._log._discard()
-        else:
-            self._log.close()
+        self._log._discard()
         self._log = None
 
 
@@ -549,10 +579,10 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
     def reset(self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
               ) -> tuple[dict[str, npt.NDArray[Any]], dict[str, Any]]:
         super().reset(seed=seed if isinstance(seed, int) else None)
-        if isinstance(seed, list) and len(seed) != self.num_envs:
+        if isinstance(seed, list | tuple) and len(seed) != self.num_envs:
             raise ValueError(f"reset() takes one seed per copy ({self.num_envs}) or one "
                              f"seed, not a list of {len(seed)}")
-        seeds = seed if isinstance(seed, list) else [
+        seeds = list(seed) if isinstance(seed, list | tuple) else [
             None if seed is None else seed + i for i in range(self.num_envs)]
         observations: list[dict[str, npt.NDArray[Any]]] = []
         infos: dict[str, Any] = {}
@@ -582,9 +612,12 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
                 if info:
                     infos = self._add_info(infos, info, i)
         for i in np.flatnonzero(self._done).tolist():
-            # next-step autoreset: this step only resets the episode
-            for key, value in self.envs[i].reset()[0].items():
+            # next-step autoreset: this step only resets the episode (its seed and variant in
+            # the infos, as gymnasium's own vector envs give them)
+            observation, info = self.envs[i].reset()
+            for key, value in observation.items():
                 observations[key][i] = value
+            infos = self._add_info(infos, info, i)
         self._done = terminated | truncated
         return observations, rewards, terminated, truncated, infos
 
@@ -593,7 +626,7 @@ class HuberoVectorEnv(VectorEnv[dict[str, Any], Any, Any]):
         all of them at once (`Lockstep`, `JointSteering`, `sense`): what their robots see
         (None: no episode goes on)."""
         given = real_numbers(actions, "actions are one row of two numbers per copy")
-        if given.size != 2 * self.num_envs:
+        if given.shape != (self.num_envs, 2):
             raise ValueError(f"actions are one row of two numbers per copy, "
                              f"{self.num_envs} x 2, not an array of shape {given.shape}")
         rows = given.reshape(self.num_envs, 2).tolist()

@@ -130,7 +130,8 @@ def test_actions_are_clipped_to_the_box_and_must_be_finite(tmp_path: Path) -> No
         env.step(np.array([np.nan, 0.0], np.float32))
     observation, *_ = env.step(np.array([1e308, 1e308]))  # finite: clipped as any other
     assert math.hypot(*observation["robot"][2:4]) == pytest.approx(1.0, abs=0.01)
-    for wrong in (np.zeros(3), None, np.array([1j, 0.0]), "ab", [True, False], [0.1, [0.2]]):
+    for wrong in (np.zeros(3), None, np.array([1j, 0.0]), "ab", [True, False], [0.1, [0.2]],
+                  np.zeros((1, 2)), np.zeros((2, 1))):  # the space's shape is (2,)
         with pytest.raises(ValueError, match=r"^an action is two finite numbers, not "):
             env.step(wrong)
 
@@ -191,6 +192,10 @@ def test_an_episode_is_saved_as_a_log(tmp_path: Path) -> None:
     run = load_run(log)
     assert set(run.humans) == {"alice", "bob"} and set(run.robots) == {"cart"}
     assert run.robots["cart"].position[-1][0] > 1.0
+    # how it ended, as a run's log says it (a log with no result read as a run cut short)
+    assert run.result is not None and run.result.state == "timed_out"
+    assert run.result.reason == "the time limit" and run.result.time == pytest.approx(20.0)
+    assert [e["text"] for e in run.result.expectations] == ["cart reaches (8, 6) within 20 s"]
 
 
 def test_the_vector_env_batches_and_resets_by_itself(tmp_path: Path) -> None:
@@ -355,6 +360,67 @@ def test_a_vector_envs_copies_and_seeds_are_checked(tmp_path: Path) -> None:
                               scenario=str(_scenario(tmp_path)), robot="cart")
     with pytest.raises(ValueError, match="one seed per copy \\(3\\) or one seed, not a list of 2"):
         envs.reset(seed=[1, 2])
+    _, info = envs.reset(seed=(4, 5, 6))  # a tuple, as a list
+    assert list(info["seed"]) == [4, 5, 6]
+    for loose in (np.zeros(6), np.zeros((3, 1, 2))):  # one row of two per copy, no other shape
+        with pytest.raises(ValueError, match="one row of two numbers per copy, 3 x 2"):
+            envs.step(loose.astype(np.float32))
+
+
+def test_the_autoreset_step_tells_the_new_episodes_seed(tmp_path: Path) -> None:
+    # gymnasium's own vector envs do, so that an episode that went wrong can be replayed
+    envs = gymnasium.make_vec(hubero_dsl.gym.ENV_ID, num_envs=2,
+                              vectorization_mode="vector_entry_point",
+                              scenario=str(_scenario(tmp_path)), robot="cart")
+    envs.reset(seed=3)
+    done = np.zeros(2, dtype=bool)
+    while not done.any():
+        _, _, terminated, truncated, _ = envs.step(np.zeros((2, 2), np.float32))
+        done = terminated | truncated
+    _, rewards, _, _, info = envs.step(np.zeros((2, 2), np.float32))
+    assert info["_seed"].tolist() == done.tolist() and rewards[done].tolist() == [0.0] * done.sum()
+    replay = gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(_scenario(tmp_path)),
+                            robot="cart")
+    assert replay.reset(seed=int(info["seed"][done][0]))[1]["seed"] == info["seed"][done][0]
+
+
+def test_an_ended_or_closed_episode_is_not_stepped_on(tmp_path: Path) -> None:
+    env = gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(_scenario(tmp_path)), robot="cart",
+                         render_mode="rgb_array")
+    with pytest.raises(gymnasium.error.ResetNeeded, match="call reset\\(\\) first"):
+        env.unwrapped.render()  # it said "before step()"
+    env.reset(seed=1)
+    terminated = truncated = False
+    while not (terminated or truncated):
+        _, _, terminated, truncated, _ = env.step(np.zeros(2, np.float32))
+    with pytest.raises(gymnasium.error.ResetNeeded, match="the episode has ended"):
+        env.step(np.zeros(2, np.float32))   # it went on, and judged the episode again
+    env.reset(seed=1)
+    env.step(np.zeros(2, np.float32))
+    env.close()
+    with pytest.raises(gymnasium.error.ClosedEnvironmentError):
+        env.step(np.zeros(2, np.float32))   # it went on simulating
+
+
+def test_a_goal_reached_to_the_last_bit_is_reached(tmp_path: Path) -> None:
+    # 1 m/s for 116 ticks stopped 0.2 m + 4e-15 from the goal: the episode ran to its time
+    # limit as a failure, while its metrics said the goal was reached at 5.8 s
+    save_map(room_grid(), tmp_path / "room.yaml")
+    scenario = tmp_path / "open.hub"
+    scenario.write_text('scenario "open"\nmap "room.yaml"\ntime_limit 20 s\n'
+                        "robot cart at (1.0, 4.0) { controller external; radius 0.3 m; "
+                        "max_speed 1.0 m/s; max_acceleration 100; goal (7.0, 4.0) }\n",
+                        encoding="utf-8")
+    env = gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(scenario), robot="cart")
+    env.reset(seed=1)
+    info: dict[str, object] = {}
+    for step in range(400):
+        _, _, terminated, truncated, info = env.step(
+            np.array([1.0, 0.0] if step < 116 else [0.0, 0.0], np.float32))
+        if terminated or truncated:
+            break
+    assert info["outcome"] == "reached" and info["is_success"]
+    assert info["time"] == pytest.approx(info["metrics"]["time_to_goal"])  # type: ignore[index]
 
 
 def test_an_episode_can_run_a_variant_of_the_scenario(tmp_path: Path) -> None:
