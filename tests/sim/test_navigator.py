@@ -3,6 +3,7 @@ walking at it, goes round people standing in its way, and keeps off walls."""
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 
@@ -89,3 +90,37 @@ def test_it_keeps_off_the_walls_of_a_corridor(scenario: ScenarioFactory, tmp_pat
         float(s.engine.grid.clearance_at([s.robot("cart").position])[0]))])
     assert result.robots[0].last_status == "SUCCEEDED", result.reason
     assert min(clearance) >= 0.3 - 0.03   # it may brush a corner by a few centimetres
+
+
+def test_stepping_out_of_a_crowds_way_it_does_not_flip_from_side_to_side() -> None:
+    # re-choosing its step every tick among near-equal ways, it reversed 12 times and changed
+    # its velocity faster than 5 m/s^2 in 64 ticks of this run
+    from hubero_dsl.pipeline import compile_source
+
+    hall = REPO_ROOT / "maps" / "benchmark" / "hall.yaml"
+    sim = Simulation(compile_source(f"""\
+scenario "a crowd walking at the cart"
+map "{hall}"
+seed 2
+time_limit 60 s
+on_failure continue
+crowd people 10 in rect((9.0, 2.5), (12.5, 7.5)) heading 180 deg {{
+    speed normal(1.2 m/s, 0.15 m/s)
+}}
+human solo at (11.0, 5.0) heading 180 deg
+robot cart at (1.0, 5.0) heading 0 deg {{
+    controller navigator; radius 0.3 m; speed 0.8 m/s; max_speed 1.0 m/s; goal (13.0, 5.0)
+}}
+activity {{ parallel {{ people move_to (1.5, 5.0); solo move_to (1.0, 5.0)
+                        cart move_to (13.0, 5.0) within 50 s }} }}
+""", str(REPO_ROOT / "t.hub")))
+    velocities = []
+    while sim.time < 30.0:
+        sim.step()
+        velocities.append(sim.robot("cart").velocity)
+    jolts = reversals = 0
+    for (ax, ay), (bx, by) in itertools.pairwise(velocities):
+        jolts += math.hypot(bx - ax, by - ay) / sim.dt > 5.0
+        moving = math.hypot(ax, ay) > 0.05 and math.hypot(bx, by) > 0.05
+        reversals += moving and ax * bx + ay * by < -0.5 * math.hypot(ax, ay) * math.hypot(bx, by)
+    assert jolts <= 35 and reversals <= 10
