@@ -22,6 +22,7 @@ import itertools
 import json
 import math
 import os
+import stat
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -55,11 +56,11 @@ def refuse_other_indexes(out_dir: str | Path) -> None:
 
 def earlier_logs(out_dir: str | Path) -> list[Path]:
     """The logs an earlier sweep into `out_dir` wrote, as its index names them: those that are
-    MCAP files inside the folder's `runs/`. None when there is no index, or a damaged one (what
-    it names is not surely the sweep's own)."""
+    MCAP files inside the folder's `runs/`, or links there (to be removed themselves, not what
+    they name). None when there is no index, or a damaged one (what it names is not surely the
+    sweep's own)."""
     from hubero_dsl.analysis.diff import load_index
     from hubero_dsl.errors import InputError
-    from hubero_dsl.files import MCAP_MAGIC
 
     if not (Path(out_dir) / INDEX_JSON).is_file():
         return []
@@ -70,15 +71,31 @@ def earlier_logs(out_dir: str | Path) -> list[Path]:
     folder = (Path(out_dir) / "runs").resolve()
     logs = []
     for run in runs:
+        if run.log is None:
+            continue
         try:
-            log = run.log.resolve() if run.log is not None else None
-            if log is not None and log.is_relative_to(folder) and log.is_file():
-                with log.open("rb") as stream:
-                    if stream.read(len(MCAP_MAGIC)) == MCAP_MAGIC:
-                        logs.append(log)
+            # the folder's links resolved, not the file's own: a link is removed, never
+            # what it points at
+            log = run.log.parent.resolve() / run.log.name
+            if log.is_relative_to(folder) and _an_earlier_log(log):
+                logs.append(log)
         except (OSError, RuntimeError):  # RuntimeError: a loop of symbolic links
             continue
     return logs
+
+
+def _an_earlier_log(path: Path) -> bool:
+    """Whether `path` may go as an earlier sweep's log: a regular file that begins as an MCAP
+    file does, or a symbolic link (the link goes, not the file it names)."""
+    from hubero_dsl.files import MCAP_MAGIC
+
+    mode = path.lstat().st_mode
+    if stat.S_ISLNK(mode):
+        return True
+    if not stat.S_ISREG(mode):
+        return False
+    with path.open("rb") as stream:
+        return stream.read(len(MCAP_MAGIC)) == MCAP_MAGIC
 
 
 def build_index(plan: SweepPlan, outcome: SweepOutcome) -> dict[str, Any]:

@@ -105,6 +105,23 @@ def test_a_sweep_into_an_earlier_ones_folder_leaves_only_its_own_logs(cli: Run,
     assert [r["log"] for r in index(out)["runs"]] == ["runs/default/seed-1.mcap"]
 
 
+def test_a_link_in_an_earlier_sweeps_folder_goes_but_not_the_file_it_names(
+        cli: Run, tmp_path: Path) -> None:
+    # the earlier log replaced by a link to a file of the user's: the file and its folder went
+    out = tmp_path / "out"
+    file = scenario(tmp_path, PLAIN)
+    assert cli("sweep", file, "--seeds", "0", "--out-dir", str(out), "-q").status == 0
+    mine = out / "runs" / "mine"
+    mine.mkdir()
+    earlier = out / "runs" / "default" / "seed-0.mcap"
+    (mine / "important.mcap").write_bytes(earlier.read_bytes())
+    earlier.unlink()
+    earlier.symlink_to(Path("..") / "mine" / "important.mcap")
+    assert cli("sweep", file, "--seeds", "1", "--out-dir", str(out), "-q").status == 0
+    assert (mine / "important.mcap").is_file()
+    assert not earlier.is_symlink() and not earlier.exists()
+
+
 def test_a_scenario_without_variants_runs_as_written(cli: Run, tmp_path: Path) -> None:
     out = tmp_path / "out"
     outcome = cli("sweep", scenario(tmp_path, PLAIN), "--executor", "serial",
