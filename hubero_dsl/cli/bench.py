@@ -21,8 +21,12 @@ other files, and never into the suite's own folder.
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from hubero_dsl.sweep.bench import BenchOutcome
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -44,25 +48,11 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hubero_dsl.cli.console import make_console
-    from hubero_dsl.cli.main import EXIT_INTERRUPTED, EXIT_TERMINATED
     from hubero_dsl.cli.run import handed_controllers
     from hubero_dsl.errors import InputError
-    from hubero_dsl.sweep.bench import (
-        INTERRUPTED,
-        find_suite,
-        plot_paths,
-        robots_of,
-        run_bench,
-        write_tables,
-    )
-    from hubero_dsl.sweep.executors import (
-        available_cores,
-        check_jobs,
-        open_executor,
-        stopped_once,
-    )
-    from hubero_dsl.sweep.plan import parse_seeds, variant_label
+    from hubero_dsl.sweep.bench import find_suite, plot_paths, robots_of, write_tables
+    from hubero_dsl.sweep.executors import check_jobs, deaf_to_interrupts, stopped_once
+    from hubero_dsl.sweep.plan import parse_seeds
 
     check_jobs(args.jobs)
     seeds = parse_seeds(args.seeds) if args.seeds is not None else ()
@@ -75,29 +65,59 @@ def run(args: argparse.Namespace) -> int:
     _check_out_dir(args.folder, scenarios, args.out_dir)
     args.out_dir.mkdir(parents=True, exist_ok=True)
     with stopped_once():  # once stopped, deaf until the tables are written and said
+        outcome = _bench(args, scenarios, controllers, seeds)
+        with deaf_to_interrupts():  # a first press now: the tables are still written whole
+            written = (write_tables(outcome.rows, args.out_dir)
+                       + plot_paths(outcome.rows, args.out_dir))
+        return _report(outcome, len(written), args.out_dir)
+
+
+def _bench(args: argparse.Namespace, scenarios: list[Path], controllers: dict[str, type],
+           seeds: tuple[int, ...]) -> BenchOutcome:
+    """The bench on a process pool; stopped as the pool shut down, after the runs, it is
+    reported as stopped (with every run finished)."""
+    from hubero_dsl.errors import Terminated
+    from hubero_dsl.sweep.bench import run_bench
+    from hubero_dsl.sweep.executors import available_cores, open_executor
+
+    outcome: BenchOutcome | None = None
+    try:
         with open_executor("process", jobs=args.jobs or available_cores()) as executor:
             outcome = run_bench(scenarios, args.out_dir, executor, controllers=controllers,
                                 seeds=seeds)
-        rows = outcome.rows
-        written = write_tables(rows, args.out_dir) + plot_paths(rows, args.out_dir)
-        console = make_console()
-        for row in rows:
-            if not row.succeeded and row.status != INTERRUPTED:
-                console.print(f"{row.scenario} [{variant_label(row.variant)}] seed {row.seed} "
-                              f"{row.controller}: "
-                              f"{row.status}: {row.reason or 'an expectation failed'}",
-                              highlight=False, soft_wrap=True, markup=False)
-        ran = sum(r.status != INTERRUPTED for r in rows)
-        console.print(f"{ran} runs; {sum(r.succeeded for r in rows)} ok; wrote "
-                      f"{len(written)} files to {args.out_dir}", highlight=False,
-                      soft_wrap=True)
-        if not outcome.complete:
-            stop = "terminated" if outcome.terminated else "interrupted"
-            make_console(stderr=True).print(
-                f"hubero: {stop}: {ran} of {len(rows)} runs finished; the tables mark the "
-                f"others {INTERRUPTED}", highlight=False, soft_wrap=True)
-            return EXIT_TERMINATED if outcome.terminated else EXIT_INTERRUPTED
-    return 0 if all(r.succeeded for r in rows) else 1
+    except KeyboardInterrupt as stop:  # Terminated too
+        if outcome is None:
+            raise  # as the workers started: nothing ran, nothing to tell of
+        outcome = replace(outcome, complete=False, terminated=isinstance(stop, Terminated))
+    return outcome
+
+
+def _report(outcome: BenchOutcome, written: int, out_dir: Path) -> int:
+    """Say the runs that failed, what was written, and whether the bench was stopped; the
+    exit status."""
+    from hubero_dsl.cli.console import make_console
+    from hubero_dsl.cli.main import EXIT_INTERRUPTED, EXIT_TERMINATED
+    from hubero_dsl.sweep.bench import INTERRUPTED
+    from hubero_dsl.sweep.plan import variant_label
+
+    rows = outcome.rows
+    console = make_console()
+    for row in rows:
+        if not row.succeeded and row.status != INTERRUPTED:
+            console.print(f"{row.scenario} [{variant_label(row.variant)}] seed {row.seed} "
+                          f"{row.controller}: {row.status}: "
+                          f"{row.reason or 'an expectation failed'}",
+                          highlight=False, soft_wrap=True, markup=False)
+    ran = sum(r.status != INTERRUPTED for r in rows)
+    console.print(f"{ran} runs; {sum(r.succeeded for r in rows)} ok; wrote {written} files to "
+                  f"{out_dir}", highlight=False, soft_wrap=True)
+    if outcome.complete:
+        return 0 if all(r.succeeded for r in rows) else 1
+    stop = "terminated" if outcome.terminated else "interrupted"
+    make_console(stderr=True).print(
+        f"hubero: {stop}: {ran} of {len(rows)} runs finished; the tables mark the others "
+        f"{INTERRUPTED}", highlight=False, soft_wrap=True)
+    return EXIT_TERMINATED if outcome.terminated else EXIT_INTERRUPTED
 
 
 def _check_out_dir(folder: Path, scenarios: list[Path], out_dir: Path) -> None:

@@ -18,12 +18,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from hubero_dsl.errors import InputError
+from hubero_dsl.errors import InputError, Terminated
 from hubero_dsl.log.reader import LoggedRun, load_run
 from hubero_dsl.pipeline import compile_file
 from hubero_dsl.sweep.index import write_atomically
-from hubero_dsl.sweep.plan import plan_sweep, variant_label
-from hubero_dsl.sweep.runner import SweepOutcome, prepare_out_dir, run_sweep
+from hubero_dsl.sweep.plan import RunSpec, SweepPlan, plan_sweep, variant_label
+from hubero_dsl.sweep.runner import prepare_out_dir, run_sweep
 from hubero_dsl.sweep.worker import RunRecord
 
 REFERENCE, YOURS = "reference", "yours"
@@ -90,33 +90,49 @@ def run_bench(scenarios: Sequence[Path], out_dir: Path, executor: Executor, *,
               controllers: Mapping[str, type], seeds: Sequence[int] = ()) -> BenchOutcome:
     """Every scenario's every variant (with each of `seeds`, else the scenario's own seed) with
     the reference, then (when given) the caller's controllers; a run that goes wrong is a row,
-    never an exception. Stopped (Ctrl-C, SIGTERM), it runs nothing more."""
-    rows: list[BenchRow] = []
+    never an exception. Stopped (Ctrl-C, SIGTERM: in a run, or between runs as their logs are
+    measured or the next scenario planned), it runs nothing more, and the runs that had not
+    finished are rows of their own."""
     sides: list[tuple[str, dict[str, type]]] = [(REFERENCE, {})]
     if controllers:
         sides.append((YOURS, dict(controllers)))
-    stopped: SweepOutcome | None = None
-    for path in scenarios:
-        program = compile_file(path)
-        plan = plan_sweep(path, program, list(program.variants) or [None],
-                          tuple(seeds) or (program.seed,))
-        robots = sorted(robot.name for robot in program.robots)
-        for side, handed in sides:
-            finished: dict[tuple[str | None, int], BenchRow] = {}
-            if stopped is None:
+    plans: dict[Path, tuple[SweepPlan, list[str]]] = {}
+    finished: dict[tuple[str, str, str | None, int], BenchRow] = {}
+    stopped: KeyboardInterrupt | None = None
+    try:
+        for path in scenarios:
+            plan, robots = plans[path] = _planned(path, seeds)
+            for side, handed in sides:
                 folder = out_dir / "runs" / path.stem / side
                 prepare_out_dir(plan, folder)
                 outcome = run_sweep(plan, folder, executor, metrics=None, controllers=handed)
-                finished = {(record.variant, record.seed): _measured(path.stem, side, record,
-                                                                     folder, robots)
-                            for record in outcome.records}
-                stopped = None if outcome.complete else outcome
-            rows += [finished.get((run.variant, run.seed)) or BenchRow(
-                path.stem, run.variant, side, INTERRUPTED, False,
-                "the bench was stopped before this run finished", seed=run.seed,
-                termination=INTERRUPTED)
-                for run in plan.runs]
-    return BenchOutcome(rows, stopped is None, stopped is not None and stopped.terminated)
+                for record in outcome.records:
+                    finished[(path.stem, side, record.variant, record.seed)] = _measured(
+                        path.stem, side, record, folder, robots)
+                if not outcome.complete:  # stopped in a run: as if stopped here
+                    raise Terminated if outcome.terminated else KeyboardInterrupt
+    except KeyboardInterrupt as stop:  # Terminated too
+        stopped = stop
+    rows = [finished.get((path.stem, side, run.variant, run.seed))
+            or _interrupted(path.stem, side, run)
+            for path in scenarios for side, _ in sides
+            for run in (plans.get(path) or _planned(path, seeds))[0].runs]
+    return BenchOutcome(rows, stopped is None, isinstance(stopped, Terminated))
+
+
+def _planned(path: Path, seeds: Sequence[int]) -> tuple[SweepPlan, list[str]]:
+    """A scenario's runs (every variant with each of `seeds`, else its own seed) and its
+    robots."""
+    program = compile_file(path)
+    plan = plan_sweep(path, program, list(program.variants) or [None],
+                      tuple(seeds) or (program.seed,))
+    return plan, sorted(robot.name for robot in program.robots)
+
+
+def _interrupted(scenario: str, side: str, run: RunSpec) -> BenchRow:
+    return BenchRow(scenario, run.variant, side, INTERRUPTED, False,
+                    "the bench was stopped before this run finished", seed=run.seed,
+                    termination=INTERRUPTED)
 
 
 def _measured(scenario: str, side: str, record: RunRecord, folder: Path,

@@ -227,3 +227,27 @@ def test_ctrl_c_stops_the_bench_and_marks_the_runs_it_did_not_finish(small_suite
     assert summary["doorway"]["variant"] == "0/16 ok"
     assert summary["doorway"]["termination"] == "interrupted:16"
     assert f"{len(rows) - len(stopped)} runs;" in stdout
+
+
+def test_a_stop_between_runs_leaves_rows_for_every_run(small_suite: Path, tmp_path: Path,
+                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    # stopped as a finished run's log was measured, the bench wrote no tables at all
+    from hubero_dsl.sweep import bench
+    from hubero_dsl.sweep.executors import SerialExecutor
+
+    measured = bench._measure
+    calls = []
+
+    def stopped_at_the_second(*args: object) -> object:
+        calls.append(args)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return measured(*args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(bench, "_measure", stopped_at_the_second)
+    scenarios = bench.find_suite(small_suite)
+    outcome = bench.run_bench(scenarios, tmp_path / "out", SerialExecutor(), controllers={},
+                              seeds=(1,))
+    assert not outcome.complete and not outcome.terminated
+    assert [r.status for r in outcome.rows] == ["completed"] + ["interrupted"] * 6
+    assert [r.scenario for r in outcome.rows] == ["crossing"] * 3 + ["doorway"] * 4
