@@ -89,16 +89,17 @@ class Navigator:
 
     def command(self, observation: Observation) -> tuple[float, float]:
         goal = observation.goal
-        if goal is None:
-            return (0.0, 0.0)
         here = np.asarray(observation.position)
-        if float(np.hypot(*(np.asarray(goal) - here))) <= observation.stop_distance:
+        if goal is None or float(np.hypot(*(np.asarray(goal) - here))) \
+                <= observation.stop_distance:
+            self._forget_escape()  # the next goal's steps aside start afresh
             return (0.0, 0.0)
         if self.blocked_for >= self.params.detour_after:
             self.detouring, self.blocked_for, self.next_plan = True, 0.0, observation.time
         if self._must_plan(goal, observation.time):
             self._plan(observation, goal)
         if self.problem is not None or len(self.waypoints) == 0:
+            self._forget_escape()
             return (0.0, 0.0)
         planned = self._along_plan(here, observation)
         self.escaping = False
@@ -106,7 +107,7 @@ class Navigator:
         stopped = float(np.hypot(*wanted)) < 1e-9 < float(np.hypot(*planned))
         self.blocked_for = self.blocked_for + self.body.dt if stopped else 0.0
         if not (self.escaping or stopped):
-            self.escape_origin = self.escape_way = None  # on its way again
+            self._forget_escape()  # on its way again
         forward, turn = self._as_command(wanted, observation.heading, reverse=self.escaping)
         if self.body.kinematics == "unicycle" and forward != 0.0 and not self.escaping:
             # a unicycle drives along its heading, not along `wanted`: check that motion too
@@ -135,9 +136,13 @@ class Navigator:
 
     def _must_plan(self, goal: tuple[float, float], time: float) -> bool:
         moved = self.planned_goal is None or math.dist(goal, self.planned_goal) > 0.25
-        if moved:
-            self.detouring = False  # a new goal: the people in the old way may not matter
+        if moved:  # a new goal: the people in the old way, and steps aside, may not matter
+            self.detouring = False
+            self._forget_escape()
         return moved or time >= self.next_plan
+
+    def _forget_escape(self) -> None:
+        self.escape_origin = self.escape_way = None
 
     def _plan(self, observation: Observation, goal: tuple[float, float]) -> None:
         self.planned_goal = goal
@@ -266,6 +271,7 @@ class Navigator:
         ways = np.argsort(-score, kind="stable").tolist()
         if self.escape_way is not None and \
                 score[self.escape_way] >= score[ways[0]] - ESCAPE_HYSTERESIS:
+            ways.remove(self.escape_way)
             ways.insert(0, self.escape_way)
         for k in ways:
             step = directions[k] * speed

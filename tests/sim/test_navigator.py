@@ -7,6 +7,7 @@ import itertools
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from hubero_dsl.pipeline import compile_file
@@ -124,3 +125,21 @@ activity {{ parallel {{ people move_to (1.5, 5.0); solo move_to (1.0, 5.0)
         moving = math.hypot(ax, ay) > 0.05 and math.hypot(bx, by) > 0.05
         reversals += moving and ax * bx + ay * by < -0.5 * math.hypot(ax, ay) * math.hypot(bx, by)
     assert jolts <= 35 and reversals <= 10
+
+
+def test_steps_aside_for_one_goal_are_forgotten_at_the_next(scenario: ScenarioFactory) -> None:
+    # kept while it waited, the place its steps aside began limited those for a next goal
+    sim = Simulation(scenario("human bob at (3.2, 4)\n"
+                              "robot r at (2, 4) { controller navigator; radius 0.3 m }\n"),
+                     activities=False)
+    sim.human("bob").stand(duration=60.0)     # in its way to either goal: it waits
+    navigator = sim.engine.robots.controllers[0]
+    sim.robot("r").move_to((6.0, 4.0))
+    while navigator.blocked_for == 0.0 and sim.time < 10.0:  # it closes in, then stops
+        sim.step()
+    assert navigator.blocked_for > 0.0
+    navigator.escape_origin, navigator.escape_way = np.array([1.0, 4.0]), 3  # as if aside
+    sim.robot("r").move_to((6.0, 4.5))
+    sim.step()
+    assert navigator.blocked_for > 0.0        # still waiting, for the new goal
+    assert navigator.escape_origin is None and navigator.escape_way is None
