@@ -208,6 +208,7 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         return known_variant(self.program, options["variant"])
 
     def step(self, action: npt.NDArray[np.float32]) -> Outcome:
+        self._refuse_closed()
         if self._ended:
             raise gymnasium.error.ResetNeeded("the episode has ended: call reset() before "
                                               "step()")
@@ -289,8 +290,11 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
         info: dict[str, Any] = {}
         if terminated or truncated:
             outcome = "reached" if reached else "collision" if collided else "time limit"
-            info = self._episode_info(outcome)
+            info, verdicts = self._episode_info(outcome)
             self._ended = True
+            if self._log is not None:
+                log, self._log = self._log, None
+                log.close(self._episode_result(outcome, verdicts))
         return reward, terminated, truncated, info
 
     # ---- observations ------------------------------------------------------------------------
@@ -305,9 +309,10 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
 
     # ---- the end of an episode ---------------------------------------------------------------
 
-    def _episode_info(self, outcome: str) -> dict[str, Any]:
+    def _episode_info(self, outcome: str) -> tuple[dict[str, Any], list[Verdict]]:
         """How the episode ended, the robot's social-navigation metrics over it (as
-        docs/analysis.md defines them) and the scenario's expectations, judged."""
+        docs/analysis.md defines them) and the scenario's expectations, judged (as `info`,
+        and the verdicts themselves, for the episode's log)."""
         sim, judge = self._sim, self._judge
         assert sim is not None and judge is not None
         verdicts = judge.finish()
@@ -315,10 +320,7 @@ class ScenarioEnv(gymnasium.Env[dict[str, Any], Any]):
                 "expectations": {v.text: bool(v.held) for v in verdicts}}
         if self.metrics and judge.tracks is not None:
             info["metrics"] = judge.tracks.metrics(sim, self.robot_name)
-        if self._log is not None:
-            self._log.close(self._episode_result(outcome, verdicts))
-            self._log = None
-        return info
+        return info, verdicts
 
     def _episode_result(self, outcome: str, verdicts: list[Verdict]) -> RunResult:
         """How the episode ended, as a run's result, for its log (`hubero diff` and `plot`

@@ -71,7 +71,8 @@ def test_same_seed_and_actions_same_observations(tmp_path: Path) -> None:
 
 
 def test_driving_to_the_goal_terminates_with_success_and_metrics(tmp_path: Path) -> None:
-    env = gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(_scenario(tmp_path)), robot="cart")
+    env = gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(_scenario(tmp_path)), robot="cart",
+                         log=str(tmp_path / "reached.mcap"))
     observation, _ = env.reset(seed=1)
     total, info, terminated, truncated = 0.0, {}, False, False
     while not (terminated or truncated):
@@ -89,6 +90,10 @@ def test_driving_to_the_goal_terminates_with_success_and_metrics(tmp_path: Path)
     assert metrics["collisions"] == 0 and metrics["min_distance"] > 0.0
     assert 0.0 < metrics["path_efficiency"] <= 1.0 and 0.0 < metrics["plan_efficiency"] <= 1.0
     assert metrics["time_to_goal"] <= info["time"]
+    result = load_run(tmp_path / "reached.mcap").result  # the log says so too
+    assert result is not None and (result.state, result.reason) == (
+        "completed", "robot 'cart' reached its goal")
+    assert result.succeeded and result.time == pytest.approx(info["time"])
 
 
 def test_episode_metrics_can_be_left_out(tmp_path: Path) -> None:
@@ -109,13 +114,17 @@ def test_driving_into_a_person_is_a_collision(tmp_path: Path) -> None:
     save_map(room_grid(), tmp_path / "room.yaml")
     file.write_text('scenario "bump"\nmap "room.yaml"\nhuman alice at (3, 1)\n'
                     "robot cart at (1, 1) { controller external; goal (8, 1) }\n")
-    env = gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(file), robot="cart")
+    env = gymnasium.make(hubero_dsl.gym.ENV_ID, scenario=str(file), robot="cart",
+                         log=str(tmp_path / "bump.mcap"))
     env.reset(seed=0)
     for _ in range(100):
         _, reward, terminated, _, info = env.step(np.array([1.0, 0.0], np.float32))
         if terminated:
             break
     assert info["outcome"] == "collision" and not info["is_success"] and reward < 0
+    result = load_run(tmp_path / "bump.mcap").result
+    assert result is not None and (result.state, result.reason) == ("failed",
+                                                                    "robot 'cart' collided")
     assert info["metrics"]["collisions"] == 1 and info["metrics"]["min_distance"] < CONTACT
     assert info["metrics"]["time_to_goal"] == float("inf")
 
@@ -395,9 +404,7 @@ def test_an_ended_or_closed_episode_is_not_stepped_on(tmp_path: Path) -> None:
         _, _, terminated, truncated, _ = env.step(np.zeros(2, np.float32))
     with pytest.raises(gymnasium.error.ResetNeeded, match="the episode has ended"):
         env.step(np.zeros(2, np.float32))   # it went on, and judged the episode again
-    env.reset(seed=1)
-    env.step(np.zeros(2, np.float32))
-    env.close()
+    env.close()  # closed after an episode that ended: closed, not ended, is what it says
     with pytest.raises(gymnasium.error.ClosedEnvironmentError):
         env.step(np.zeros(2, np.float32))   # it went on simulating
 
