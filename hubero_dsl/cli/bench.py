@@ -128,14 +128,14 @@ def _check_out_dir(folder: Path, scenarios: list[Path], out_dir: Path) -> None:
     from hubero_dsl.files import PNG_MAGIC, check_output, refuse_other_kind
     from hubero_dsl.pipeline import compile_file
     from hubero_dsl.sweep.bench import COLUMNS
+    from hubero_dsl.sweep.runner import refuse_unwritable
     from hubero_dsl.world.mapfile import map_files
 
     # how each of the bench's own tables and pictures begins: it writes over these only
     own = {".csv": ",".join(COLUMNS[:4]).encode(),
            ".md": ("| " + " | ".join(COLUMNS[:4])).encode(), ".png": PNG_MAGIC}
 
-    if out_dir.exists() and not out_dir.is_dir():
-        raise InputError(f"{out_dir}: cannot be the bench's output folder (it is a file)")
+    refuse_unwritable(out_dir, "the tables")
     if not out_dir.is_dir():
         return  # a new folder holds no input
     if out_dir.samefile(folder):

@@ -64,9 +64,11 @@ def run(args: argparse.Namespace) -> int:
 
         program = compile_file(args.scenario)
         if not _same_file(program.map_path, args.map):
-            print(f"hubero: warning: {args.scenario} is written for the map "
-                  f"{_shown(program.map_path)}, not {args.map}: its places are drawn where "
-                  "its coordinates fall on this one", file=sys.stderr)
+            from hubero_dsl.cli.diagnostic_formats import printable
+
+            print(printable(f"hubero: warning: {args.scenario} is written for the map "
+                            f"{_shown(program.map_path)}, not {args.map}: its places are "
+                            "drawn where its coordinates fall on this one"), file=sys.stderr)
     show_map(args.map, output, program=program)
     print(f"wrote {output}")
     return 0

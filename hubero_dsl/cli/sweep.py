@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import time
 from collections import Counter
 from pathlib import Path
@@ -109,22 +108,6 @@ def _variant_names(args: argparse.Namespace) -> list[str] | None:
     return split_variant_list(args.variants) if args.variants is not None else None
 
 
-def _refuse_unwritable(out_dir: Path) -> None:
-    """An --out-dir that is a file, or that cannot be made or written in (the nearest folder
-    that exists, itself or above it, is not writable), is refused before any worker starts:
-    found only as the logs' folder was made, after the pool had started."""
-    from hubero_dsl.errors import InputError
-
-    existing = out_dir
-    while not existing.exists() and existing != existing.parent:
-        existing = existing.parent
-    if existing.exists() and not existing.is_dir():
-        raise InputError(f"cannot write logs into {out_dir}: {existing} is a file, not a "
-                         "directory")
-    if not os.access(existing, os.W_OK | os.X_OK):
-        raise InputError(f"cannot write logs into {out_dir}: {existing} is not writable")
-
-
 def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
     from hubero_dsl.cli.console import make_console
     from hubero_dsl.files import check_output
@@ -140,11 +123,11 @@ def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
         refuse_other_indexes,
         write_index,
     )
-    from hubero_dsl.sweep.runner import prepare_out_dir, run_sweep
+    from hubero_dsl.sweep.runner import prepare_out_dir, refuse_unwritable, run_sweep
     from hubero_dsl.sweep.worker import standard_metrics
 
     refuse_other_indexes(args.out_dir)  # before any earlier log there is cleared away
-    _refuse_unwritable(args.out_dir)     # before any worker starts
+    refuse_unwritable(args.out_dir, "logs")  # before any worker starts
     earlier = earlier_logs(args.out_dir)
     jobs = min(args.jobs or available_cores(), len(plan.runs))
     errors = make_console(stderr=True)

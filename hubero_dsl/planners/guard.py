@@ -106,20 +106,16 @@ class GuardedGlobalPlanner:
         return Plan(self._waypoints(answer, asked))
 
     def _waypoints(self, answer: object, asked: str) -> FloatArray:
-        given = answer.waypoints if isinstance(answer, Plan) else None
-        try:
-            count = len(given) if given is not None else 0
-        except Exception:  # user code: whatever it returned has no length
-            count = 0
-        if count > MAX_WAYPOINTS:  # followed waypoint by waypoint, it would never end
-            raise PlannerError(f"global planner '{self.name}', asked for {asked}, returned a "
-                               f"plan of {count:,} waypoints (at most {MAX_WAYPOINTS:,})")
-        waypoints = _floats(given)
+        waypoints = _floats(answer.waypoints if isinstance(answer, Plan) else None)
         xmin, ymin, xmax, ymax = self._bounds
         if waypoints is None or waypoints.ndim != 2 or waypoints.shape[1:] != (2,) \
                 or not len(waypoints) or not np.isfinite(waypoints).all():
             raise PlannerError(f"global planner '{self.name}', asked for {asked}, returned "
                                f"{shown(answer)}, not a Plan of (K, 2) finite waypoints")
+        if len(waypoints) > MAX_WAYPOINTS:  # followed waypoint by waypoint, it would never end
+            raise PlannerError(f"global planner '{self.name}', asked for {asked}, returned a "
+                               f"plan of {len(waypoints):,} waypoints (at most "
+                               f"{MAX_WAYPOINTS:,})")
         x, y = waypoints[:, 0], waypoints[:, 1]
         if ((x < xmin) | (x > xmax) | (y < ymin) | (y > ymax)).any():
             raise PlannerError(f"global planner '{self.name}', asked for {asked}, returned "

@@ -622,7 +622,8 @@ class Engine:
             # held back at a walker's pace, by at most its desired speed per relaxation time a
             # tick: a cap set outright braked from 1.2 to 0.3 m/s within a tick as a companion
             # came level and fell behind, every second or two
-            braking = h.desired_speed[walking] * self._relaxing(walking)
+            braking = physics.walkers_change(h.desired_speed[walking],
+                                             h.relaxation_time[walking], self.dt)
             cap = np.maximum(cap, physics.lengths(h.velocity[walking]) - braking)
             # one about to reach its place waits there, standing: crawling to it keeps it in
             # the way of those coming up behind

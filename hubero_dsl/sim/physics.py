@@ -336,6 +336,14 @@ def _slide_along_walls(grid: OccupancyGrid, old: FloatArray, new: FloatArray,
     return result
 
 
+def walkers_change(desired_speed: FloatArray | float, relaxation_time: FloatArray | float,
+                   dt: float) -> FloatArray | float:
+    """The most a walker's velocity changes in a tick when a reaction or its group, not the
+    social force, sets where it goes: its desired speed per relaxation time (about 2.5 m/s^2
+    by default), the pace at which the social force's goal term starts it walking."""
+    return dt * desired_speed / relaxation_time
+
+
 def capped(vectors: FloatArray, limit: FloatArray) -> FloatArray:
     """Each row scaled down to at most `limit` long (a speed limit on velocities)."""
     return vectors * np.minimum(1.0, limit / np.maximum(lengths(vectors), 1e-9))[:, None]

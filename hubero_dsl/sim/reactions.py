@@ -122,8 +122,9 @@ class Reactions:
         speed per relaxation time (reaching `wanted` exactly, unlike an exponential approach,
         so that a stop is a stop)."""
         current = humans.velocity[i]
-        most = self.dt * float(humans.desired_speed[i]) / float(humans.relaxation_time[i])
-        return current + _capped(wanted - current, most)
+        most = physics.walkers_change(float(humans.desired_speed[i]),
+                                      float(humans.relaxation_time[i]), self.dt)
+        return current + _capped(wanted - current, float(most))
 
 
 def _capped(velocity: FloatArray, limit: float) -> FloatArray:

@@ -387,9 +387,11 @@ def _stop_short_of_people(fleets: Sequence[Robots], olds: list[FloatArray],
         part = share[start:start + fleet.count]
         start += fleet.count
         for i in np.flatnonzero(part < 1.0).tolist():
-            step = (fleet.position[i] - before[i]) * part[i]
-            fleet.path_length[i] += math.hypot(*step) - math.hypot(
-                *(fleet.position[i] - before[i]))
+            whole = fleet.position[i] - before[i]
+            step = whole * part[i]
+            # the part of the move not made is taken back off the length walked (np.hypot, as
+            # the moves counted it)
+            fleet.path_length[i] += np.hypot(*step) - np.hypot(*whole)
             fleet.position[i] = before[i] + step
             fleet.velocity[i] = step / dt
 

@@ -189,7 +189,8 @@ def test_the_tables_do_not_go_into_the_suites_folder_or_onto_a_file(
     a_file = tmp_path / "notes.txt"
     a_file.write_text("x", encoding="utf-8")
     assert main(["bench", str(small_suite), "-o", str(a_file)]) == 2
-    assert "cannot be the bench's output folder (it is a file)" in capsys.readouterr().err
+    assert f"cannot write the tables into {a_file}: {a_file} is a file, not a directory" \
+        in capsys.readouterr().err
 
 
 def test_a_bench_is_written_over_its_own_earlier_tables(small_suite: Path,
