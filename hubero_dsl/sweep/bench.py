@@ -21,7 +21,12 @@ from typing import Any
 from hubero_dsl.errors import InputError, Terminated
 from hubero_dsl.log.reader import LoggedRun, load_run
 from hubero_dsl.pipeline import compile_file
-from hubero_dsl.sweep.index import write_atomically
+from hubero_dsl.sweep.index import (
+    earlier_logs,
+    refuse_other_indexes,
+    write_atomically,
+    write_index,
+)
 from hubero_dsl.sweep.plan import RunSpec, SweepPlan, plan_sweep, variant_label
 from hubero_dsl.sweep.runner import prepare_out_dir, run_sweep
 from hubero_dsl.sweep.worker import RunRecord
@@ -103,9 +108,13 @@ def run_bench(scenarios: Sequence[Path], out_dir: Path, executor: Executor, *,
         for path in scenarios:
             plan, robots = plans[path] = _planned(path, seeds)
             for side, handed in sides:
+                # each side's runs are a sweep's, with its index: `hubero diff FOLDER
+                # --baseline VARIANT` reads them, and the next bench clears their logs away
                 folder = out_dir / "runs" / path.stem / side
-                prepare_out_dir(plan, folder)
+                refuse_other_indexes(folder)
+                prepare_out_dir(plan, folder, earlier_logs(folder))
                 outcome = run_sweep(plan, folder, executor, metrics=None, controllers=handed)
+                write_index(folder, plan, outcome)
                 for record in outcome.records:
                     finished[(path.stem, side, record.variant, record.seed)] = _measured(
                         path.stem, side, record, folder, robots)

@@ -4,6 +4,7 @@ read back with csv, the plots opened with Pillow, and bad input refused with exi
 from __future__ import annotations
 
 import csv
+import json
 import math
 import os
 import shutil
@@ -252,3 +253,18 @@ def test_a_stop_between_runs_leaves_rows_for_every_run(small_suite: Path, tmp_pa
     assert not outcome.complete and not outcome.terminated
     assert [r.status for r in outcome.rows] == ["completed"] + ["interrupted"] * 6
     assert [r.scenario for r in outcome.rows] == ["crossing"] * 3 + ["doorway"] * 4
+
+
+def test_each_sides_runs_are_a_sweep_that_the_next_bench_clears(small_suite: Path,
+                                                                 tmp_path: Path) -> None:
+    # a bench of seeds 1 and 2, then of seed 1: seed 2's logs stayed, named by no table
+    out = tmp_path / "out"
+    for seeds in ("1..2", "1"):
+        assert main(["bench", str(small_suite), "-o", str(out), "--jobs", "2", "--seeds",
+                     seeds]) == 0
+    side = out / "runs" / "crossing" / "reference"
+    assert sorted(p.name for p in side.glob("runs/*/*.mcap")) == ["seed-1.mcap"] * 3
+    index = json.loads((side / "index.json").read_text(encoding="utf-8"))
+    assert index["complete"] and [r["seed"] for r in index["runs"]] == [1, 1, 1]
+    # and `hubero diff` reads it as any sweep
+    assert main(["diff", str(side), "--baseline", "robot_reaction=regular"]) == 0
