@@ -28,7 +28,7 @@ import numpy.typing as npt
 from hubero_dsl.planners.neighbours import PairFinder
 from hubero_dsl.sim import physics
 from hubero_dsl.sim.arrays import BoolArray, FloatArray, HumanArrays, IntArray
-from hubero_dsl.sim.robots import move_fleets
+from hubero_dsl.sim.robots import move_fleets, stop_at_people
 from hubero_dsl.sim.status import Posture
 
 if TYPE_CHECKING:
@@ -58,7 +58,7 @@ class Lockstep:
             _check_shared(driving)
             move_fleets([e.robots for e in driving],
                         [e.robots.wanted(e.dt, e.tick, e.humans, e.position_of)
-                         for e in driving], driving[0].dt, [e.humans for e in driving])
+                         for e in driving], driving[0].dt)
         alone = len(engines) == 1
         return [engine.steering(crowd=alone) for engine in engines]
 
@@ -77,6 +77,10 @@ class Lockstep:
             e.velocities(s, v) if on else np.zeros(e.humans.velocity.shape)
             for e, s, v, on in zip(engines, steerings, steered, active, strict=True)]))
         self._move(rows, velocity)
+        driving = [e for e in engines if e.robots.count]
+        if driving:  # robots still inside someone who could not yield are taken back
+            stop_at_people([e.robots for e in driving], [e.humans for e in driving],
+                           driving[0].dt)
         heading_goals = ~np.isnan(rows.humans.heading_goal)
         if any(active) or heading_goals.any():
             _turn(rows, heading_goals)

@@ -138,8 +138,9 @@ def contact_fractions(old: FloatArray, new: FloatArray, radius: FloatArray,
                       pairs: tuple[IntArray, IntArray]) -> FloatArray:
     """(M,) share of each move old -> new (rows of (M, 2)) that its body (`radius`) makes
     before it touches one of `bodies` (rows of (K, 2), radii `body_radius`) that `pairs` (move
-    rows, body rows) sets it against, the bodies standing still: 1 where it touches none. A
-    move that starts overlapping a body may go on only if it does not close on it (0 else)."""
+    rows, body rows) sets it against, where the move ends inside that body: 1 where it ends
+    inside none. A move that starts overlapping the body may go on only if it does not close
+    on it (0 else)."""
     move, body = pairs
     step = (new - old)[move]
     offset = old[move] - bodies[body]
@@ -147,6 +148,8 @@ def contact_fractions(old: FloatArray, new: FloatArray, radius: FloatArray,
     a = (step * step).sum(axis=1)
     b = 2.0 * (offset * step).sum(axis=1)
     c = (offset * offset).sum(axis=1) - reach * reach
+    end = offset + step
+    inside = (end * end).sum(axis=1) < reach * reach
     closing = b < 0.0
     root = np.sqrt(np.maximum(b * b - 4.0 * a * c, 0.0))
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -154,6 +157,7 @@ def contact_fractions(old: FloatArray, new: FloatArray, radius: FloatArray,
     pair_share = np.where(c <= 0.0, np.where(closing, 0.0, 1.0),
                           np.where(closing & (b * b > 4.0 * a * c), np.clip(entry, 0.0, 1.0),
                                    1.0))
+    pair_share = np.where(inside, pair_share, 1.0)
     share = np.ones(len(old))
     np.minimum.at(share, move, pair_share)
     return share
@@ -161,9 +165,8 @@ def contact_fractions(old: FloatArray, new: FloatArray, radius: FloatArray,
 
 def few_contact_fractions(old: list[Point], new: list[Point], radius: list[float],
                           bodies: list[Point], body_radius: list[float]) -> list[float]:
-    """`contact_fractions` for a few moves and bodies (all facing), in floats with the arrays'
-    arithmetic, bit for bit; a body further from a move's start than the move is long is
-    passed over (the arrays' answer for it is 1, exactly)."""
+    """`contact_fractions` for a few moves and bodies (every pair), in floats with the arrays'
+    arithmetic, bit for bit."""
     shares = []
     for (x0, y0), (x1, y1), r in zip(old, new, radius, strict=True):
         sx, sy = x1 - x0, y1 - y0
@@ -172,8 +175,9 @@ def few_contact_fractions(old: list[Point], new: list[Point], radius: list[float
         for (bx, by), br in zip(bodies, body_radius, strict=True):
             ox, oy = x0 - bx, y0 - by
             reach = r + br
-            if math.sqrt(ox * ox + oy * oy) > reach + math.sqrt(a) + 1e-9:
-                continue  # out of reach of this move
+            ex, ey = ox + sx, oy + sy
+            if not ex * ex + ey * ey < reach * reach:
+                continue  # the move does not end inside this body
             b = 2.0 * (ox * sx + oy * sy)
             c = (ox * ox + oy * oy) - reach * reach
             if c <= 0.0:

@@ -65,6 +65,7 @@ class Robots:
         self.grid = grid
         count = len(specs)
         self.position: FloatArray = np.array([s.start.xy for s in specs], float).reshape(count, 2)
+        self.moved_from: FloatArray = self.position  # where each robot's last move began
         self.velocity: FloatArray = np.zeros((count, 2))
         self.heading: FloatArray = np.array([s.start.heading or 0.0 for s in specs], float)
         self.radius: FloatArray = np.array([s.radius for s in specs], float)
@@ -344,28 +345,26 @@ def in_view(spec: RobotSpec, offset: FloatArray, surface: FloatArray,
 
 
 def move_fleets(fleets: Sequence[Robots], wanted: Sequence[list[tuple[float, float]]],
-                dt: float, people: Sequence[HumanArrays] = ()) -> None:
+                dt: float) -> None:
     """Move the robots of one simulation, or of many at once (a vector environment's copies,
-    on one map), at the velocities `wanted` (`Robots.wanted`), never through a wall, nor
-    into a person of `people` (each fleet's simulation's humans). Each robot moves as it would
-    alone: the walls are kept out for all rows in one call, and a fleet in which a wall
-    stopped or bent someone's move takes the velocities of its steps (every row's, as
-    alone)."""
-    olds = [fleet.position for fleet in fleets]  # replaced by the moves, never written into
+    on one map), at the velocities `wanted` (`Robots.wanted`), never through a wall. Each
+    robot moves as it would alone: the walls are kept out for all rows in one call, and a
+    fleet in which a wall stopped or bent someone's move takes the velocities of its steps
+    (every row's, as alone). Where each moved from is kept for `stop_at_people`."""
+    for fleet in fleets:
+        fleet.moved_from = fleet.position  # replaced by the move, never written into
     _move_fleets(fleets, wanted, dt)
-    if people:
-        _stop_short_of_people(fleets, olds, people, dt)
 
 
 _FEW_PAIRS = 64  # robots x people up to which a robot's stop at people is found in floats
 
 
-def _stop_short_of_people(fleets: Sequence[Robots], olds: list[FloatArray],
-                          people: Sequence[HumanArrays], dt: float) -> None:
-    """Each robot's move ends where its body would touch a person's, people where they stand
-    as the tick begins. People then yield (the tick's separation pushes whoever a robot
-    touches off it), but one who cannot (seated, lying, pressed against a wall or a crowd) is
-    no longer driven through. The bodies touch (a collision, as the metrics count it)."""
+def stop_at_people(fleets: Sequence[Robots], people: Sequence[HumanArrays], dt: float) -> None:
+    """At a tick's end, once people have moved and been pushed off the robots: a robot still
+    inside someone, who could not yield (seated, lying, pressed against a wall or a crowd),
+    is taken back along its move to where their bodies touch (a collision, as the metrics
+    count it). It was driven through them. Whoever could yield did, and stops no robot."""
+    olds = [fleet.moved_from for fleet in fleets]
     humans = [h.position for h in people]
     count = sum(len(h) for h in humans)
     if not count:

@@ -196,20 +196,20 @@ def test_a_position_that_is_not_a_number_ends_the_run(scenario: ScenarioFactory)
         sim.step()
 
 
-def test_a_move_stops_where_its_body_first_touches_another() -> None:
+def test_a_move_ending_inside_a_body_stops_where_it_first_touches_it() -> None:
     from hubero_dsl.sim.physics import contact_fractions
 
     bodies, body_radius = np.array([[2.0, 0.0], [2.0, 5.0]]), np.array([0.5, 0.5])
-    old = np.array([[0.0, 0.0],     # straight at the first: touches after 1.0 of 4 m
-                    [0.0, 0.6],     # beside it: passes 0.6 from its centre, beyond 0.5 + 0.1
+    old = np.array([[0.0, 0.0],     # into the first, ending 0.2 from its centre: back to 1.4
+                    [0.0, 0.0],     # past it, ending clear of it: it goes (it has yielded)
                     [1.5, 0.0],     # already overlapping it (0.1 of 0.6), closing further
                     [1.6, 0.0],     # overlapping it, leaving
-                    [0.0, 5.0]])    # at the second, which it is not set against
-    new = old + np.array([[4.0, 0.0], [4.0, 0.0], [0.5, 0.0], [-1.0, 0.0], [4.0, 0.0]])
+                    [0.0, 5.0]])    # into the second, which it is not set against
+    new = old + np.array([[2.2, 0.0], [4.0, 0.0], [0.3, 0.0], [-1.0, 0.0], [2.2, 0.0]])
     radius = np.full(5, 0.1)
     pairs = (np.array([0, 1, 2, 3]), np.array([0, 0, 0, 0]))
     share = contact_fractions(old, new, radius, bodies, body_radius, pairs)
-    assert share.tolist() == pytest.approx([(2.0 - 0.6) / 4.0, 1.0, 0.0, 1.0, 1.0])
+    assert share.tolist() == pytest.approx([1.4 / 2.2, 1.0, 0.0, 1.0, 1.0])
     assert contact_fractions(old[:1], old[:1], radius[:1], bodies, body_radius,
                              _every_pair(1, 2))[0] == 1.0
 

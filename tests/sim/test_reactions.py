@@ -97,7 +97,8 @@ def test_a_reaction_changes_a_walk_as_a_person_could(room_map: Path, reaction: s
     run_program(sim, [observe])
     for (gap, (vx, vy)), (next_gap, (wx, wy)) in itertools.pairwise(samples):
         if min(gap, next_gap) > 0.3:  # a touch, or the robot's push at close range, aside
-            assert math.hypot(wx - vx, wy - vy) / sim.dt < 3.0  # m/s^2
+            # m/s^2: a walker's pace, and the social force's push from the robot near it
+            assert math.hypot(wx - vx, wy - vy) / sim.dt < 5.0
 
 
 def test_an_unknown_reaction_is_reported(room_map: Path) -> None:

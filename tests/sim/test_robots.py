@@ -140,8 +140,8 @@ def test_a_robot_driven_into_a_wall_stops_at_its_surface_and_slides_along(
     assert sim.robot("r").position[0] == pytest.approx(2.9, abs=0.06)   # it slid on
 
 
-@pytest.mark.parametrize("posture", ["sit_down", "lie_down", "stand"])
-def test_a_robot_driven_at_a_person_stops_where_their_bodies_touch(
+@pytest.mark.parametrize("posture", ["sit_down", "lie_down"])
+def test_a_robot_driven_at_someone_who_cannot_yield_stops_where_their_bodies_touch(
         scenario: ScenarioFactory, posture: str) -> None:
     # seated or lying, a person cannot yield, and a robot's command drove it through them
     sim = Simulation(scenario("human bob at (5, 4)\n"
@@ -152,11 +152,24 @@ def test_a_robot_driven_at_a_person_stops_where_their_bodies_touch(
     for _ in range(120):
         sim.step()
         gaps.append(math.dist(sim.robot("r").position, sim.human("bob").position) - 0.5)
-    assert min(gaps) >= -1e-9                     # bodies of 0.3 + 0.2 m: never overlapping
-    assert gaps[-1] < 1e-6 or posture == "stand"  # it stopped at their body, touching it
-    if posture != "stand":                        # the seated and lying do not move
-        assert sim.human("bob").position == pytest.approx((5.0, 4.0))
-        assert sim.robot("r").velocity == pytest.approx((0.0, 0.0))
+    assert min(gaps) >= -1e-9 and gaps[-1] < 1e-6  # bodies of 0.3 + 0.2 m: touching
+    assert sim.human("bob").position == pytest.approx((5.0, 4.0))  # who does not move
+    assert sim.robot("r").velocity == pytest.approx((0.0, 0.0))
+
+
+@pytest.mark.parametrize("task", ["stand", None])
+def test_a_robot_driven_at_someone_standing_pushes_them_aside_and_drives_on(
+        scenario: ScenarioFactory, task: str | None) -> None:
+    # stopped where their bodies touched, neither moved again: the robot stood there for good
+    sim = Simulation(scenario("human bob at (5, 4.1)\n"
+                              "robot r at (2, 4) { radius 0.3 m; max_speed 1.0 m/s }\n"))
+    if task is not None:
+        sim.human("bob").stand(duration=30.0)
+    sim.set_robot_velocity("r", 1.0, 0.0)
+    for _ in range(120):
+        sim.step()
+    assert sim.robot("r").position[0] == pytest.approx(8.0, abs=0.01)  # 6 s at 1 m/s
+    assert math.dist(sim.human("bob").position, (5.0, 4.1)) > 0.3     # pushed aside
 
 
 def test_a_unicycle_driven_into_a_wall_at_an_angle_does_not_slide_sideways(
