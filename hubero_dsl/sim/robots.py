@@ -363,7 +363,7 @@ def stop_at_people(fleets: Sequence[Robots], people: Sequence[HumanArrays], dt: 
     """At a tick's end, once people have moved and been pushed off the robots: a robot still
     inside someone, who could not yield (seated, lying, pressed against a wall or a crowd),
     is taken back along its move to where their bodies touch (a collision, as the metrics
-    count it). It was driven through them. Whoever could yield did, and stops no robot."""
+    count it), rather than drive through them. Whoever could yield did, and stops no robot."""
     olds = [fleet.moved_from for fleet in fleets]
     humans = [h.position for h in people]
     count = sum(len(h) for h in humans)
