@@ -84,6 +84,20 @@ def check_output(path: Path, reads: Sequence[Path] = (),
         raise InputError(word(path, problem))
 
 
+def check_output_folder(out_dir: Path, what: str) -> None:
+    """InputError for an output folder that is a file, or that cannot be made or written in
+    (the nearest folder that exists, itself or above it, is not writable): found before any
+    work starts (a sweep's or a bench's workers), rather than as the folder is made."""
+    existing = out_dir
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if existing.exists() and not existing.is_dir():
+        raise InputError(f"cannot write {what} into {out_dir}: {existing} is a file, not a "
+                         "directory")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise InputError(f"cannot write {what} into {out_dir}: {existing} is not writable")
+
+
 def _output_problem(path: Path, reads: Sequence[Path]) -> str | None:
     parent = path.parent
     if not parent.is_dir():

@@ -125,17 +125,16 @@ def _check_out_dir(folder: Path, scenarios: list[Path], out_dir: Path) -> None:
     folder that is not the suite's, over files of the bench's own only, and never onto a
     scenario, its map or its map's image."""
     from hubero_dsl.errors import InputError
-    from hubero_dsl.files import PNG_MAGIC, check_output, refuse_other_kind
+    from hubero_dsl.files import PNG_MAGIC, check_output, check_output_folder, refuse_other_kind
     from hubero_dsl.pipeline import compile_file
     from hubero_dsl.sweep.bench import COLUMNS
-    from hubero_dsl.sweep.runner import refuse_unwritable
     from hubero_dsl.world.mapfile import map_files
 
     # how each of the bench's own tables and pictures begins: it writes over these only
     own = {".csv": ",".join(COLUMNS[:4]).encode(),
            ".md": ("| " + " | ".join(COLUMNS[:4])).encode(), ".png": PNG_MAGIC}
 
-    refuse_unwritable(out_dir, "the tables")
+    check_output_folder(out_dir, "the tables")
     if not out_dir.is_dir():
         return  # a new folder holds no input
     if out_dir.samefile(folder):

@@ -110,7 +110,7 @@ def _variant_names(args: argparse.Namespace) -> list[str] | None:
 
 def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
     from hubero_dsl.cli.console import make_console
-    from hubero_dsl.files import check_output
+    from hubero_dsl.files import check_output, check_output_folder
     from hubero_dsl.sweep.executors import (
         available_cores,
         open_executor,
@@ -123,11 +123,11 @@ def _sweep(args: argparse.Namespace, plan: SweepPlan) -> int:
         refuse_other_indexes,
         write_index,
     )
-    from hubero_dsl.sweep.runner import prepare_out_dir, refuse_unwritable, run_sweep
+    from hubero_dsl.sweep.runner import prepare_out_dir, run_sweep
     from hubero_dsl.sweep.worker import standard_metrics
 
     refuse_other_indexes(args.out_dir)  # before any earlier log there is cleared away
-    refuse_unwritable(args.out_dir, "logs")  # before any worker starts
+    check_output_folder(args.out_dir, "logs")  # before any worker starts
     earlier = earlier_logs(args.out_dir)
     jobs = min(args.jobs or available_cores(), len(plan.runs))
     errors = make_console(stderr=True)

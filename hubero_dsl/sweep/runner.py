@@ -24,7 +24,7 @@ from concurrent.futures import FIRST_COMPLETED, BrokenExecutor, Executor, Future
 from dataclasses import dataclass
 from pathlib import Path
 
-from hubero_dsl.errors import InputError, LogError, Terminated
+from hubero_dsl.errors import LogError, Terminated
 from hubero_dsl.sweep.executors import deaf_to_interrupts, executor_slots, terminate
 from hubero_dsl.sweep.plan import SweepPlan
 from hubero_dsl.sweep.worker import (
@@ -52,20 +52,6 @@ class SweepOutcome:
     def succeeded(self) -> bool:
         """Every planned run finished, completed, and met its expectations."""
         return self.complete and all(record.succeeded for record in self.records)
-
-
-def refuse_unwritable(out_dir: Path, what: str) -> None:
-    """InputError for an output folder that is a file, or that cannot be made or written in
-    (the nearest folder that exists, itself or above it, is not writable): found before any
-    worker starts, rather than as the folder is made, after they have."""
-    existing = out_dir
-    while not existing.exists() and existing != existing.parent:
-        existing = existing.parent
-    if existing.exists() and not existing.is_dir():
-        raise InputError(f"cannot write {what} into {out_dir}: {existing} is a file, not a "
-                         "directory")
-    if not os.access(existing, os.W_OK | os.X_OK):
-        raise InputError(f"cannot write {what} into {out_dir}: {existing} is not writable")
 
 
 def prepare_out_dir(plan: SweepPlan, out_dir: str | Path, earlier: Sequence[Path] = ()
