@@ -59,11 +59,11 @@ def earlier_logs(out_dir: str | Path) -> list[Path]:
     MCAP files inside the folder's `runs/`, or links there (to be removed themselves, not what
     they name). None when there is no index, or a damaged one (what it names is not surely the
     sweep's own)."""
+    if not (Path(out_dir) / INDEX_JSON).is_file():
+        return []  # a first sweep into the folder: not worth importing the index's reader
     from hubero_dsl.analysis.diff import load_index
     from hubero_dsl.errors import InputError
 
-    if not (Path(out_dir) / INDEX_JSON).is_file():
-        return []
     try:
         runs = load_index(out_dir).runs
     except InputError:
