@@ -123,11 +123,13 @@ def _report(outcome: BenchOutcome, written: int, out_dir: Path) -> int:
 def _check_out_dir(folder: Path, scenarios: list[Path], out_dir: Path) -> None:
     """The bench's tables and pictures (OUT/NAME.csv, .md, .png and the summary's) go into a
     folder that is not the suite's, over files of the bench's own only, and never onto a
-    scenario, its map or its map's image."""
+    scenario, its map or its map's image; its runs' indexes only over earlier ones. All found
+    before any run."""
     from hubero_dsl.errors import InputError
     from hubero_dsl.files import PNG_MAGIC, check_output, check_output_folder, refuse_other_kind
     from hubero_dsl.pipeline import compile_file
-    from hubero_dsl.sweep.bench import COLUMNS
+    from hubero_dsl.sweep.bench import COLUMNS, REFERENCE, YOURS, side_folder
+    from hubero_dsl.sweep.index import refuse_other_indexes
     from hubero_dsl.world.mapfile import map_files
 
     # how each of the bench's own tables and pictures begins: it writes over these only
@@ -147,3 +149,6 @@ def _check_out_dir(folder: Path, scenarios: list[Path], out_dir: Path) -> None:
             check_output(out_dir / f"{name}{suffix}", reads)
             refuse_other_kind(out_dir / f"{name}{suffix}", beginning,
                               "a table or picture of hubero bench", "give another -o")
+    for scenario in scenarios:
+        for side in (REFERENCE, YOURS):
+            refuse_other_indexes(side_folder(out_dir, scenario.stem, side))

@@ -21,12 +21,7 @@ from typing import Any
 from hubero_dsl.errors import InputError, Terminated
 from hubero_dsl.log.reader import LoggedRun, load_run
 from hubero_dsl.pipeline import compile_file
-from hubero_dsl.sweep.index import (
-    earlier_logs,
-    refuse_other_indexes,
-    write_atomically,
-    write_index,
-)
+from hubero_dsl.sweep.index import earlier_logs, write_atomically, write_index
 from hubero_dsl.sweep.plan import RunSpec, SweepPlan, plan_sweep, variant_label
 from hubero_dsl.sweep.runner import prepare_out_dir, run_sweep
 from hubero_dsl.sweep.worker import RunRecord
@@ -108,10 +103,7 @@ def run_bench(scenarios: Sequence[Path], out_dir: Path, executor: Executor, *,
         for path in scenarios:
             plan, robots = plans[path] = _planned(path, seeds)
             for side, handed in sides:
-                # each side's runs are a sweep's, with its index: `hubero diff FOLDER
-                # --baseline VARIANT` reads them, and the next bench clears their logs away
-                folder = out_dir / "runs" / path.stem / side
-                refuse_other_indexes(folder)
+                folder = side_folder(out_dir, path.stem, side)
                 prepare_out_dir(plan, folder, earlier_logs(folder))
                 outcome = run_sweep(plan, folder, executor, metrics=None, controllers=handed)
                 write_index(folder, plan, outcome)
@@ -127,6 +119,12 @@ def run_bench(scenarios: Sequence[Path], out_dir: Path, executor: Executor, *,
             for path in scenarios for side, _ in sides
             for run in (plans.get(path) or _planned(path, seeds))[0].runs]
     return BenchOutcome(rows, stopped is None, isinstance(stopped, Terminated))
+
+
+def side_folder(out_dir: Path, scenario: str, side: str) -> Path:
+    """Where a scenario's runs with one side's controllers go: a sweep's folder, with its
+    index, which `hubero diff FOLDER --baseline VARIANT` reads and the next bench clears."""
+    return out_dir / "runs" / scenario / side
 
 
 def _planned(path: Path, seeds: Sequence[int]) -> tuple[SweepPlan, list[str]]:

@@ -268,3 +268,16 @@ def test_each_sides_runs_are_a_sweep_that_the_next_bench_clears(small_suite: Pat
     assert index["complete"] and [r["seed"] for r in index["runs"]] == [1, 1, 1]
     # and `hubero diff` reads it as any sweep
     assert main(["diff", str(side), "--baseline", "robot_reaction=regular"]) == 0
+
+
+def test_a_foreign_index_in_a_runs_folder_is_refused_before_any_run(
+        small_suite: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # found as the doorway's turn came, after the crossing's runs
+    out = tmp_path / "out"
+    side = out / "runs" / "doorway" / "reference"
+    side.mkdir(parents=True)
+    (side / "index.json").write_text("my notes\n", encoding="utf-8")
+    assert main(["bench", str(small_suite), "-o", str(out), "--jobs", "1"]) == 2
+    assert f"{side / 'index.json'} exists and is not a sweep's index" in capsys.readouterr().err
+    assert not list(out.glob("runs/crossing/**/*.mcap"))
+    assert (side / "index.json").read_text(encoding="utf-8") == "my notes\n"
