@@ -283,14 +283,22 @@ def test_copies_among_a_crowd_a_group_and_a_robot_are_the_single_envs_exactly(
                for _ in range(copies)]
     alone = [env.reset(seed=5 + i)[0] for i, env in enumerate(singles)]
     rng = np.random.default_rng(1)
-    for _ in range(300):
+    steps = 0
+    while steps < 300:
+        steps += 1
         actions = rng.uniform(-1.0, 1.0, size=(copies, 2)).astype(np.float32)
-        observations, rewards, *_ = envs.step(actions)
+        observations, rewards, terminated, truncated, _ = envs.step(actions)
+        ended = []
         for i, env in enumerate(singles):
-            alone[i], reward, *_ = env.step(actions[i])
-            assert reward == rewards[i]
+            alone[i], reward, single_terminated, single_truncated, _ = env.step(actions[i])
+            assert (reward, single_terminated, single_truncated) == (
+                rewards[i], terminated[i], truncated[i])
+            ended.append(single_terminated or single_truncated)
         for key in observations:
             np.testing.assert_array_equal(np.stack([o[key] for o in alone]), observations[key])
+        if any(ended):  # a random walk into someone: the copies went alike until here
+            break
+    assert steps >= 200
     assert observations["mask"].sum() > 0  # the driven robots see people
 
 

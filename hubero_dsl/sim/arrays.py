@@ -168,6 +168,30 @@ class PathPool:
     def current_targets(self, rows: IntArray) -> FloatArray:
         return self.points[self.cursor[rows]]
 
+    def points_ahead(self, rows: IntArray, position: FloatArray, distance: float
+                     ) -> FloatArray:
+        """For each human of `rows`, the point `distance` m on along its path from
+        `position` (their rows of it), through its waypoints from the cursor on; its last
+        waypoint when the path ends sooner."""
+        here = position[rows].astype(np.float64)
+        left = np.full(len(rows), float(distance))
+        cursor = self.cursor[rows].copy()
+        going = np.flatnonzero(cursor < self.end[rows])
+        while going.size:
+            step = self.points[cursor[going]] - here[going]
+            length = lengths(step)
+            short = length >= left[going]   # the point lies on this segment
+            ends = going[short]
+            if ends.size:
+                fraction = left[ends] / np.maximum(length[short], 1e-12)
+                here[ends] += step[short] * fraction[:, None]
+            on = going[~short]
+            here[on] += step[~short]
+            left[on] -= length[~short]
+            cursor[on] += 1
+            going = on[cursor[on] < self.end[rows[on]]]
+        return here
+
     def remaining_length(self, human: int, position: FloatArray) -> float:
         segment = self.points[self.cursor[human]:self.end[human]]
         if len(segment) == 0:

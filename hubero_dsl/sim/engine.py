@@ -25,6 +25,7 @@ from hubero_dsl.sim import physics
 from hubero_dsl.sim.arrays import BoolArray, FloatArray, HumanArrays, IntArray, PathPool
 from hubero_dsl.sim.behaviours import GROUP_SPACING, Behaviour
 from hubero_dsl.sim.reactions import Reactions
+from hubero_dsl.sim.right_of_way import RightOfWay
 from hubero_dsl.sim.robots import Robots
 from hubero_dsl.sim.status import Posture, TaskEvent, TaskHandle, TaskStatus
 from hubero_dsl.sim.ways_round import WaysRound
@@ -123,6 +124,7 @@ class Engine:
         self._gathered_tick = -1  # `_gathered_round`'s answers, for this tick only
         self._gathered: dict[tuple[tuple[float, float], bytes], BoolArray] = {}
         self.ways_round = WaysRound(self, LOOKAHEAD)  # for walkers held up near walls
+        self.right_of_way = RightOfWay(self)  # for streams jammed head-on
         self._look_again = max(1, self.ticks(SEE_PAST_EVERY))
         self._row_of = {name: row for row, name in enumerate(humans.names)}
 
@@ -529,6 +531,7 @@ class Engine:
             # kept together, members leave their own plans' lines: a look now and then
             self.paths.see_past(rows[humans.with_group[rows]], humans.position, self._way_clear)
         self.ways_round.look(rows)
+        self.right_of_way.look(rows)
         if self._only_local is not None:
             parts = [(self._only_local, rows)]
         else:
