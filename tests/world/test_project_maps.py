@@ -164,8 +164,8 @@ def draw_maps() -> ModuleType:
     return load_script(MAPS / "draw_maps.py")
 
 
-@pytest.mark.parametrize("name", ["living_room", "parking", "station", "benchmark/corridor",
-                                  "benchmark/crossing", "benchmark/doorway",
+@pytest.mark.parametrize("name", ["living_room", "parking", "station", "halls",
+                                  "benchmark/corridor", "benchmark/crossing", "benchmark/doorway",
                                   "benchmark/long_corridor", "benchmark/narrow_corridor",
                                   "benchmark/hall", "benchmark/lounge"])
 def test_committed_maps_are_what_the_script_draws(draw_maps: ModuleType, name: str,
