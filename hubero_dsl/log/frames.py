@@ -170,7 +170,7 @@ class Capturer:
             tick=engine.tick, position=np.nan_to_num(humans.position),
             velocity=np.nan_to_num(humans.velocity), heading=np.nan_to_num(humans.heading),
             posture=humans.posture.copy(), goal=humans.goal.copy(),
-            fsm=[b.state if b is not None else "idle" for b in engine.behaviour],
+            fsm=engine.fsm_states(),
             cursor=self._cursor, end=self._end,
             paths={i: paths.waypoints(i).copy() for i in changed.tolist()},
             removed=tuple(sorted(engine.removed)),

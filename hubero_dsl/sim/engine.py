@@ -54,6 +54,7 @@ STAYING_TASKS = frozenset({"stand", "talk"})  # tasks after which one is still w
 MOVING_ROBOT_TASKS = frozenset({"move_to", "follow"})  # a robot on these is on its way
 WAY_MARGIN = 0.1        # m off walls beyond the body, for a member to walk straight on
 SEE_PAST_EVERY = 0.25   # s between looks past a group walker's next waypoint
+GIVING_WAY = "giving_way"   # the state of a walker waiting for its turn in a jam
 
 
 @dataclass(frozen=True, slots=True)
@@ -350,6 +351,21 @@ class Engine:
     def in_sight(self, a: tuple[float, float], b: tuple[float, float]) -> bool:
         """Whether no wall stands on the straight line from `a` to `b`."""
         return not bool(self.grid.crosses_obstacle(np.array([a]), np.array([b]))[0])
+
+    def fsm_states(self) -> list[str]:
+        """Every human's behaviour state ('walking', 'talking', ...; 'idle' without a task),
+        'giving_way' while waiting for its turn in a jam (`right_of_way`)."""
+        states = [b.state if b is not None else "idle" for b in self.behaviour]
+        for row in self.right_of_way.waiting:
+            states[row] = GIVING_WAY
+        return states
+
+    def fsm_state(self, index: int) -> str:
+        """`fsm_states` of human `index` alone."""
+        if index in self.right_of_way.waiting:
+            return GIVING_WAY
+        behaviour = self.behaviour[index]
+        return behaviour.state if behaviour is not None else "idle"
 
     def halt(self, index: int) -> None:
         humans = self.humans

@@ -181,9 +181,9 @@ class HumanHandle(_Actor):
 
     @property
     def state(self) -> str:
-        """The behaviour's FSM state ('walking', 'aligning', 'talking', ... or 'idle')."""
-        behaviour = self._engine.behaviour[self._index]
-        return behaviour.state if behaviour is not None else "idle"
+        """The behaviour's FSM state ('walking', 'aligning', 'talking', ... or 'idle';
+        'giving_way' while waiting for its turn in a jam)."""
+        return self._engine.fsm_state(self._index)
 
     # ---- commands ------------------------------------------------------------------------
 

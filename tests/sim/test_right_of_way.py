@@ -10,6 +10,8 @@ from typing import Any
 import numpy as np
 import pytest
 
+from hubero_dsl.log.reader import load_run
+from hubero_dsl.model.program import Program
 from hubero_dsl.pipeline import compile_source
 from hubero_dsl.sim import right_of_way
 from hubero_dsl.sim.arrays import PathPool
@@ -17,6 +19,7 @@ from hubero_dsl.sim.loop import run_program
 from hubero_dsl.sim.right_of_way import RightOfWay, _points_aside
 from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.sim.status import TaskStatus
+from hubero_dsl.simulate import simulate
 from hubero_dsl.world.mapfile import save_map
 from tests.sim.conftest import room_grid
 
@@ -32,23 +35,23 @@ def halls_map(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
-def _two_way(halls_map: Path) -> Simulation:
-    return Simulation(compile_source(f"""
+def _two_way(halls_map: Path) -> Program:
+    return compile_source(f"""
     scenario "two streams through one door"
     map "{halls_map}"
     seed 1
     time_limit 5 min
     flow east from rect((0.5, 0.5), (3.0, 9.5)) to (23.0, 5.0) rate 20 /min for 1 min
     flow west from rect((21.2, 0.5), (23.7, 9.5)) to (1.0, 5.0) rate 20 /min for 1 min
-    """, "two_way.hub"))
+    """, "two_way.hub")
 
 
 def _finals(sim: Simulation) -> dict[str, TaskStatus]:
     return {e.human: e.status for e in sim.events if e.status.is_final}
 
 
-def test_two_streams_through_a_door_take_turns_and_all_get_through(halls_map: Path) -> None:
-    sim = _two_way(halls_map)
+def test_two_streams_through_a_door_take_turns_and_all_get_through(halls_map: Path,
+                                                                    tmp_path: Path) -> None:
     seen = {"jams": 0, "waiting": 0}
 
     def watch(s: Simulation) -> None:
@@ -56,20 +59,27 @@ def test_two_streams_through_a_door_take_turns_and_all_get_through(halls_map: Pa
         seen["jams"] = max(seen["jams"], len(turns._jams))
         seen["waiting"] = max(seen["waiting"], len(turns.waiting))
 
-    result = run_program(sim, [watch])
-    finals = _finals(sim)
-    came = {e.human for e in sim.events if e.status is TaskStatus.ACTIVE}
+    log = tmp_path / "two_way.mcap"
+    result = simulate(_two_way(halls_map), log=log, observers=[watch])
+    finals = {e.human: e.status for e in result.events if e.status.is_final}
+    came = {e.human for e in result.events if e.status is TaskStatus.ACTIVE}
     assert result.state.value == "completed"
     assert len(came) > 30 and set(finals) == came
     assert set(finals.values()) == {TaskStatus.SUCCEEDED}   # nobody given up as stuck
     assert seen["jams"] >= 1 and seen["waiting"] >= 3       # the streams met, and took turns
+    # the log says who waited: their behaviour state reads giving_way meanwhile
+    run = load_run(log)
+    waited = [name for name, track in run.humans.items() if "giving_way" in track.fsm_state]
+    assert len(waited) >= 3
+    for name in waited:
+        assert run.humans[name].fsm_state[-1] != "giving_way"   # and each walked on
 
 
 def test_without_turns_the_two_streams_lock_up_in_the_door(
         halls_map: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     # the case the turns are for: the social force alone holds both streams pressed together
     monkeypatch.setattr(RightOfWay, "look", lambda self, rows: None)
-    sim = _two_way(halls_map)
+    sim = Simulation(_two_way(halls_map))
     run_program(sim)
     stuck = [h for h, status in _finals(sim).items() if status is TaskStatus.ABORTED]
     assert len(stuck) >= 10
