@@ -38,11 +38,10 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 from scipy.spatial import cKDTree
 
-from hubero_dsl.sim import physics
+from hubero_dsl.sim import physics, ways_round
 
 if TYPE_CHECKING:
-    from hubero_dsl.sim.arrays import FloatArray, HumanArrays, IntArray, PathPool
-    from hubero_dsl.world.grid import OccupancyGrid
+    from hubero_dsl.sim.arrays import FloatArray, IntArray
 
 STALLED = 3.0       # s without progress before a jam is seen
 LOOK_AGAIN = 0.25   # s between looks
@@ -62,24 +61,11 @@ ASIDE = 1.2         # m to the point where one waits, or half as far where that 
 ASIDE_ANGLES = (math.radians(60.0), math.radians(45.0), math.radians(30.0))  # off straight back
 
 
-class Walkers(Protocol):
-    """What taking turns needs of the engine (`Engine` is one)."""
+class Walkers(ways_round.Walkers, Protocol):
+    """What taking turns needs of the engine (`Engine` is one): what a way round needs, and
+    where each walker last made progress."""
 
-    humans: HumanArrays
-    paths: PathPool
-    grid: OccupancyGrid
-    tick: int
     anchor: FloatArray
-    anchor_tick: IntArray
-
-    def ticks(self, seconds: float) -> int: ...
-
-    def plan_path(self, index: int, goal: tuple[float, float],
-                  via: tuple[float, float] | None = None) -> str | None: ...
-
-    def fits(self, index: int, point: tuple[float, float]) -> bool: ...
-
-    def in_sight(self, a: tuple[float, float], b: tuple[float, float]) -> bool: ...
 
 
 @dataclass(eq=False)
