@@ -84,6 +84,10 @@ class PathPool:
         self.cursor: IntArray = np.zeros(count, dtype=np.intp)
         self.end: IntArray = np.zeros(count, dtype=np.intp)
         self.careful: BoolArray = np.zeros(count, dtype=bool)  # sent back to a corner
+        # which path each human follows, counted up by every new path: compacting the pool
+        # moves `start` and `cursor`, so they do not say whether a path is still the same
+        self.version: npt.NDArray[np.int64] = np.zeros(count, dtype=np.int64)
+        self._dropped: IntArray = np.zeros(count, dtype=np.intp)  # passed, then compacted away
 
     def set_path(self, human: int, waypoints: FloatArray) -> None:
         if len(self.points) > 4096 and len(self.points) > 8 * max(1, int(self.live_rows())):
@@ -91,12 +95,21 @@ class PathPool:
         start = len(self.points)
         self.points = np.concatenate([self.points, np.asarray(waypoints, dtype=np.float64)])
         self.start[human] = self.cursor[human] = start
-        self.careful[human] = False
         self.end[human] = start + len(waypoints)
+        self._renew(human)
 
     def clear(self, human: int) -> None:
         self.start[human] = self.cursor[human] = self.end[human] = 0
+        self._renew(human)
+
+    def _renew(self, human: int) -> None:
         self.careful[human] = False
+        self.version[human] += 1
+        self._dropped[human] = 0
+
+    def passed(self, human: int) -> int:
+        """How many waypoints of its path human `human` has passed."""
+        return int(self.cursor[human] - self.start[human] + self._dropped[human])
 
     def has_path(self) -> BoolArray:
         return self.end > self.cursor
@@ -203,6 +216,7 @@ class PathPool:
         return self.points[self.cursor[human]:self.end[human]]
 
     def _compact(self) -> None:
+        self._dropped += self.cursor - self.start
         lengths = self.end - self.cursor
         pieces = [self.points[c:e] for c, e in zip(self.cursor, self.end, strict=True)]
         self.points = np.concatenate(pieces) if pieces else np.zeros((0, 2))

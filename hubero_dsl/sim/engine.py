@@ -224,6 +224,14 @@ class Engine:
         self.anchor_tick[index] = self.tick
         return None
 
+    def plan_to_goal(self, index: int) -> str | None:
+        """A new path for walker `index` from where it stands to its goal (None, as when it
+        has no goal), or why there is none."""
+        goal = self.humans.goal[index]
+        if not np.isfinite(goal).all():
+            return None
+        return self.plan_path(index, (float(goal[0]), float(goal[1])))
+
     def plan_path(self, index: int, goal: tuple[float, float],
               via: tuple[float, float] | None = None) -> str | None:
         """A new path for walker `index` from where it stands (by way of `via`) to `goal`

@@ -63,6 +63,8 @@ class Walkers(Protocol):
     def plan_path(self, index: int, goal: tuple[float, float],
                   via: tuple[float, float] | None = None) -> str | None: ...
 
+    def plan_to_goal(self, index: int) -> str | None: ...
+
     def fits(self, index: int, point: tuple[float, float]) -> bool: ...
 
     def in_sight(self, a: tuple[float, float], b: tuple[float, float]) -> bool: ...
@@ -81,7 +83,7 @@ class WaysRound:
         # when each was last given a way round: it has STALLED s to get on before the next
         self.rerouted_tick = np.full(engine.humans.count, -engine.ticks(STALLED),
                                      dtype=np.int64)
-        # group members stepping aside: row -> the start of that path in `paths`
+        # group members stepping aside: row -> the version of that path in `paths`
         self._stepping_aside: dict[int, int] = {}
 
     def look(self, rows: IntArray) -> None:
@@ -137,7 +139,7 @@ class WaysRound:
         engine, goals = self.engine, self.engine.humans.goal
         for index in rows.tolist():
             if np.isfinite(goals[index]).all():
-                engine.plan_path(index, (float(goals[index, 0]), float(goals[index, 1])))
+                engine.plan_to_goal(index)
                 self.rerouted_tick[index] = engine.tick
 
     def _make_way(self, stalled: IntArray) -> None:
@@ -170,24 +172,29 @@ class WaysRound:
             return
         for distance in (STEP_ASIDE, STEP_ASIDE / 2):
             point = here + away * (distance / span)
-            aside = (float(point[0]), float(point[1]))
-            if engine.fits(index, aside) and engine.in_sight((float(here[0]), float(here[1])),
-                                                             aside) \
-                    and engine.plan_path(index, (float(goal[0]), float(goal[1])),
-                                         aside) is None:
+            if reachable(engine, index, point) and engine.plan_path(
+                    index, (float(goal[0]), float(goal[1])),
+                    (float(point[0]), float(point[1]))) is None:
                 self.rerouted_tick[index] = engine.tick
                 if humans.with_group[index]:  # the group's pull would hold it where it was
                     humans.with_group[index] = False
-                    self._stepping_aside[index] = int(engine.paths.start[index])
+                    self._stepping_aside[index] = int(engine.paths.version[index])
                 return
 
     def _rejoin_groups(self) -> None:
         """Group members who have stepped aside walk with their group again (those whose
         path has changed since are on another walk, which says whether they do)."""
         paths = self.engine.paths
-        for index, start in list(self._stepping_aside.items()):
-            if paths.start[index] != start:
+        for index, version in list(self._stepping_aside.items()):
+            if paths.version[index] != version:
                 del self._stepping_aside[index]
-            elif paths.cursor[index] > start + 1:  # past the point aside
+            elif paths.passed(index) > 1:  # past the point aside
                 self.engine.humans.with_group[index] = True
                 del self._stepping_aside[index]
+
+
+def reachable(engine: Walkers, index: int, point: FloatArray) -> bool:
+    """Whether walker `index`'s body fits at `point`, in sight from where it stands."""
+    here, there = engine.humans.position[index], (float(point[0]), float(point[1]))
+    return engine.fits(index, there) and engine.in_sight((float(here[0]), float(here[1])),
+                                                         there)
