@@ -8,25 +8,26 @@ engine asks `RightOfWay.look`, which finds such jams and settles each with a tur
   other, each with the other ahead, going opposite ways (the cosine of their ways below
   HEAD_ON), away from any jam already being settled. A walker's way is the direction to the
   point AHEAD m on along its path. The jam's centre is the narrowest point of their ways
-  ahead, where that is clearly narrower than between them (a door a step ahead of a queue);
-  else the midpoint between them (a corridor).
+  ahead of both, where it is clearly narrower (under NARROWER of the clearance) than between
+  them: a door a step ahead of a queue; else the midpoint between them (a corridor).
 * **The first turn** goes to the stream with more people heading through the centre within
   REACH m; on a tie, to the one whose front walker has less far to go.
 * **Those who wait** are the others heading through the centre from within REACH m, short of
   it. Each walks ASIDE m (half as far where that does not fit) away from the centre and
   across to its right, 60, 45 or 30 degrees off straight back, where its body fits in sight
-  (else to its left, else straight back): off the line the others come along. It stands
-  there.
+  (else the same to its left, else straight back, else it stays): off the line the others
+  come along. It stands there.
 * **The turn passes** to the waiting stream when nobody of the going one still heads through
   the centre, or after TURN s when someone waits; those of the old stream still short of
   the centre wait in their turn. The new stream walks on once the old one's last walkers
-  have come out (none within HANDOVER m past the centre), or after HANDOVER_AT_MOST s.
+  have come out (none within HANDOVER m past the centre), or after HANDOVER_AT_MOST s: each
+  plans its way anew (straight at its goal where no plan is found).
 * **The jam ends** when nobody waits and nobody goes.
 
-Waiting is not being stuck: a waiting walker's stuck time starts again when it walks on, and
-a walker queued for a jam (heading through it within QUEUE m) makes progress whenever
-someone gets through it. Someone the jam holds for the whole stuck time is still given up.
-Group members and robots take no part (a group walks through as its members are steered).
+Waiting is not being stuck: a waiting walker's stuck time starts anew at every look, and a
+walker queued for a jam (heading through it within QUEUE m) makes progress whenever someone
+gets through it. Someone the jam holds for the whole stuck time is still given up. Members
+of a group and robots take no part (a group walks through as its members are steered).
 """
 
 from __future__ import annotations
@@ -43,15 +44,13 @@ from hubero_dsl.sim import physics, ways_round
 if TYPE_CHECKING:
     from hubero_dsl.sim.arrays import FloatArray, IntArray
 
-STALLED = 3.0       # s without progress before a jam is seen
-LOOK_AGAIN = 0.25   # s between looks
 MEET = 1.5          # m between the two stalled walkers of a jam
 ONCOMING = -0.5     # cosine between two ways below which they come at each other
 HEAD_ON = -0.8      # ... and between the ways of a jam's two stalled walkers
 HEAD_ON_AHEAD = 0.7  # cosine between one's way and the other of a jam's two at least
 AHEAD = 2.5         # m along one's path to the point that says which way one goes
 SAMPLE = 0.25       # m between the points of a way where a jam's narrowest point is looked for
-NARROWER = 0.2      # m less clearance than between the two that makes a point the narrowest
+NARROWER = 0.8      # of the clearance between the two, at most: a point clearly narrower
 REACH = 3.0         # m from a jam's centre within which walkers heading through it take turns
 QUEUE = 6.0         # m from a jam's centre within which walkers heading through it queue
 HANDOVER = 1.0      # m past the centre within which one is still coming out of a narrow place
@@ -62,25 +61,27 @@ ASIDE_ANGLES = (math.radians(60.0), math.radians(45.0), math.radians(30.0))  # o
 
 
 class Walkers(ways_round.Walkers, Protocol):
-    """What taking turns needs of the engine (`Engine` is one): what a way round needs, and
-    where each walker last made progress."""
+    """What taking turns needs of the engine (`Engine` is one): what a way round needs,
+    where each walker last made progress, and who belongs to a group."""
 
     anchor: FloatArray
+    groups: dict[str, IntArray]
 
 
 @dataclass(eq=False)
 class _Jam:
-    """A jam being settled: where the streams meet, the way of the one whose turn it is, since
-    when, who waits (row -> the start of their path aside in `PathPool`), who goes, and when
-    someone last got through."""
+    """A jam being settled: where the streams meet, the way of the one whose turn it is, and
+    since when; who waits for their turn, and who has been given it but waits for the other
+    stream to come out (row -> the version of their path aside in `PathPool`); who went
+    through it at the last look, and when someone last got through."""
 
     centre: FloatArray
     way: FloatArray
     since: int
     waiting: dict[int, int] = field(default_factory=dict)
-    ready: dict[int, int] = field(default_factory=dict)   # whose turn it is, waiting still
-    going: set[int] = field(default_factory=set)   # rows going through it at the last look
-    moved: int = 0     # the tick someone last got through it
+    cleared: dict[int, int] = field(default_factory=dict)
+    going: set[int] = field(default_factory=set)
+    moved: int = 0
 
 
 class RightOfWay:
@@ -89,24 +90,25 @@ class RightOfWay:
     def __init__(self, engine: Walkers) -> None:
         self.engine = engine
         self._jams: list[_Jam] = []
+        # group members walk through as their group is steered: they take no turns
+        self._in_group = np.zeros(engine.humans.count, dtype=bool)
+        for members in engine.groups.values():
+            self._in_group[members] = True
 
     @property
     def waiting(self) -> set[int]:
-        """The rows of everyone waiting for their turn."""
-        return {row for jam in self._jams for row in (*jam.waiting, *jam.ready)}
+        """The rows of everyone waiting for their turn, or for the other stream to come out."""
+        return {row for jam in self._jams for row in (*jam.waiting, *jam.cleared)}
 
     def look(self, rows: IntArray) -> None:
         """Every LOOK_AGAIN s: new jams among the walkers `rows` are found and every jam's
         turns are kept (module docstring). Only the walkers stalled or near a jam are looked
         at closely."""
         engine = self.engine
-        if engine.tick % max(1, engine.ticks(LOOK_AGAIN)):
+        if engine.tick % max(1, engine.ticks(ways_round.LOOK_AGAIN)):
             return
-        free = rows[~engine.humans.with_group[rows]]
-        if not free.size:
-            self._end_all()
-            return
-        stalled = free[engine.tick - engine.anchor_tick[free] >= engine.ticks(STALLED)]
+        free = rows[~self._in_group[rows]]
+        stalled = free[engine.tick - engine.anchor_tick[free] >= engine.ticks(ways_round.STALLED)]
         if stalled.size >= 2:
             self._find_jams(free, stalled)
         for jam in list(self._jams):
@@ -127,6 +129,8 @@ class RightOfWay:
         span = np.maximum(physics.lengths(towards), 1e-9)
         return np.asarray(towards / span[:, None], dtype=np.float64)
 
+    # ---- jams ----------------------------------------------------------------------------
+
     def _find_jams(self, free: IntArray, stalled: IntArray) -> None:
         """New jams: walkers of `stalled` face to face, away from the jams already settled
         (`free`: every walker who may take turns)."""
@@ -140,26 +144,31 @@ class RightOfWay:
             if not engine.in_sight((float(position[a, 0]), float(position[a, 1])),
                                    (float(position[b, 0]), float(position[b, 1]))):
                 continue   # a wall between them
-            pair = stalled[[a, b]]
-            centre = self._narrowest(pair, (position[a] + position[b]) / 2.0)
+            pair, pair_ways = stalled[[a, b]], ways[[a, b]]
+            centre = self._narrowest(pair, pair_ways, (position[a] + position[b]) / 2.0)
             if any(math.dist(jam.centre, centre) < REACH for jam in self._jams):
                 continue
-            way = self._first_turn(self._near(free, centre, REACH), centre, pair, ways[[a, b]])
+            way = self._first_turn(self._near(free, centre, REACH), centre, pair, pair_ways)
             self._jams.append(_Jam(centre, way, engine.tick, moved=engine.tick))
 
-    def _narrowest(self, pair: IntArray, midpoint: FloatArray) -> FloatArray:
-        """Where two walkers jammed head-on meet: the narrowest point of their ways ahead
-        (within REACH m, every SAMPLE m), where it is clearly narrower than between them (a
-        door a step ahead of a queue); else the midpoint between them (a corridor)."""
+    def _narrowest(self, pair: IntArray, ways: FloatArray, midpoint: FloatArray
+                   ) -> FloatArray:
+        """Where two walkers jammed head-on (going `ways`) meet: the narrowest point of their
+        ways ahead (within REACH m, every SAMPLE m) that lies ahead of both, where it is
+        clearly narrower than between them (a door a step ahead of a queue); else the
+        midpoint between them (a corridor)."""
         engine = self.engine
         grid, paths, position = engine.grid, engine.paths, engine.humans.position
         points = np.concatenate([paths.points_ahead(pair, position, distance)
                                  for distance in np.arange(0.0, REACH, SAMPLE)])
         clearance = grid.clearance_at(points)
-        # a way cut round a corner may pass where no body fits: no place to meet
-        clearance[clearance <= float(engine.humans.radius[pair].max())] = np.inf
+        ahead_of_both = np.all([(points - position[row]) @ way > 0.0
+                                for row, way in zip(pair.tolist(), ways, strict=True)], axis=0)
+        # nor where no body fits (a way cut round a corner): no place to meet
+        clearance[~ahead_of_both
+                  | (clearance <= float(engine.humans.radius[pair].max()))] = np.inf
         narrowest = int(np.argmin(clearance))
-        if clearance[narrowest] < grid.clearance_at(midpoint[None, :])[0] - NARROWER:
+        if clearance[narrowest] < NARROWER * grid.clearance_at(midpoint[None, :])[0]:
             return np.asarray(points[narrowest], dtype=np.float64)
         return midpoint
 
@@ -188,22 +197,22 @@ class RightOfWay:
         ahead = np.einsum("ij,ij->i", to_centre, ways)
         return np.flatnonzero((physics.lengths(to_centre) < reach) & (ahead > 0.0))
 
+    # ---- turns ---------------------------------------------------------------------------
+
     def _keep_turns(self, jam: _Jam, near: IntArray, ways: FloatArray) -> None:
-        """Who goes and who waits at `jam` now, of the walkers `near` it (going `ways`); the
-        turn passes, or the jam ends."""
+        """Who goes and who waits at `jam` now, of the walkers `near` it (going `ways`): the
+        turn passes, or the jam ends, or the stream given the turn walks on."""
         self._still_waiting(jam)
-        if not jam.ready:
-            heading = self._heading_through(near, ways, jam.centre)
-            going = heading[ways[heading] @ jam.way > -ONCOMING]
-            going = going[~np.isin(near[going], list(jam.waiting))]
-            self._queue(jam, near, ways, set(near[going].tolist()))
-            overdue = self.engine.tick - jam.since >= self.engine.ticks(TURN)
-            if not going.size or (overdue and jam.waiting):
-                if not jam.waiting and not going.size:
-                    self._jams.remove(jam)
-                    return
+        if not jam.cleared:
+            going = self._going(jam, near, ways)
+            self._queue(jam, near, ways, going)
+            if not going and not jam.waiting:
+                self._jams.remove(jam)
+                return
+            if not going or (jam.waiting
+                             and self.engine.tick - jam.since >= self.engine.ticks(TURN)):
                 self._pass_turn(jam)
-        if jam.ready:
+        if jam.cleared:
             self._hand_over(jam, near, ways)
         self._hold_back(jam, near, ways)
 
@@ -211,33 +220,20 @@ class RightOfWay:
         """Those waiting at `jam` who have been given another walk meanwhile wait no longer;
         the others' stuck time starts again (waiting is not being stuck)."""
         engine, paths = self.engine, self.engine.paths
-        for waiting in (jam.waiting, jam.ready):
-            for row, start in list(waiting.items()):
-                if paths.start[row] != start or not engine.humans.moving[row]:
+        for waiting in (jam.waiting, jam.cleared):
+            for row, version in list(waiting.items()):
+                if paths.version[row] != version or not engine.humans.moving[row]:
                     del waiting[row]
                 else:
                     engine.anchor[row] = engine.humans.position[row]
                     engine.anchor_tick[row] = engine.tick
 
-    def _hand_over(self, jam: _Jam, near: IntArray, ways: FloatArray) -> None:
-        """The stream whose turn it now is walks on once the other's last walkers have come
-        out of the narrow place (none of them within HANDOVER m past the centre), or after
-        HANDOVER_AT_MOST s."""
-        to_centre = jam.centre - self.engine.humans.position[near]
-        ahead = np.einsum("ij,ij->i", to_centre, ways)
-        coming_out = ((ways @ jam.way < ONCOMING) & (ahead > -HANDOVER) & (ahead <= 0.0)
-                      & (physics.lengths(to_centre) < REACH)
-                      & ~np.isin(near, list(jam.waiting)))
-        if coming_out.any() and (self.engine.tick - jam.since
-                                 < self.engine.ticks(HANDOVER_AT_MOST)):
-            return
-        humans = self.engine.humans
-        for row in sorted(jam.ready):
-            goal = humans.goal[row]
-            if np.isfinite(goal).all():
-                self.engine.plan_path(row, (float(goal[0]), float(goal[1])))
-        jam.ready.clear()
-        jam.since = self.engine.tick
+    def _going(self, jam: _Jam, near: IntArray, ways: FloatArray) -> set[int]:
+        """The rows of the walkers `near` `jam` (going `ways`) of the stream whose turn it is
+        still heading through it."""
+        heading = self._heading_through(near, ways, jam.centre)
+        going = near[heading[ways[heading] @ jam.way > -ONCOMING]]
+        return set(going.tolist()) - set(jam.waiting)
 
     def _queue(self, jam: _Jam, near: IntArray, ways: FloatArray, going: set[int]) -> None:
         """Walkers queued for `jam` (heading through it within QUEUE m) make progress while
@@ -250,10 +246,27 @@ class RightOfWay:
         engine.anchor_tick[queued] = np.maximum(engine.anchor_tick[queued], jam.moved)
 
     def _pass_turn(self, jam: _Jam) -> None:
-        """The waiting stream's turn: they walk on once the passage is clear (`_hand_over`)."""
+        """The waiting stream's turn, once the other has come out (`_hand_over`)."""
         jam.way = -jam.way
         jam.since = self.engine.tick
-        jam.ready, jam.waiting = jam.waiting, {}
+        jam.cleared, jam.waiting = jam.waiting, {}
+
+    def _hand_over(self, jam: _Jam, near: IntArray, ways: FloatArray) -> None:
+        """The stream whose turn it now is walks on once the other's last walkers have come
+        out of the narrow place (none of them within HANDOVER m past the centre), or after
+        HANDOVER_AT_MOST s."""
+        to_centre = jam.centre - self.engine.humans.position[near]
+        ahead = np.einsum("ij,ij->i", to_centre, ways)
+        coming_out = ((ways @ jam.way < ONCOMING) & (ahead > -HANDOVER) & (ahead <= 0.0)
+                      & (physics.lengths(to_centre) < REACH)
+                      & ~np.isin(near, [*jam.waiting, *jam.cleared]))
+        if coming_out.any() and (self.engine.tick - jam.since
+                                 < self.engine.ticks(HANDOVER_AT_MOST)):
+            return
+        for row in sorted(jam.cleared):
+            self._walk_on(row)
+        jam.cleared.clear()
+        jam.since = self.engine.tick
 
     def _hold_back(self, jam: _Jam, near: IntArray, ways: FloatArray) -> None:
         """Walkers `near` `jam` (going `ways`) of the stream whose turn it is not, short of
@@ -271,25 +284,18 @@ class RightOfWay:
         its body fits in sight, and waits there; where none does, it waits where it is."""
         engine = self.engine
         here = engine.humans.position[row]
-        at = (float(here[0]), float(here[1]))
-        for point in _points_aside(here, way, jam.centre):
-            aside = (float(point[0]), float(point[1]))
-            if engine.fits(row, aside) and engine.in_sight(at, aside):
-                break
-        else:
-            point = here
-        engine.paths.set_path(row, np.array([here, point]))
-        jam.waiting[row] = int(engine.paths.start[row])
+        aside = next((point for point in _points_aside(here, way, jam.centre)
+                      if ways_round.reachable(engine, row, point)), here)
+        engine.paths.set_path(row, np.array([here, aside]))
+        jam.waiting[row] = int(engine.paths.version[row])
 
-    def _end_all(self) -> None:
-        """Nobody walks: every jam ends, and whoever waited plans on (on another walk now)."""
-        humans = self.engine.humans
-        for jam in self._jams:
-            for row in sorted({**jam.waiting, **jam.ready}):
-                goal = humans.goal[row]
-                if np.isfinite(goal).all():
-                    self.engine.plan_path(row, (float(goal[0]), float(goal[1])))
-        self._jams.clear()
+    def _walk_on(self, row: int) -> None:
+        """Walker `row`, done waiting, plans on to its goal; where no plan is found (the way
+        there taken since), it walks straight at it, and is given up if it stays stuck."""
+        engine = self.engine
+        if engine.plan_to_goal(row) is not None:
+            engine.paths.set_path(row, np.array([engine.humans.position[row],
+                                                 engine.humans.goal[row]]))
 
 
 def _face_to_face(position: FloatArray, ways: FloatArray) -> IntArray:

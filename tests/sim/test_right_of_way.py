@@ -13,7 +13,7 @@ import pytest
 from hubero_dsl.log.reader import load_run
 from hubero_dsl.model.program import Program
 from hubero_dsl.pipeline import compile_source
-from hubero_dsl.sim import right_of_way
+from hubero_dsl.sim import right_of_way, ways_round
 from hubero_dsl.sim.arrays import PathPool
 from hubero_dsl.sim.loop import run_program
 from hubero_dsl.sim.right_of_way import RightOfWay, _points_aside
@@ -100,7 +100,7 @@ def _engine(positions: list[tuple[float, float]], goals: list[tuple[float, float
     humans = SimpleNamespace(position=np.array(positions, dtype=np.float64),
                              goal=np.array(goals, dtype=np.float64),
                              radius=np.full(count, 0.25), with_group=np.zeros(count, bool),
-                             moving=np.ones(count, bool))
+                             moving=np.ones(count, bool), count=count)
     planned: list[int] = []
 
     def plan_path(index: int, goal: tuple[float, float],
@@ -109,14 +109,19 @@ def _engine(positions: list[tuple[float, float]], goals: list[tuple[float, float
         paths.set_path(index, np.array([humans.position[index], goal]))
         return None
 
+    def plan_to_goal(index: int) -> str | None:
+        goal = humans.goal[index]
+        return plan_path(index, (float(goal[0]), float(goal[1])))
+
     def in_sight(a: tuple[float, float], b: tuple[float, float]) -> bool:
         return not bool(grid.crosses_obstacle(np.array([a]), np.array([b]))[0])
 
-    stalled_since = tick - round((right_of_way.STALLED + 1.0) / DT) if stalled else tick
+    stalled_since = tick - round((ways_round.STALLED + 1.0) / DT) if stalled else tick
     return SimpleNamespace(
         humans=humans, paths=paths, grid=grid, tick=tick, planned=planned,
         anchor=humans.position.copy(), anchor_tick=np.full(count, stalled_since, np.int64),
         ticks=lambda seconds: max(0, round(seconds / DT)), plan_path=plan_path,
+        plan_to_goal=plan_to_goal, groups={},
         fits=lambda index, point: grid.clearance_at_point(*point) > 0.25, in_sight=in_sight)
 
 
@@ -143,12 +148,12 @@ def test_a_wait_is_not_being_stuck_and_the_turn_passes_once_the_door_is_clear() 
     turns = RightOfWay(engine)
     turns.look(np.arange(3))
     assert set(turns.waiting) == {0}
-    engine.tick += engine.ticks(right_of_way.LOOK_AGAIN)
+    engine.tick += engine.ticks(ways_round.LOOK_AGAIN)
     turns.look(np.arange(3))
     assert engine.anchor_tick[0] == engine.tick    # its stuck time starts again
     # the westbound two have come through and walk away west: the turn is the eastbound's
     engine.humans.position[1:] = [(9.0, 5.0), (8.0, 4.6)]
-    engine.tick += engine.ticks(right_of_way.LOOK_AGAIN)
+    engine.tick += engine.ticks(ways_round.LOOK_AGAIN)
     turns.look(np.arange(3))
     assert not turns.waiting and engine.planned == [0]
     assert engine.paths.waypoints(0)[-1].tolist() == [23.0, 5.0]
@@ -163,11 +168,11 @@ def test_the_next_stream_waits_until_the_last_of_the_other_has_come_out_of_the_d
     assert set(turns.waiting) == {0}
     # the last westbound one has passed the middle of the door, but is still in it
     engine.humans.position[1:] = [(jam.centre[0] - 0.4, 5.0), (8.0, 4.6)]
-    engine.tick += engine.ticks(right_of_way.LOOK_AGAIN)
+    engine.tick += engine.ticks(ways_round.LOOK_AGAIN)
     turns.look(np.arange(3))
-    assert jam.way[0] > 0.9 and set(jam.ready) == {0} and not engine.planned
+    assert jam.way[0] > 0.9 and set(jam.cleared) == {0} and not engine.planned
     engine.humans.position[1] = (jam.centre[0] - 1.5, 5.0)   # out, and walking away
-    engine.tick += engine.ticks(right_of_way.LOOK_AGAIN)
+    engine.tick += engine.ticks(ways_round.LOOK_AGAIN)
     turns.look(np.arange(3))
     assert not turns.waiting and engine.planned == [0]
 
@@ -205,3 +210,59 @@ def test_points_ahead_follow_a_path_through_its_waypoints() -> None:
                                                                           [1.0, 0.0]]
     assert paths.points_ahead(np.array([0]), position, 5.0).tolist() == [[3.0, 2.0]]
     assert paths.points_ahead(np.array([0]), position, 9.0).tolist() == [[3.0, 4.0]]
+
+
+def test_in_the_open_a_jam_is_centred_between_the_two() -> None:
+    engine = _engine([(5.0, 5.0), (6.0, 5.0)], [(23.0, 5.0), (1.0, 5.0)])
+    turns = RightOfWay(engine)
+    turns.look(np.arange(2))
+    (jam,) = turns._jams
+    assert jam.centre.tolist() == [5.5, 5.0]
+
+
+def test_members_of_a_group_take_no_turns() -> None:
+    engine = _engine([(11.6, 5.0), (12.7, 5.0), (13.5, 4.6)],
+                     [(23.0, 5.0), (1.0, 5.0), (1.0, 5.0)])
+    engine.groups = {"family": np.array([0])}
+    turns = RightOfWay(engine)
+    turns.look(np.arange(3))
+    assert not turns._jams and not turns.waiting
+
+
+def test_one_who_finds_no_plan_after_waiting_walks_straight_at_its_goal() -> None:
+    engine = _engine([(11.6, 5.0), (12.7, 5.0), (13.5, 4.6)],
+                     [(23.0, 5.0), (1.0, 5.0), (1.0, 5.0)])
+    engine.plan_to_goal = lambda index: "no free path"
+    turns = RightOfWay(engine)
+    turns.look(np.arange(3))
+    engine.humans.position[1:] = [(9.0, 5.0), (8.0, 4.6)]   # the westbound are through
+    engine.tick += engine.ticks(ways_round.LOOK_AGAIN)
+    turns.look(np.arange(3))
+    assert not turns.waiting
+    assert engine.paths.waypoints(0).tolist() == [engine.humans.position[0].tolist(),
+                                                  [23.0, 5.0]]
+
+
+def test_a_wait_outlasts_the_path_pool_being_compacted() -> None:
+    engine = _engine([(11.6, 5.0), (12.7, 5.0), (13.5, 4.6)],
+                     [(23.0, 5.0), (1.0, 5.0), (1.0, 5.0)])
+    turns = RightOfWay(engine)
+    turns.look(np.arange(3))
+    assert set(turns.waiting) == {0}
+    engine.paths._compact()   # moves every path's start in the pool
+    engine.tick += engine.ticks(ways_round.LOOK_AGAIN)
+    turns.look(np.arange(3))
+    assert set(turns.waiting) == {0} and engine.anchor_tick[0] == engine.tick
+
+
+def test_a_paths_version_and_waypoints_passed_outlast_compacting() -> None:
+    paths = PathPool(2)
+    paths.set_path(0, np.array([[0.0, 0.0], [0.3, 0.0], [0.6, 0.0], [3.0, 0.0]]))
+    paths.set_path(1, np.array([[5.0, 5.0], [6.0, 5.0]]))
+    paths.advance(np.array([[0.4, 0.0], [5.0, 5.0]]), lookahead=0.6)
+    version, passed = paths.version.copy(), paths.passed(0)
+    assert passed == 3
+    paths._compact()
+    assert (paths.version == version).all() and paths.passed(0) == passed
+    paths.set_path(0, np.array([[2.0, 0.0], [4.0, 0.0]]))
+    assert paths.version[0] == version[0] + 1 and paths.passed(0) == 0
