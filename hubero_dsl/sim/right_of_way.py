@@ -9,14 +9,18 @@ engine asks `RightOfWay.look`, which finds such jams and settles each with a tur
   HEAD_ON), away from any jam already being settled. A walker's way is the direction to the
   point AHEAD m on along its path. The jam's centre is the narrowest point of their ways
   ahead of both, where it is clearly narrower (under NARROWER of the clearance) than between
-  them: a door a step ahead of a queue; else the midpoint between them (a corridor).
+  them: a door a step ahead of a queue; else the midpoint between them (a corridor). Only
+  where there is room to stand aside, ROOM m of clearance ROOM_AT m before the centre and
+  past it, do they take turns: a door or a short passage between rooms, not the inside of a
+  long corridor, where stepping back frees nothing.
 * **The first turn** goes to the stream with more people heading through the centre within
   REACH m; on a tie, to the one whose front walker has less far to go.
 * **Those who wait** are the others heading through the centre from within REACH m, short of
-  it. Each walks ASIDE m (half as far where that does not fit) away from the centre and
-  across to its right, 60, 45 or 30 degrees off straight back, where its body fits in sight
-  (else the same to its left, else straight back, else it stays): off the line the others
-  come along. It stands there.
+  it (the centre ahead, and their path passing within THROUGH m of it). Each walks ASIDE m
+  (half as far where that does not fit) away from the centre and across to its right, 60,
+  45 or 30 degrees off straight back, where its body fits in sight (else the same to its
+  left, else straight back, else it stays): off the line the others come along. It stands
+  there.
 * **The turn passes** to the waiting stream when nobody of the going one still heads through
   the centre, or after TURN s when someone waits; those of the old stream still short of
   the centre wait in their turn. The new stream walks on once the old one's last walkers
@@ -24,10 +28,11 @@ engine asks `RightOfWay.look`, which finds such jams and settles each with a tur
   plans its way anew (straight at its goal where no plan is found).
 * **The jam ends** when nobody waits and nobody goes.
 
-Waiting is not being stuck: a waiting walker's stuck time starts anew at every look, and a
-walker queued for a jam (heading through it within QUEUE m) makes progress whenever someone
-gets through it. Someone the jam holds for the whole stuck time is still given up. Members
-of a group and robots take no part (a group walks through as its members are steered).
+Waiting is not being stuck: a waiting walker's stuck time starts anew at every look, for
+WAIT_AT_MOST s at most, when it walks on and waits at that jam no more; and a walker queued
+for a jam (heading through it within QUEUE m) makes progress whenever someone gets through
+it. Someone the jam holds for the whole stuck time is still given up. Members of a group
+and robots take no part (a group walks through as its members are steered).
 """
 
 from __future__ import annotations
@@ -52,6 +57,10 @@ AHEAD = 2.5         # m along one's path to the point that says which way one go
 SAMPLE = 0.25       # m between the points of a way where a jam's narrowest point is looked for
 NARROWER = 0.8      # of the clearance between the two, at most: a point clearly narrower
 REACH = 3.0         # m from a jam's centre within which walkers heading through it take turns
+THROUGH = 2.5       # m from a jam's centre within which one's path passes: one heads through it
+ROOM_AT = 2.5       # m before and past a jam's centre where there must be ...
+ROOM = 1.2          # ... at least this clearance: room to stand aside
+WAIT_AT_MOST = 30.0  # s one waits at a jam at most
 QUEUE = 6.0         # m from a jam's centre within which walkers heading through it queue
 HANDOVER = 1.0      # m past the centre within which one is still coming out of a narrow place
 HANDOVER_AT_MOST = 5.0   # s a stream whose turn it is waits for the other to come out
@@ -72,16 +81,18 @@ class Walkers(ways_round.Walkers, Protocol):
 class _Jam:
     """A jam being settled: where the streams meet, the way of the one whose turn it is, and
     since when; who waits for their turn, and who has been given it but waits for the other
-    stream to come out (row -> the version of their path aside in `PathPool`); who went
+    stream to come out (row -> the version of their path aside in `PathPool`, and the tick
+    they began to wait); who went
     through it at the last look, and when someone last got through."""
 
     centre: FloatArray
     way: FloatArray
     since: int
-    waiting: dict[int, int] = field(default_factory=dict)
-    cleared: dict[int, int] = field(default_factory=dict)
+    waiting: dict[int, tuple[int, int]] = field(default_factory=dict)
+    cleared: dict[int, tuple[int, int]] = field(default_factory=dict)
     going: set[int] = field(default_factory=set)
     moved: int = 0
+    waited: set[int] = field(default_factory=set)   # who waited WAIT_AT_MOST s: no more
 
 
 class RightOfWay:
@@ -146,7 +157,8 @@ class RightOfWay:
                 continue   # a wall between them
             pair, pair_ways = stalled[[a, b]], ways[[a, b]]
             centre = self._narrowest(pair, pair_ways, (position[a] + position[b]) / 2.0)
-            if any(math.dist(jam.centre, centre) < REACH for jam in self._jams):
+            if any(math.dist(jam.centre, centre) < REACH for jam in self._jams) \
+                    or not self._room_to_wait(centre, pair_ways[0]):
                 continue
             way = self._first_turn(self._near(free, centre, REACH), centre, pair, pair_ways)
             self._jams.append(_Jam(centre, way, engine.tick, moved=engine.tick))
@@ -172,6 +184,13 @@ class RightOfWay:
             return np.asarray(points[narrowest], dtype=np.float64)
         return midpoint
 
+    def _room_to_wait(self, centre: FloatArray, way: FloatArray) -> bool:
+        """Whether there is room to stand aside ROOM_AT m before `centre` and past it along
+        `way`: a door or a short passage between rooms, not the inside of a long corridor
+        (where stepping back frees nothing and the other stream is met further on)."""
+        ends = centre + np.outer([-ROOM_AT, ROOM_AT], way)
+        return bool((self.engine.grid.clearance_at(ends) >= ROOM).all())
+
     def _first_turn(self, near: IntArray, centre: FloatArray, pair: IntArray,
                     pair_ways: FloatArray) -> FloatArray:
         """The way of the stream that goes first at a jam between the walkers `pair` (going
@@ -192,10 +211,18 @@ class RightOfWay:
     def _heading_through(self, rows: IntArray, ways: FloatArray, centre: FloatArray,
                          reach: float = REACH) -> IntArray:
         """Indices into `rows` (going `ways`) of the walkers within `reach` of `centre` whose
-        way leads through it, short of it."""
+        way leads through it, short of it: the centre ahead, and their path passing within
+        THROUGH m of it (every SAMPLE m of it up to `reach` m on)."""
         to_centre = centre - self.engine.humans.position[rows]
         ahead = np.einsum("ij,ij->i", to_centre, ways)
-        return np.flatnonzero((physics.lengths(to_centre) < reach) & (ahead > 0.0))
+        candidates = np.flatnonzero((physics.lengths(to_centre) < reach) & (ahead > 0.0))
+        if not candidates.size:
+            return candidates
+        paths, position = self.engine.paths, self.engine.humans.position
+        on = rows[candidates]
+        nearest = np.min([physics.lengths(paths.points_ahead(on, position, distance) - centre)
+                          for distance in np.arange(0.0, reach + SAMPLE, 2 * SAMPLE)], axis=0)
+        return candidates[nearest < THROUGH]
 
     # ---- turns ---------------------------------------------------------------------------
 
@@ -212,8 +239,8 @@ class RightOfWay:
             if not going or (jam.waiting
                              and self.engine.tick - jam.since >= self.engine.ticks(TURN)):
                 self._pass_turn(jam)
-        if jam.cleared:
-            self._hand_over(jam, near, ways)
+        if jam.cleared and self._hand_over(jam, near, ways):
+            ways = self._ways(near)   # those let go have new paths
         self._hold_back(jam, near, ways)
 
     def _still_waiting(self, jam: _Jam) -> None:
@@ -221,9 +248,13 @@ class RightOfWay:
         the others' stuck time starts again (waiting is not being stuck)."""
         engine, paths = self.engine, self.engine.paths
         for waiting in (jam.waiting, jam.cleared):
-            for row, version in list(waiting.items()):
+            for row, (version, began) in list(waiting.items()):
                 if paths.version[row] != version or not engine.humans.moving[row]:
                     del waiting[row]
+                elif engine.tick - began >= engine.ticks(WAIT_AT_MOST):
+                    del waiting[row]   # it has waited long enough: on, stuck time running
+                    jam.waited.add(row)
+                    self._walk_on(row)
                 else:
                     engine.anchor[row] = engine.humans.position[row]
                     engine.anchor_tick[row] = engine.tick
@@ -239,8 +270,10 @@ class RightOfWay:
         """Walkers queued for `jam` (heading through it within QUEUE m) make progress while
         someone gets through it: their stuck time starts no earlier than that."""
         engine = self.engine
-        if jam.going - going - set(jam.waiting):   # someone got through
-            jam.moved = engine.tick
+        left = np.array(sorted(jam.going - going - set(jam.waiting)), dtype=np.intp)
+        if left.size and bool((((engine.humans.position[left] - jam.centre) @ jam.way) > 0.0)
+                              .any()):
+            jam.moved = engine.tick   # someone got through (not: turned away)
         jam.going = going
         queued = near[self._heading_through(near, ways, jam.centre, reach=QUEUE)]
         engine.anchor_tick[queued] = np.maximum(engine.anchor_tick[queued], jam.moved)
@@ -251,10 +284,10 @@ class RightOfWay:
         jam.since = self.engine.tick
         jam.cleared, jam.waiting = jam.waiting, {}
 
-    def _hand_over(self, jam: _Jam, near: IntArray, ways: FloatArray) -> None:
+    def _hand_over(self, jam: _Jam, near: IntArray, ways: FloatArray) -> bool:
         """The stream whose turn it now is walks on once the other's last walkers have come
         out of the narrow place (none of them within HANDOVER m past the centre), or after
-        HANDOVER_AT_MOST s."""
+        HANDOVER_AT_MOST s. Whether it did."""
         to_centre = jam.centre - self.engine.humans.position[near]
         ahead = np.einsum("ij,ij->i", to_centre, ways)
         coming_out = ((ways @ jam.way < ONCOMING) & (ahead > -HANDOVER) & (ahead <= 0.0)
@@ -262,18 +295,19 @@ class RightOfWay:
                       & ~np.isin(near, [*jam.waiting, *jam.cleared]))
         if coming_out.any() and (self.engine.tick - jam.since
                                  < self.engine.ticks(HANDOVER_AT_MOST)):
-            return
+            return False
         for row in sorted(jam.cleared):
             self._walk_on(row)
         jam.cleared.clear()
         jam.since = self.engine.tick
+        return True
 
     def _hold_back(self, jam: _Jam, near: IntArray, ways: FloatArray) -> None:
         """Walkers `near` `jam` (going `ways`) of the stream whose turn it is not, short of
         the centre, wait aside."""
         short = self._heading_through(near, ways, jam.centre)
         against = short[ways[short] @ jam.way < ONCOMING]
-        waiting = self.waiting
+        waiting = self.waiting | jam.waited
         for k in against.tolist():
             row = int(near[k])
             if row not in waiting:
@@ -287,7 +321,7 @@ class RightOfWay:
         aside = next((point for point in _points_aside(here, way, jam.centre)
                       if ways_round.reachable(engine, row, point)), here)
         engine.paths.set_path(row, np.array([here, aside]))
-        jam.waiting[row] = int(engine.paths.version[row])
+        jam.waiting[row] = (int(engine.paths.version[row]), engine.tick)
 
     def _walk_on(self, row: int) -> None:
         """Walker `row`, done waiting, plans on to its goal; where no plan is found (the way

@@ -88,11 +88,13 @@ def test_without_turns_the_two_streams_lock_up_in_the_door(
 # ---- one look at a time, on a stand-in engine --------------------------------------------
 
 def _engine(positions: list[tuple[float, float]], goals: list[tuple[float, float]],
-            stalled: bool = True) -> Any:
+            stalled: bool = True,
+            walls: tuple[tuple[float, float, float, float], ...] = HALLS_WALLS) -> Any:
     """An engine's worth of what taking turns reads and writes: walkers at `positions`, each
-    with a straight path to its goal, stalled for longer than STALLED s when `stalled`."""
+    with a straight path to its goal, stalled for longer than STALLED s when `stalled`, in
+    the halls (or a room of the same size with `walls`)."""
     count = len(positions)
-    grid = room_grid(24.2, 10.0, HALLS_WALLS)
+    grid = room_grid(24.2, 10.0, walls)
     paths = PathPool(count)
     for row, (here, goal) in enumerate(zip(positions, goals, strict=True)):
         paths.set_path(row, np.array([here, goal], dtype=np.float64))
@@ -266,3 +268,37 @@ def test_a_paths_version_and_waypoints_passed_outlast_compacting() -> None:
     assert (paths.version == version).all() and paths.passed(0) == passed
     paths.set_path(0, np.array([[2.0, 0.0], [4.0, 0.0]]))
     assert paths.version[0] == version[0] + 1 and paths.passed(0) == 0
+
+
+def test_inside_a_long_corridor_nobody_takes_turns() -> None:
+    # a corridor 1.2 m wide from x = 4 to 20: stepping back there frees nothing
+    corridor = ((4.0, 0.0, 20.0, 4.4), (4.0, 5.6, 20.0, 10.0))
+    engine = _engine([(11.6, 5.0), (12.7, 5.0), (13.5, 4.8)],
+                     [(23.0, 5.0), (1.0, 5.0), (1.0, 5.0)], walls=corridor)
+    turns = RightOfWay(engine)
+    turns.look(np.arange(3))
+    assert not turns._jams
+
+
+def test_one_whose_way_does_not_lead_through_the_door_is_not_held() -> None:
+    # rows 0-2 jam in the door; row 3 is near it, eastbound, but walks off to the north
+    engine = _engine([(11.6, 5.0), (12.7, 5.0), (13.5, 4.6), (9.2, 5.0)],
+                     [(23.0, 5.0), (1.0, 5.0), (1.0, 5.0), (9.5, 9.5)])
+    turns = RightOfWay(engine)
+    turns.look(np.arange(4))
+    assert set(turns.waiting) == {0}
+
+
+def test_a_wait_lasts_at_most_so_long_and_then_one_walks_on() -> None:
+    engine = _engine([(11.6, 5.0), (12.7, 5.0), (13.5, 4.6)],
+                     [(23.0, 5.0), (1.0, 5.0), (1.0, 5.0)])
+    turns = RightOfWay(engine)
+    turns.look(np.arange(3))
+    assert set(turns.waiting) == {0}
+    engine.tick += engine.ticks(right_of_way.WAIT_AT_MOST)   # the westbound still in the door
+    turns.look(np.arange(3))
+    assert 0 not in turns.waiting and engine.planned[0] == 0
+    assert engine.paths.waypoints(0)[-1].tolist() == [23.0, 5.0]
+    engine.tick += engine.ticks(ways_round.LOOK_AGAIN)
+    turns.look(np.arange(3))
+    assert 0 not in turns.waiting   # and is not held there again
