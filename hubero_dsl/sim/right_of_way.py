@@ -324,8 +324,8 @@ class RightOfWay:
         jam.waiting[row] = (int(engine.paths.version[row]), engine.tick)
 
     def _walk_on(self, row: int) -> None:
-        """Walker `row`, done waiting, plans on to its goal; where no plan is found (the way
-        there taken since), it walks straight at it, and is given up if it stays stuck."""
+        """Walker `row`, done waiting, plans on to its goal; where no plan is found from where
+        it stands, it walks straight at it (and is given up if it stays stuck there)."""
         engine = self.engine
         if engine.plan_to_goal(row) is not None:
             engine.paths.set_path(row, np.array([engine.humans.position[row],
