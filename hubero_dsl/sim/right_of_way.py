@@ -47,7 +47,7 @@ from scipy.spatial import cKDTree
 from hubero_dsl.sim import physics, ways_round
 
 if TYPE_CHECKING:
-    from hubero_dsl.sim.arrays import FloatArray, IntArray
+    from hubero_dsl.sim.arrays import BoolArray, FloatArray, IntArray
 
 MEET = 1.5          # m between the two stalled walkers of a jam
 ONCOMING = -0.5     # cosine between two ways below which they come at each other
@@ -198,7 +198,8 @@ class RightOfWay:
         axis = pair_ways[0] - pair_ways[1]
         axis /= math.hypot(axis[0], axis[1])   # the first's way, the two ways' mean direction
         ways = self._ways(near)
-        along = ways[self._heading_through(near, ways, centre)] @ axis
+        distance, leads = self._leading(near, ways, centre)
+        along = ways[leads & (distance < REACH)] @ axis
         mine, theirs = int((along > -ONCOMING).sum()), int((along < ONCOMING).sum())
         if mine != theirs:
             return axis if mine > theirs else -axis
@@ -208,21 +209,23 @@ class RightOfWay:
         second_left = paths.remaining_length(second, position[second])
         return axis if first_left <= second_left else -axis
 
-    def _heading_through(self, rows: IntArray, ways: FloatArray, centre: FloatArray,
-                         reach: float = REACH) -> IntArray:
-        """Indices into `rows` (going `ways`) of the walkers within `reach` of `centre` whose
-        way leads through it, short of it: the centre ahead, and their path passing within
-        THROUGH m of it (every SAMPLE m of it up to `reach` m on)."""
-        to_centre = centre - self.engine.humans.position[rows]
-        ahead = np.einsum("ij,ij->i", to_centre, ways)
-        candidates = np.flatnonzero((physics.lengths(to_centre) < reach) & (ahead > 0.0))
-        if not candidates.size:
-            return candidates
-        paths, position = self.engine.paths, self.engine.humans.position
-        on = rows[candidates]
-        nearest = np.min([physics.lengths(paths.points_ahead(on, position, distance) - centre)
-                          for distance in np.arange(0.0, reach + SAMPLE, 2 * SAMPLE)], axis=0)
-        return candidates[nearest < THROUGH]
+    def _leading(self, rows: IntArray, ways: FloatArray, centre: FloatArray
+                 ) -> tuple[FloatArray, BoolArray]:
+        """For the walkers `rows` (going `ways`): how far each is from `centre`, and whether
+        its way leads through it, short of it (within QUEUE m: the centre ahead, and its
+        path passing within THROUGH m of it, every THROUGH / 2 m of it up to QUEUE m on)."""
+        position = self.engine.humans.position
+        to_centre = centre - position[rows]
+        distance = physics.lengths(to_centre)
+        leads = (distance < QUEUE) & (np.einsum("ij,ij->i", to_centre, ways) > 0.0)
+        on = rows[leads]
+        if on.size:
+            paths = self.engine.paths
+            nearest = np.min([physics.lengths(paths.points_ahead(on, position, d) - centre)
+                              for d in np.arange(0.0, QUEUE + THROUGH / 2, THROUGH / 2)],
+                             axis=0)
+            leads[leads] = nearest < THROUGH
+        return distance, leads
 
     # ---- turns ---------------------------------------------------------------------------
 
@@ -230,9 +233,10 @@ class RightOfWay:
         """Who goes and who waits at `jam` now, of the walkers `near` it (going `ways`): the
         turn passes, or the jam ends, or the stream given the turn walks on."""
         self._still_waiting(jam)
+        distance, leads = self._leading(near, ways, jam.centre)
         if not jam.cleared:
-            going = self._going(jam, near, ways)
-            self._queue(jam, near, ways, going)
+            going = self._going(jam, near, ways, leads & (distance < REACH))
+            self._queue(jam, near, leads, going)
             if not going and not jam.waiting:
                 self._jams.remove(jam)
                 return
@@ -241,7 +245,8 @@ class RightOfWay:
                 self._pass_turn(jam)
         if jam.cleared and self._hand_over(jam, near, ways):
             ways = self._ways(near)   # those let go have new paths
-        self._hold_back(jam, near, ways)
+            distance, leads = self._leading(near, ways, jam.centre)
+        self._hold_back(jam, near, ways, leads & (distance < REACH))
 
     def _still_waiting(self, jam: _Jam) -> None:
         """Those waiting at `jam` who have been given another walk meanwhile wait no longer;
@@ -259,23 +264,24 @@ class RightOfWay:
                     engine.anchor[row] = engine.humans.position[row]
                     engine.anchor_tick[row] = engine.tick
 
-    def _going(self, jam: _Jam, near: IntArray, ways: FloatArray) -> set[int]:
+    def _going(self, jam: _Jam, near: IntArray, ways: FloatArray, heading: BoolArray
+               ) -> set[int]:
         """The rows of the walkers `near` `jam` (going `ways`) of the stream whose turn it is
-        still heading through it."""
-        heading = self._heading_through(near, ways, jam.centre)
-        going = near[heading[ways[heading] @ jam.way > -ONCOMING]]
+        still `heading` through it."""
+        going = near[heading & (ways @ jam.way > -ONCOMING)]
         return set(going.tolist()) - set(jam.waiting)
 
-    def _queue(self, jam: _Jam, near: IntArray, ways: FloatArray, going: set[int]) -> None:
-        """Walkers queued for `jam` (heading through it within QUEUE m) make progress while
-        someone gets through it: their stuck time starts no earlier than that."""
+    def _queue(self, jam: _Jam, near: IntArray, leads: BoolArray, going: set[int]) -> None:
+        """Walkers queued for `jam` (those of `near` whose way `leads` through it within
+        QUEUE m) make progress while someone gets through it: their stuck time starts no
+        earlier than that."""
         engine = self.engine
         left = np.array(sorted(jam.going - going - set(jam.waiting)), dtype=np.intp)
         if left.size and bool((((engine.humans.position[left] - jam.centre) @ jam.way) > 0.0)
                               .any()):
             jam.moved = engine.tick   # someone got through (not: turned away)
         jam.going = going
-        queued = near[self._heading_through(near, ways, jam.centre, reach=QUEUE)]
+        queued = near[leads]
         engine.anchor_tick[queued] = np.maximum(engine.anchor_tick[queued], jam.moved)
 
     def _pass_turn(self, jam: _Jam) -> None:
@@ -302,11 +308,11 @@ class RightOfWay:
         jam.since = self.engine.tick
         return True
 
-    def _hold_back(self, jam: _Jam, near: IntArray, ways: FloatArray) -> None:
-        """Walkers `near` `jam` (going `ways`) of the stream whose turn it is not, short of
-        the centre, wait aside."""
-        short = self._heading_through(near, ways, jam.centre)
-        against = short[ways[short] @ jam.way < ONCOMING]
+    def _hold_back(self, jam: _Jam, near: IntArray, ways: FloatArray, heading: BoolArray
+                   ) -> None:
+        """Walkers `near` `jam` (going `ways`) of the stream whose turn it is not, `heading`
+        through it, wait aside."""
+        against = np.flatnonzero(heading & (ways @ jam.way < ONCOMING))
         waiting = self.waiting | jam.waited
         for k in against.tolist():
             row = int(near[k])
