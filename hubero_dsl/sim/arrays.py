@@ -205,6 +205,11 @@ class PathPool:
             going = on[cursor[on] < self.end[rows[on]]]
         return here
 
+    def points_along(self, rows: IntArray, position: FloatArray, distances: FloatArray
+                     ) -> FloatArray:
+        """(D, K, 2): `points_ahead` of the humans of `rows` at each of `distances`."""
+        return np.stack([self.points_ahead(rows, position, float(d)) for d in distances])
+
     def remaining_length(self, human: int, position: FloatArray) -> float:
         segment = self.points[self.cursor[human]:self.end[human]]
         if len(segment) == 0:

@@ -363,7 +363,7 @@ class Engine:
     def fsm_states(self) -> list[str]:
         """Every human's behaviour state ('walking', 'talking', ...; 'idle' without a task),
         'giving_way' while waiting for its turn in a jam (`right_of_way`)."""
-        states = [b.state if b is not None else "idle" for b in self.behaviour]
+        states = [_state_of(b) for b in self.behaviour]
         for row in self.right_of_way.waiting:
             states[row] = GIVING_WAY
         return states
@@ -372,8 +372,7 @@ class Engine:
         """`fsm_states` of human `index` alone."""
         if index in self.right_of_way.waiting:
             return GIVING_WAY
-        behaviour = self.behaviour[index]
-        return behaviour.state if behaviour is not None else "idle"
+        return _state_of(self.behaviour[index])
 
     def halt(self, index: int) -> None:
         humans = self.humans
@@ -802,3 +801,7 @@ class Engine:
             behaviour.on_aligned(self)
         if timer and self.behaviour[index] is behaviour:
             behaviour.on_timer(self)
+
+
+def _state_of(behaviour: Behaviour | None) -> str:
+    return behaviour.state if behaviour is not None else "idle"

@@ -171,8 +171,8 @@ class RightOfWay:
         midpoint between them (a corridor)."""
         engine = self.engine
         grid, paths, position = engine.grid, engine.paths, engine.humans.position
-        points = np.concatenate([paths.points_ahead(pair, position, distance)
-                                 for distance in np.arange(0.0, REACH, SAMPLE)])
+        points = paths.points_along(pair, position, np.arange(0.0, REACH, SAMPLE)
+                                    ).reshape(-1, 2)
         clearance = grid.clearance_at(points)
         ahead_of_both = np.all([(points - position[row]) @ way > 0.0
                                 for row, way in zip(pair.tolist(), ways, strict=True)], axis=0)
@@ -221,9 +221,10 @@ class RightOfWay:
         on = rows[leads]
         if on.size:
             paths = self.engine.paths
-            nearest = np.min([physics.lengths(paths.points_ahead(on, position, d) - centre)
-                              for d in np.arange(0.0, QUEUE + THROUGH / 2, THROUGH / 2)],
-                             axis=0)
+            along = paths.points_along(on, position,
+                                       np.arange(0.0, QUEUE + THROUGH / 2, THROUGH / 2))
+            nearest = physics.lengths((along - centre).reshape(-1, 2)).reshape(
+                len(along), -1).min(axis=0)
             leads[leads] = nearest < THROUGH
         return distance, leads
 
