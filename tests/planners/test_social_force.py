@@ -7,7 +7,7 @@ straight walls, so the planner is tested on its own.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import cast
 
 import numpy as np
@@ -138,6 +138,41 @@ def test_head_on_walkers_pass_without_touching(lateral_offset: float) -> None:
     assert np.abs(positions[:, :, 1]).max() < 1.5 - 0.2  # and stayed inside the corridor
     jerk = np.linalg.norm(np.diff(velocities, axis=0), axis=-1) / DT
     assert jerk.max() < 4.0  # a smooth swerve, no kicks
+
+
+def lateral_gap_when_level(scene: Scene) -> float:
+    """How far apart across the corridor two walkers heading at each other along x are when
+    they draw level (the one heading east is on the south side when positive)."""
+    positions, _ = simulate(scene, corridor(1.5), seconds=10.0)
+    level = int(np.argmin(np.abs(positions[:, 0, 0] - positions[:, 1, 0])))
+    return float(positions[level, 1, 1] - positions[level, 0, 1])
+
+
+@pytest.mark.parametrize("lateral_offset", [0.0, 0.1, -0.1])
+def test_people_coming_the_other_way_keep_to_their_right(lateral_offset: float) -> None:
+    keep_right = [SocialForceParams(oncoming_side_preference=1.0)] * 2
+    kept = lateral_gap_when_level(replace(head_on(Circle(0.5), lateral_offset),
+                                          params=keep_right))
+    plain = lateral_gap_when_level(head_on(Circle(0.5), lateral_offset))
+    # each went to its right: east-bound to the south, west-bound to the north, further apart
+    assert kept > 0.7
+    assert kept > abs(plain) + 0.1
+    keep_left = [SocialForceParams(oncoming_side_preference=-1.0, side_preference=-0.1)] * 2
+    assert lateral_gap_when_level(replace(head_on(Circle(0.5), lateral_offset),
+                                          params=keep_left)) < -0.7
+
+
+def test_keeping_to_the_side_leaves_people_walking_the_same_way_alone() -> None:
+    """Someone ahead going one's own way, or standing, is not oncoming: the velocities are
+    those without the preference, to the last bit."""
+    for target in ([[6.0, 0.0], [6.0, 0.1]], [[6.0, 0.0], [2.0, 0.1]]):
+        scenes = [Scene(position=[[0.0, 0.0], [2.0, 0.1]], target=target,
+                        shapes=[Circle(0.5)] * 2, radius=np.array([0.2, 0.2]),
+                        params=[SocialForceParams(oncoming_side_preference=p)] * 2)
+                  for p in (0.0, 1.0)]
+        plain, kept = (SocialForcePlanner(OPEN, s.params).velocities(s.crowd(), s.drive(), DT)
+                       for s in scenes)
+        assert np.array_equal(plain, kept)
 
 
 def test_a_larger_personal_space_keeps_people_further_apart() -> None:
