@@ -22,10 +22,10 @@ current velocities (collision prediction in the spirit of Zanlungo, Ikeda & Kand
 people on a collision course turn aside early; and a small `side_preference` sidestep breaks the
 deadlock of two people walking exactly at each other. Where two streams meet (a corridor
 walked both ways), `oncoming_side_preference` has people keep to the right of those coming the
-other way, from about a metre before they meet, as pedestrians do (Moussaid et al. 2009 measured
-the preference for one side in face-to-face avoidance), so that more often the streams pass in
-lanes instead of pressing head-on into each other. It is off by default. A last guard removes
-any velocity that would carry a body into a wall within the step.
+other way, from a couple of metres before they meet, as pedestrians do (Moussaid et al. 2009
+measured the preference for one side in face-to-face avoidance), so that the streams lock up
+head-on less often. It is off by default. A last guard removes any velocity that would carry a
+body into a wall within the step.
 
 Robots are rows of the crowd that repel humans and are never steered. Neighbours come from a
 k-d tree (`neighbours.py`), so a tick costs O(N) in the number of close pairs; each pair's
@@ -98,7 +98,7 @@ _STIFFNESS_STEP_CAP = 0.5
 _FRICTION_STEP_CAP = 0.5
 # Up to this many close pairs both directions are pushed in one pass (see `_PairPush.both_ways`).
 _JOINED_PAIRS = 64
-ONCOMING_REACH = 1.0  # m over which keeping to one side of the oncoming fades
+_ONCOMING_REACH = 1.0  # m over which keeping to one side of the oncoming fades
 _CIRCLE = int(ShapeKind.CIRCLE)  # a plain int compares with arrays faster than the enum
 
 
@@ -142,9 +142,10 @@ class SocialForceParams(PlannerParams):
         "the left); breaks the deadlock of people walking dead-on at each other."))
     oncoming_side_preference: float = Field(default=0.0, ge=-1.0, le=1.0, description=(
         "Keeping to the right of people who walk the other way (negative: to the left): a "
-        "sidestep of this fraction of A, as strong as their ways are opposed, fading over "
-        "ONCOMING_REACH (1 m); with 1 two streams in a corridor lock up less often. 0 (the "
-        "default) leaves it out."))
+        "sidestep from someone ahead of this fraction of A (times avoidance_strength), as "
+        "strong as their ways are opposed, fading over 1 m of their distance at closest "
+        "approach; with 1 two streams in a corridor lock up less often. 0 (the default) "
+        "leaves it out."))
     anticipation: float = Field(default=0.5, ge=0.0, json_schema_extra=_TIME, description=(
         "Horizon of collision prediction, s: people and robots push from where they will be "
         "closest within it at the current velocities (0 = the plain distance of Helbing & "
@@ -542,7 +543,7 @@ class _PairPush:
                           seen_ahead: FloatArray) -> FloatArray:
         """The sidestep of each pair's receiver from an other ahead who walks the other way:
         oncoming_side_preference * A * (how opposed their ways are) * exp(-distance at their
-        closest approach / ONCOMING_REACH), weighted by how straight ahead the other is. It
+        closest approach / _ONCOMING_REACH), weighted by how straight ahead the other is. It
         reaches further than the push, so that people move over before they meet, and it stays
         bounded when they are close."""
         if self.ways is None:
@@ -552,16 +553,17 @@ class _PairPush:
         opposed += ways[receiver, 1] * ways[other, 1]
         np.negative(opposed, out=opposed)
         np.maximum(opposed, 0.0, out=opposed)
-        opposed *= np.exp(distance * (-1.0 / ONCOMING_REACH))
+        opposed *= np.exp(distance * (-1.0 / _ONCOMING_REACH))
         opposed *= _at(self.strength, receiver)
         opposed *= _at(self.params.oncoming_side_preference, receiver)
         opposed *= np.maximum(seen_ahead, 0.0)
         return opposed
 
     def _ways(self) -> FloatArray:
-        """Each body's unit direction towards its target; zero for bodies not steered
-        (robots, people standing), who walk at nobody. Ways, not velocities: in a jostling
-        crowd someone pushed back is not coming the other way."""
+        """Each body's unit direction towards its target (its next waypoint); zero for the
+        bodies this call does not steer (robots, people standing, people of another planner),
+        who walk at nobody. Ways, not velocities: in a jostling crowd someone pushed back is
+        not coming the other way."""
         crowd, drive = self.crowd, self.drive
         ways = np.zeros((crowd.count, 2))
         to_target = drive.target - crowd.position[drive.index]

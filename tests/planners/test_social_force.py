@@ -148,31 +148,35 @@ def lateral_gap_when_level(scene: Scene) -> float:
     return float(positions[level, 1, 1] - positions[level, 0, 1])
 
 
-@pytest.mark.parametrize("lateral_offset", [0.0, 0.1, -0.1])
+@pytest.mark.parametrize("lateral_offset", [0.0, 0.1, -0.1, 0.3])
 def test_people_coming_the_other_way_keep_to_their_right(lateral_offset: float) -> None:
+    # east-bound to the south, west-bound to the north, whichever side they started on
     keep_right = [SocialForceParams(oncoming_side_preference=1.0)] * 2
-    kept = lateral_gap_when_level(replace(head_on(Circle(0.5), lateral_offset),
-                                          params=keep_right))
-    plain = lateral_gap_when_level(head_on(Circle(0.5), lateral_offset))
-    # each went to its right: east-bound to the south, west-bound to the north, further apart
-    assert kept > 0.7
-    assert kept > abs(plain) + 0.1
-    keep_left = [SocialForceParams(oncoming_side_preference=-1.0, side_preference=-0.1)] * 2
     assert lateral_gap_when_level(replace(head_on(Circle(0.5), lateral_offset),
+                                          params=keep_right)) > 0.7
+    keep_left = [SocialForceParams(oncoming_side_preference=-1.0)] * 2
+    assert lateral_gap_when_level(replace(head_on(Circle(0.5), -lateral_offset),
                                           params=keep_left)) < -0.7
+
+
+def test_without_keeping_to_the_side_people_pass_on_the_side_they_started() -> None:
+    assert lateral_gap_when_level(head_on(Circle(0.5), 0.3)) < -0.7
 
 
 def test_keeping_to_the_side_leaves_people_walking_the_same_way_alone() -> None:
     """Someone ahead going one's own way, or standing, is not oncoming: the velocities are
     those without the preference, to the last bit."""
-    for target in ([[6.0, 0.0], [6.0, 0.1]], [[6.0, 0.0], [2.0, 0.1]]):
-        scenes = [Scene(position=[[0.0, 0.0], [2.0, 0.1]], target=target,
-                        shapes=[Circle(0.5)] * 2, radius=np.array([0.2, 0.2]),
-                        params=[SocialForceParams(oncoming_side_preference=p)] * 2)
-                  for p in (0.0, 1.0)]
-        plain, kept = (SocialForcePlanner(OPEN, s.params).velocities(s.crowd(), s.drive(), DT)
-                       for s in scenes)
-        assert np.array_equal(plain, kept)
+    def velocities(target: list[list[float]], keep_side: float) -> np.ndarray:
+        scene = Scene(position=[[0.0, 0.0], [2.0, 0.1]], target=target,
+                      shapes=[Circle(0.5)] * 2, radius=np.array([0.2, 0.2]),
+                      params=[SocialForceParams(oncoming_side_preference=keep_side)] * 2)
+        return SocialForcePlanner(OPEN, scene.params).velocities(scene.crowd(), scene.drive(),
+                                                                 DT)
+
+    for target in ([[6.0, 0.0], [6.0, 0.1]], [[6.0, 0.0], [2.0, 0.1]]):  # same way; standing
+        assert np.array_equal(velocities(target, 0.0), velocities(target, 1.0))
+    coming = [[6.0, 0.0], [-6.0, 0.1]]
+    assert not np.array_equal(velocities(coming, 0.0), velocities(coming, 1.0))
 
 
 def test_a_larger_personal_space_keeps_people_further_apart() -> None:

@@ -1,6 +1,6 @@
 """Two streams through a corridor: keeping to the right of the oncoming
-(`social_force.oncoming_side_preference`) lets more of them pass each other in lanes than the
-social force alone, which locks them up head-on."""
+(`social_force.oncoming_side_preference`) gets more of them through than the social force
+alone, which locks them up head-on."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.world.drawing import grid_from_walkable
 from hubero_dsl.world.mapfile import save_map
 
-SEEDS = (1, 2, 3, 4)
+SEEDS = range(1, 9)
 
 
 def not_through(folder: Path, keep_right: float, seed: int) -> tuple[int, int]:
@@ -38,12 +38,13 @@ def not_through(folder: Path, keep_right: float, seed: int) -> tuple[int, int]:
     return len(came), len(came - arrived)
 
 
-def test_two_streams_in_a_corridor_pass_in_lanes_when_people_keep_right(tmp_path: Path) -> None:
+def test_two_streams_in_a_corridor_lock_up_less_when_people_keep_right(tmp_path: Path) -> None:
     kept = [not_through(tmp_path, 1.0, seed) for seed in SEEDS]
     alone = [not_through(tmp_path, 0.0, seed) for seed in SEEDS]
     came = sum(c for c, _ in kept)
     assert came == sum(c for c, _ in alone) > 150  # the same people come either way
     lost_kept, lost_alone = sum(n for _, n in kept), sum(n for _, n in alone)
-    # 38 against 59 of 246: fewer lock-ups, not none (a corridor filled by one stream still
-    # locks up at its mouth when the other stream crowds it, as in seed 2)
-    assert lost_kept <= 0.7 * lost_alone
+    # 38 against 103 of 484
+    # fewer lock-ups, not none: a corridor filled by one stream still locks up at its mouth
+    # when the other stream crowds it (seed 2, where more are lost with it than without)
+    assert lost_kept <= 0.5 * lost_alone
