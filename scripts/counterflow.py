@@ -1,13 +1,16 @@
-"""Two flows through one door 1.2 m wide, with and without taking turns (`sim/right_of_way.py`).
+"""Two flows through one door or corridor: with turns (`sim/right_of_way.py`), with turns and
+people keeping to the right of the oncoming (`social_force.oncoming_side_preference 1`), and
+with the social force alone.
 
     python scripts/counterflow.py [--seeds 3]
 
-Each map (the two halls of `maps/halls.yaml`, 12 m x 10 m each, and the two rooms of the
-doorway benchmark, `maps/benchmark/doorway.yaml`, 6 m x 6 m each) gets four pairs of rates
-(20/20, 30/15, 30/30 and 40/20 a minute, for one minute), each run with `--seeds` seeds; the
-table gives, per map and over all, how many of the people who came were given up (stuck) or
-still walking at the time limit of 5 minutes, with the turns and with the social force alone,
-and the mean time on the walk of those who arrived.
+Each map (the two halls of `maps/halls.yaml`, 12 m x 10 m each, joined by a door 1.2 m wide;
+the two rooms of the doorway benchmark, `maps/benchmark/doorway.yaml`, 6 m x 6 m each; and the
+two halls of `maps/corridor_halls.yaml`, joined by a corridor 8 m long and 1.6 m wide) gets four
+pairs of rates (20/20, 30/15, 30/30 and 40/20 a minute, for one minute), each run with
+`--seeds` seeds; the table gives, per map, how many of the people who came were given up
+(stuck) or still walking at the time limit of 5 minutes, and the mean time on the walk of those
+who arrived.
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ import argparse
 import sys
 import tempfile
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 import hubero_dsl  # noqa: F401  (before numpy: it chooses numpy's loops for every machine)
@@ -33,14 +36,20 @@ MAPS = {
     "doorway rooms": (ROOT / "maps" / "benchmark" / "doorway.yaml",
                       "rect((0.5, 0.5), (2.5, 5.5))", "(11.0, 3.0)",
                       "rect((9.7, 0.5), (11.7, 5.5))", "(1.0, 3.0)"),
+    "corridor halls": (ROOT / "maps" / "corridor_halls.yaml", "rect((0.5, 0.5), (3.0, 9.5))",
+                       "(31.0, 5.0)", "rect((29.0, 0.5), (31.5, 9.5))", "(1.0, 5.0)"),
 }
+# how the runs differ: whether jams are settled by turns, and how much people keep right
+SETTINGS = (("turns", True, 0.0), ("turns, keeping right", True, 1.0),
+            ("social force alone", False, 0.0))
 
 
-def scenario(map_name: str, east: int, west: int) -> str:
+def scenario(map_name: str, east: int, west: int, keep_right: float) -> str:
     path, east_area, east_target, west_area, west_target = MAPS[map_name]
-    return (f'scenario "two flows through one door"\nmap "{path}"\ntime_limit 5 min\n'
-            f"flow east from {east_area} to {east_target} rate {east} /min for 1 min\n"
-            f"flow west from {west_area} to {west_target} rate {west} /min for 1 min\n")
+    walk = f"{{ social_force.oncoming_side_preference {keep_right} }}"
+    return (f'scenario "two flows through one narrow place"\nmap "{path}"\ntime_limit 5 min\n'
+            f"flow east from {east_area} to {east_target} rate {east} /min for 1 min {walk}\n"
+            f"flow west from {west_area} to {west_target} rate {west} /min for 1 min {walk}\n")
 
 
 @contextmanager
@@ -72,18 +81,15 @@ def main(argv: list[str]) -> int:
     seeds = range(1, parser.parse_args(argv).seeds + 1)
     rows: list[tuple[str, str, int, int, float]] = []
     with tempfile.TemporaryDirectory() as folder:
-        for label, turns in (("turns", True), ("social force alone", False)):
+        for label, turns, keep_right in SETTINGS:
             for map_name in MAPS:
                 came = lost = 0
                 walks: list[float] = []
                 for east, west in RATES:
                     for seed in seeds:
-                        if turns:
-                            counts = outcome(scenario(map_name, east, west), Path(folder), seed)
-                        else:
-                            with without_turns():
-                                counts = outcome(scenario(map_name, east, west), Path(folder),
-                                                 seed)
+                        with nullcontext() if turns else without_turns():
+                            counts = outcome(scenario(map_name, east, west, keep_right),
+                                             Path(folder), seed)
                         came, lost = came + counts[0], lost + counts[1]
                         walks += counts[2]
                 rows.append((label, map_name, came, lost, sum(walks) / max(len(walks), 1)))

@@ -164,7 +164,7 @@ def draw_maps() -> ModuleType:
     return load_script(MAPS / "draw_maps.py")
 
 
-@pytest.mark.parametrize("name", ["living_room", "parking", "station", "halls",
+@pytest.mark.parametrize("name", ["living_room", "parking", "station", "halls", "corridor_halls",
                                   "benchmark/corridor", "benchmark/crossing", "benchmark/doorway",
                                   "benchmark/long_corridor", "benchmark/narrow_corridor",
                                   "benchmark/hall", "benchmark/lounge"])
