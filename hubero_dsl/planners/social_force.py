@@ -22,7 +22,7 @@ current velocities (collision prediction in the spirit of Zanlungo, Ikeda & Kand
 people on a collision course turn aside early; and a small `side_preference` sidestep breaks the
 deadlock of two people walking exactly at each other. Where two streams meet (a corridor
 walked both ways), `oncoming_side_preference` has people keep to the right of those coming the
-other way, from a couple of metres before they meet, as pedestrians do (Moussaid et al. 2009
+other way, from a few metres before they meet, as pedestrians do (Moussaid et al. 2009
 measured the preference for one side in face-to-face avoidance), so that the streams lock up
 head-on less often. It is off by default. A last guard removes any velocity that would carry a
 body into a wall within the step.
@@ -98,7 +98,7 @@ _STIFFNESS_STEP_CAP = 0.5
 _FRICTION_STEP_CAP = 0.5
 # Up to this many close pairs both directions are pushed in one pass (see `_PairPush.both_ways`).
 _JOINED_PAIRS = 64
-_ONCOMING_REACH = 1.0  # m over which keeping to one side of the oncoming fades
+_ONCOMING_REACH = 2.0  # m over which keeping to one side of the oncoming fades
 _CIRCLE = int(ShapeKind.CIRCLE)  # a plain int compares with arrays faster than the enum
 
 
@@ -143,7 +143,7 @@ class SocialForceParams(PlannerParams):
     oncoming_side_preference: float = Field(default=0.0, ge=-1.0, le=1.0, description=(
         "Keeping to the right of people who walk the other way (negative: to the left): a "
         "sidestep from someone ahead of this fraction of A (times avoidance_strength), as "
-        "strong as their ways are opposed, fading over 1 m of their distance at closest "
+        "strong as their ways are opposed, fading over 2 m of their distance at closest "
         "approach; with 1 two streams in a corridor lock up less often. 0 (the default) "
         "leaves it out."))
     anticipation: float = Field(default=0.5, ge=0.0, json_schema_extra=_TIME, description=(

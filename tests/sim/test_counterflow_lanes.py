@@ -44,7 +44,5 @@ def test_two_streams_in_a_corridor_lock_up_less_when_people_keep_right(tmp_path:
     came = sum(c for c, _ in kept)
     assert came == sum(c for c, _ in alone) > 150  # the same people come either way
     lost_kept, lost_alone = sum(n for _, n in kept), sum(n for _, n in alone)
-    # 38 against 103 of 484
-    # fewer lock-ups, not none: a corridor filled by one stream still locks up at its mouth
-    # when the other stream crowds it (seed 2, where more are lost with it than without)
-    assert lost_kept <= 0.5 * lost_alone
+    # 7 against 103 of 484, at most 2 in any seed
+    assert lost_kept <= 0.1 * lost_alone
