@@ -142,10 +142,10 @@ class SocialForceParams(PlannerParams):
         "the left); breaks the deadlock of people walking dead-on at each other."))
     oncoming_side_preference: float = Field(default=0.0, ge=-1.0, le=1.0, description=(
         "Keeping to the right of people who walk the other way (negative: to the left): a "
-        "sidestep from someone ahead of this fraction of A (times avoidance_strength), as "
-        "strong as their ways are opposed, fading over 2 m of their distance at closest "
-        "approach; with 1 two streams in a corridor lock up less often. 0 (the default) "
-        "leaves it out."))
+        "sidestep of this fraction of A (times avoidance_strength) from someone ahead within "
+        "interaction_range, as strong as their ways are opposed, falling as exp(-d / 2 m) "
+        "with d their distance at closest approach; with 1 two streams in a corridor lock up "
+        "less often. 0 (the default) leaves it out."))
     anticipation: float = Field(default=0.5, ge=0.0, json_schema_extra=_TIME, description=(
         "Horizon of collision prediction, s: people and robots push from where they will be "
         "closest within it at the current velocities (0 = the plain distance of Helbing & "
@@ -542,10 +542,10 @@ class _PairPush:
     def _keep_to_the_side(self, receiver: IntArray, other: IntArray, distance: FloatArray,
                           seen_ahead: FloatArray) -> FloatArray:
         """The sidestep of each pair's receiver from an other ahead who walks the other way:
-        oncoming_side_preference * A * (how opposed their ways are) * exp(-distance at their
-        closest approach / _ONCOMING_REACH), weighted by how straight ahead the other is. It
-        reaches further than the push, so that people move over before they meet, and it stays
-        bounded when they are close."""
+        oncoming_side_preference * A * avoidance_strength * (how opposed their ways are) *
+        exp(-distance at their closest approach / _ONCOMING_REACH), weighted by how straight
+        ahead the other is. It reaches further than the push, so that people move over before
+        they meet, and it stays bounded when they are close."""
         if self.ways is None:
             self.ways = self._ways()
         ways = self.ways
