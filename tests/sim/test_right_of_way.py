@@ -127,6 +127,13 @@ def _engine(positions: list[tuple[float, float]], goals: list[tuple[float, float
         fits=lambda index, point: grid.clearance_at_point(*point) > 0.25, in_sight=in_sight)
 
 
+def _one_east_two_west() -> Any:
+    """An engine with one eastbound walker stalled at the door's west side and two westbound
+    in the doorway and behind it: the westbound go first, the eastbound one waits."""
+    return _engine([(11.6, 5.0), (12.7, 5.0), (13.5, 4.6)],
+                   [(23.0, 5.0), (1.0, 5.0), (1.0, 5.0)])
+
+
 def test_head_on_in_a_door_is_a_jam_at_the_door_and_the_larger_stream_goes_first() -> None:
     # two stalled face to face in the door; two more behind the westbound one, one behind
     # the eastbound one
@@ -145,8 +152,7 @@ def test_head_on_in_a_door_is_a_jam_at_the_door_and_the_larger_stream_goes_first
 
 
 def test_a_wait_is_not_being_stuck_and_the_turn_passes_once_the_door_is_clear() -> None:
-    engine = _engine([(11.6, 5.0), (12.7, 5.0), (13.5, 4.6)],
-                     [(23.0, 5.0), (1.0, 5.0), (1.0, 5.0)])
+    engine = _one_east_two_west()
     turns = RightOfWay(engine)
     turns.look(np.arange(3))
     assert set(turns.waiting) == {0}
@@ -162,8 +168,7 @@ def test_a_wait_is_not_being_stuck_and_the_turn_passes_once_the_door_is_clear() 
 
 
 def test_the_next_stream_waits_until_the_last_of_the_other_has_come_out_of_the_door() -> None:
-    engine = _engine([(11.6, 5.0), (12.7, 5.0), (13.5, 4.6)],
-                     [(23.0, 5.0), (1.0, 5.0), (1.0, 5.0)])
+    engine = _one_east_two_west()
     turns = RightOfWay(engine)
     turns.look(np.arange(3))
     (jam,) = turns._jams
@@ -223,8 +228,7 @@ def test_in_the_open_a_jam_is_centred_between_the_two() -> None:
 
 
 def test_members_of_a_group_take_no_turns() -> None:
-    engine = _engine([(11.6, 5.0), (12.7, 5.0), (13.5, 4.6)],
-                     [(23.0, 5.0), (1.0, 5.0), (1.0, 5.0)])
+    engine = _one_east_two_west()
     engine.groups = {"family": np.array([0])}
     turns = RightOfWay(engine)
     turns.look(np.arange(3))
@@ -232,8 +236,7 @@ def test_members_of_a_group_take_no_turns() -> None:
 
 
 def test_one_who_finds_no_plan_after_waiting_walks_straight_at_its_goal() -> None:
-    engine = _engine([(11.6, 5.0), (12.7, 5.0), (13.5, 4.6)],
-                     [(23.0, 5.0), (1.0, 5.0), (1.0, 5.0)])
+    engine = _one_east_two_west()
     engine.plan_to_goal = lambda index: "no free path"
     turns = RightOfWay(engine)
     turns.look(np.arange(3))
@@ -246,8 +249,7 @@ def test_one_who_finds_no_plan_after_waiting_walks_straight_at_its_goal() -> Non
 
 
 def test_a_wait_outlasts_the_path_pool_being_compacted() -> None:
-    engine = _engine([(11.6, 5.0), (12.7, 5.0), (13.5, 4.6)],
-                     [(23.0, 5.0), (1.0, 5.0), (1.0, 5.0)])
+    engine = _one_east_two_west()
     turns = RightOfWay(engine)
     turns.look(np.arange(3))
     assert set(turns.waiting) == {0}
@@ -290,8 +292,7 @@ def test_one_whose_way_does_not_lead_through_the_door_is_not_held() -> None:
 
 
 def test_a_wait_lasts_at_most_so_long_and_then_one_walks_on() -> None:
-    engine = _engine([(11.6, 5.0), (12.7, 5.0), (13.5, 4.6)],
-                     [(23.0, 5.0), (1.0, 5.0), (1.0, 5.0)])
+    engine = _one_east_two_west()
     turns = RightOfWay(engine)
     turns.look(np.arange(3))
     assert set(turns.waiting) == {0}
