@@ -126,8 +126,13 @@ class RunLog:
         fd, temp = None, None
         if self.path is not None:
             check_log_path(self.path, program)
-            fd, temp = _create_temp(self.path)
+        # Ctrl-C or SIGTERM between the file's creation and its name being known here would
+        # leave it behind: they are held until then, and raised inside the `try` that removes it
+        held = _hold_stops()
         try:
+            if self.path is not None:
+                fd, temp = _create_temp(self.path)
+            _release_stops(held)
             setup = self._setup(temp)
             # a live server publishes from this process, so the encoding stays here
             fork = can_fork() if self._writer_process is None else self._writer_process
@@ -140,6 +145,7 @@ class RunLog:
                 with contextlib.suppress(OSError):
                     os.close(fd)
             discard_file(None, temp)
+            _release_stops(held)
             raise
         # a log never closed (a Gymnasium env left open, dropped, or the program ending) leaves
         # no temporary file behind it: removed when this object goes, or at exit
@@ -297,6 +303,19 @@ class _LocalSink:
 _STOPS = {signal.SIGINT, signal.SIGTERM}
 
 
+def _hold_stops() -> set[int | signal.Signals] | None:
+    """Hold Ctrl-C and SIGTERM back (where the platform can); the mask to give back."""
+    if not hasattr(signal, "pthread_sigmask"):
+        return None
+    return signal.pthread_sigmask(signal.SIG_BLOCK, _STOPS)
+
+
+def _release_stops(held: set[int | signal.Signals] | None) -> None:
+    """Give back the mask `_hold_stops` took: a stop held meanwhile is raised now."""
+    if held is not None:
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)
+
+
 class _ProcessSink:
     """Encodes in a forked writer process; updates go to it through a pipe.
 
@@ -316,11 +335,11 @@ class _ProcessSink:
                                         name="hubero-log-writer", daemon=True)
         # Ctrl-C or SIGTERM during the fork would run this process's handler in the child's
         # start-up, before it ignores them, and print a traceback there: hold them until then
-        held = signal.pthread_sigmask(signal.SIG_BLOCK, _STOPS)
+        held = _hold_stops()
         try:
             self._process.start()
         finally:
-            signal.pthread_sigmask(signal.SIG_SETMASK, held)
+            _release_stops(held)
         child.close()
         os.close(fd)
 
