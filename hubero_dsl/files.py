@@ -7,7 +7,9 @@ and at most a given number of bytes; `check_output` refuses to write over anythi
 regular file, and over the files a command reads; `refuse_other_kind` over a file of
 another kind than the one written (a user's CSV named as a log); `write_replacing` writes an
 output beside its name and renames it into place, so that a failure never leaves a partial file
-there; `scratch_folder_beside` does so for outputs of several files (a map, a bag).
+there; `scratch_folder_beside` does so for outputs of several files (a map, a bag);
+`stops_held` keeps Ctrl-C and SIGTERM from landing between a file's creation and its name
+being known to whoever removes it.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import os
 import shutil
+import signal
 import stat
 import tempfile
 from collections.abc import Callable, Iterator, Sequence
@@ -140,6 +143,26 @@ def write_replacing(path: Path, write: Callable[[Path], object],
         with contextlib.suppress(OSError):
             temp.unlink()
     return path
+
+
+STOPS = frozenset({signal.SIGINT, signal.SIGTERM})
+
+
+@contextlib.contextmanager
+def stops_held(stops: frozenset[signal.Signals] = STOPS) -> Iterator[None]:
+    """Ctrl-C and SIGTERM (or `stops`) held back for the block, where the platform can, and
+    delivered as it ends: a stop arriving just after a temporary file is created, or while a
+    child process starts, would otherwise leave the file behind, or run this process's
+    handler in the child. A child started in the block inherits the mask, so it must set
+    its own (or ignore the signals) before it unblocks them."""
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, stops)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)
 
 
 @contextlib.contextmanager

@@ -45,7 +45,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 from hubero_dsl import __version__
 from hubero_dsl.errors import LogError
-from hubero_dsl.files import check_output
+from hubero_dsl.files import STOPS, check_output, stops_held
 from hubero_dsl.log import schemas as s
 from hubero_dsl.log.crowds import members_of_crowds
 from hubero_dsl.log.encoder import LogEncoder, LogSetup, Update, discard_file
@@ -126,13 +126,12 @@ class RunLog:
         fd, temp = None, None
         if self.path is not None:
             check_log_path(self.path, program)
-        # Ctrl-C or SIGTERM between the file's creation and its name being known here would
-        # leave it behind: they are held until then, and raised inside the `try` that removes it
-        held = _hold_stops()
         try:
-            if self.path is not None:
-                fd, temp = _create_temp(self.path)
-            _release_stops(held)
+            # Ctrl-C or SIGTERM between the file's creation and its name being known here
+            # would leave it behind: held until then, raised inside the `try` that removes it
+            with stops_held():
+                if self.path is not None:
+                    fd, temp = _create_temp(self.path)
             setup = self._setup(temp)
             # a live server publishes from this process, so the encoding stays here
             fork = can_fork() if self._writer_process is None else self._writer_process
@@ -145,7 +144,6 @@ class RunLog:
                 with contextlib.suppress(OSError):
                     os.close(fd)
             discard_file(None, temp)
-            _release_stops(held)
             raise
         # a log never closed (a Gymnasium env left open, dropped, or the program ending) leaves
         # no temporary file behind it: removed when this object goes, or at exit
@@ -300,22 +298,6 @@ class _LocalSink:
         self._encoder.discard()
 
 
-_STOPS = {signal.SIGINT, signal.SIGTERM}
-
-
-def _hold_stops() -> set[int | signal.Signals] | None:
-    """Hold Ctrl-C and SIGTERM back (where the platform can); the mask to give back."""
-    if not hasattr(signal, "pthread_sigmask"):
-        return None
-    return signal.pthread_sigmask(signal.SIG_BLOCK, _STOPS)
-
-
-def _release_stops(held: set[int | signal.Signals] | None) -> None:
-    """Give back the mask `_hold_stops` took: a stop held meanwhile is raised now."""
-    if held is not None:
-        signal.pthread_sigmask(signal.SIG_SETMASK, held)
-
-
 class _ProcessSink:
     """Encodes in a forked writer process; updates go to it through a pipe.
 
@@ -335,11 +317,8 @@ class _ProcessSink:
                                         name="hubero-log-writer", daemon=True)
         # Ctrl-C or SIGTERM during the fork would run this process's handler in the child's
         # start-up, before it ignores them, and print a traceback there: hold them until then
-        held = _hold_stops()
-        try:
+        with stops_held():
             self._process.start()
-        finally:
-            _release_stops(held)
         child.close()
         os.close(fd)
 
@@ -385,7 +364,7 @@ def _serve(setup: LogSetup, fd: int, conn: Connection, parent_end: Connection) -
     then aborts the writer, or its pipe closes."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOPS)  # held since the fork; now ignored
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, STOPS)  # held since the fork; now ignored
     parent_end.close()  # else the pipe would never report the run's end, even if it is killed
     stream = os.fdopen(fd, "wb", buffering=1 << 20)
     encoder: LogEncoder | None = None

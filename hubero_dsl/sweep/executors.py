@@ -27,6 +27,7 @@ from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from typing import Any, Literal, ParamSpec, TypeVar
 
 from hubero_dsl.errors import InputError, Terminated
+from hubero_dsl.files import stops_held
 
 ExecutorKind = Literal["serial", "process", "dask"]
 EXECUTOR_KINDS: tuple[ExecutorKind, ...] = ("serial", "process", "dask")
@@ -95,12 +96,8 @@ def _start_fork_server() -> None:
     from multiprocessing import forkserver, resource_tracker
 
     resource_tracker.ensure_running()
-    with _signals_after():
-        held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-        try:
-            forkserver.ensure_running()
-        finally:
-            signal.pthread_sigmask(signal.SIG_SETMASK, held)
+    with _signals_after(), stops_held(frozenset({signal.SIGINT})):
+        forkserver.ensure_running()
 
 
 @contextlib.contextmanager
