@@ -29,10 +29,12 @@ INTIMATE, PERSONAL, SOCIAL = 0.45, 1.2, 3.6   # m, surface gaps
 NOT_MOVING = 0.05                              # m/s
 FORCE_A, FORCE_B = 2.1, 0.3                    # m/s^2, m (Helbing & Molnar 1995)
 # m: two bodies whose surface gap is below this are in contact. The engine pushes overlapping
-# bodies apart until they just touch, so a contact's gap comes out as 0 or as a rounding error
-# either side of it (1e-16 m); counting only gaps below 0 would count such a contact or not
-# by the rounding.
-CONTACT = 1e-9
+# bodies apart until they just touch, so a contact's gap comes out as 0 give or take a float's
+# rounding (1e-16 m) in a run, and give or take the log's (positions to 0.1 mm: a distance
+# off by up to 1.42e-4 m) when the metrics are read from a log. Counting only gaps below 0,
+# or below 1 nm, counted such a contact or not by the rounding: a run's own verdict saw a
+# collision that the same run's log did not. Below 0.2 mm, both see it.
+CONTACT = 2e-4
 # m: a body this far beyond its goal tolerance has reached the goal all the same (a float's
 # rounding of an approach that ends exactly at the tolerance); `NAME reaches P` counts it too
 GOAL_SLACK = 1e-9

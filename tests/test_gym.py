@@ -13,6 +13,7 @@ gymnasium = pytest.importorskip("gymnasium")
 from gymnasium.utils.env_checker import check_env  # noqa: E402
 
 import hubero_dsl.gym  # noqa: E402 - registers hubero/Scenario-v0
+from hubero_dsl.analysis.socialnav_log import robot_social_metrics  # noqa: E402
 from hubero_dsl.errors import InputError  # noqa: E402
 from hubero_dsl.log.reader import load_run  # noqa: E402
 from hubero_dsl.socialnav import CONTACT, METRICS  # noqa: E402
@@ -127,6 +128,8 @@ def test_driving_into_a_person_is_a_collision(tmp_path: Path) -> None:
                                                                     "robot 'cart' collided")
     assert info["metrics"]["collisions"] == 1 and info["metrics"]["min_distance"] < CONTACT
     assert info["metrics"]["time_to_goal"] == float("inf")
+    # the episode's log, its positions rounded to 0.1 mm, sees the same contact
+    assert robot_social_metrics(load_run(tmp_path / "bump.mcap"), "cart")["collisions"] == 1
 
 
 def test_actions_are_clipped_to_the_box_and_must_be_finite(tmp_path: Path) -> None:

@@ -43,14 +43,24 @@ def test_a_straight_walk_past_a_standing_person() -> None:
 @pytest.mark.parametrize("rounding", [0.0, 4e-16, -4e-16])
 def test_bodies_that_just_touch_have_collided_whatever_the_rounding(rounding: float) -> None:
     # the engine pushes overlapping bodies apart until they touch: a gap of 0, give or take a
-    # rounding error, is a contact
+    # float's rounding, is a contact
     subject = _track([(0.0, 0.0), (0.5 + rounding, 0.0), (3.0, 0.0)])
     person = _track([(1.0, 0.0)] * 3)
     metrics = social_metrics(subject, [person])
     assert metrics["collisions"] == 1.0 and metrics["min_time_to_collision"] == 0.0
 
 
-def test_a_gap_above_a_nanometre_is_no_contact() -> None:
+def test_bodies_that_just_touch_have_collided_as_a_log_keeps_them() -> None:
+    # touching on a diagonal, each position rounded to the log's 0.1 mm: the logged distance
+    # is 0.05 mm more than the radii's sum (a run's verdict saw the contact, its log did not)
+    side = round(0.5 / math.sqrt(2), 4)
+    assert math.hypot(side, side) - 0.5 > 4e-5
+    subject = _track([(-1.0, -1.0), (0.0, 0.0), (-1.0, -1.0)])
+    person = _track([(side, side)] * 3)
+    assert social_metrics(subject, [person])["collisions"] == 1.0
+
+
+def test_a_gap_above_the_contact_is_no_contact() -> None:
     subject = _track([(0.0, 0.0), (0.5 - 2 * CONTACT, 0.0), (3.0, 0.0)])
     person = _track([(1.0, 0.0)] * 3)
     assert social_metrics(subject, [person])["collisions"] == 0.0
