@@ -111,9 +111,9 @@ class Behaviour:
     def on_stuck(self, engine: World) -> None:
         engine.finish(self.index, TaskStatus.ABORTED, stuck_reason(engine.stuck_time))
 
-    def on_held_at_goal(self, engine: World) -> None:
-        """The human has made no progress for a while near its goal, and someone stands
-        there. Most tasks wait for their stuck time all the same."""
+    def on_held_at_goal(self, engine: World, blocker: str) -> None:
+        """The human has made no progress for a while near its goal, and someone (`blocker`)
+        stands there. Most tasks wait for their stuck time all the same."""
 
 
 class Stand(Behaviour):
@@ -324,9 +324,9 @@ class MoveTo(Behaviour):
             engine.arrived_together(self.index, self.target)
         engine.finish(self.index, TaskStatus.SUCCEEDED, reason)
 
-    def on_held_at_goal(self, engine: World) -> None:
+    def on_held_at_goal(self, engine: World, blocker: str) -> None:
         # queued behind those standing on the goal: stop there, not after the stuck time
-        self.on_stuck(engine)
+        self._stop_short(engine, blocker)
 
     def on_stuck(self, engine: World) -> None:
         # a goal others stand on (a counter, a door, a group talking there) is reached as
@@ -334,7 +334,11 @@ class MoveTo(Behaviour):
         blocker = engine.standing_at_goal(self.index)
         if blocker is None:
             super().on_stuck(engine)
-        elif self.heading is None:
+        else:
+            self._stop_short(engine, blocker)
+
+    def _stop_short(self, engine: World, blocker: str) -> None:
+        if self.heading is None:
             self._succeed(engine, f"stopped short of a goal taken by {blocker}")
         else:
             engine.halt(self.index)
@@ -364,8 +368,8 @@ class Posed(MoveTo):
         engine.finish(self.index, TaskStatus.ABORTED,
                       stuck_reason(engine.stuck_time, engine.standing_at_goal(self.index)))
 
-    def on_held_at_goal(self, engine: World) -> None:
-        Behaviour.on_held_at_goal(self, engine)  # a taken seat: its stuck time, as above
+    def on_held_at_goal(self, engine: World, blocker: str) -> None:
+        Behaviour.on_held_at_goal(self, engine, blocker)  # a taken seat: its stuck time
 
     def on_arrived(self, engine: World) -> None:
         if self.heading is not None and self.state != "aligning":
@@ -427,7 +431,7 @@ class MoveAround(Behaviour):
         else:
             self._next_goal(engine)
 
-    def on_held_at_goal(self, engine: World) -> None:
+    def on_held_at_goal(self, engine: World, blocker: str) -> None:
         if self.group is not None:  # a companion stands on the shared goal: as good as there
             self.on_arrived(engine)
         else:  # someone stands on the spot it drew: wander elsewhere, not push for it

@@ -248,13 +248,19 @@ class Engine:
                             else np.concatenate([[here], plan.waypoints]))
         return None
 
-    def hold_short(self, index: int) -> None:
-        """Walker `index`, stalled near its goal: its task is told when someone stands there."""
+    def hold_short(self, index: int, stalled: BoolArray | None = None) -> None:
+        """Walker `index`, stalled near its goal: its task is told when someone stands there
+        (`stalled`: the walkers who have made no progress either, who count as standing)."""
         behaviour = self.behaviour[index]
-        if behaviour is not None and self.standing_at_goal(index) is not None:
-            behaviour.on_held_at_goal(self)
+        if behaviour is None:
+            return
+        if stalled is not None and stalled[index]:  # not in its own way
+            stalled = stalled.copy()
+            stalled[index] = False
+        if blocker := self.standing_at_goal(index, stalled):
+            behaviour.on_held_at_goal(self, blocker)
 
-    def standing_at_goal(self, index: int) -> str | None:
+    def standing_at_goal(self, index: int, stalled: BoolArray | None = None) -> str | None:
         """`standing_at` for walker `index` and its goal (None when it has none), queues
         behind those standing there included."""
         h = self.humans
@@ -262,20 +268,28 @@ class Engine:
         if not np.isfinite(goal).all():
             return None
         return self.standing_at((float(goal[0]), float(goal[1])), h.position[index],
-                                float(h.stop_distance[index]), float(h.radius[index]))
+                                float(h.stop_distance[index]), float(h.radius[index]), stalled)
 
     def standing_at(self, goal: tuple[float, float], here: FloatArray, stop_distance: float,
-                    radius: float | None = None) -> str | None:
+                    radius: float | None = None, stalled: BoolArray | None = None
+                    ) -> str | None:
         """Who stands between a body at `here` and its `goal`: within CROWDED_GOAL (beyond
         `stop_distance`) of it, the body standing still (a human not walking, a robot at rest)
         nearest to the goal and nearer to it than `here`; farther, given the body's `radius`,
         the one it queues behind: nearer the goal, within QUEUE_GAP of it, and gathered round
-        the goal (`physics.gathered_round`)."""
+        the goal (`physics.gathered_round`); near it, nobody nearer, given `radius`, someone
+        standing in the ring who keeps it off the goal, within PRESSED_GAP of it. The humans
+        of `stalled`, walkers who make no progress, count as standing: two sent to one point
+        push each other off it for good, each walking, and the one further from it is the one
+        to stop short (then the nearer one the one kept off)."""
         than = math.dist(here, goal)
         queued = than > physics.CROWDED_GOAL + stop_distance
         if queued and radius is None:
             return None
         names, position, size, still = self._bodies_at_rest()
+        if stalled is not None:
+            still = still.copy()
+            still[:len(stalled)] |= stalled
         distance = physics.lengths(position - np.asarray(goal))
         ahead = still & (distance < than)
         if queued and ahead.any():
@@ -283,6 +297,12 @@ class Engine:
             ahead &= gap <= physics.QUEUE_GAP
             if ahead.any():
                 ahead &= self._gathered_round(goal, position, size, still)
+        elif not queued and radius is not None and not ahead.any():
+            # nearest of all, but kept off the goal by someone standing beside it, in the
+            # goal's ring too: as near as those standing there allow
+            gap = physics.lengths(position - here) - size - radius
+            ahead = still & (distance <= physics.CROWDED_GOAL + stop_distance) \
+                & (gap <= physics.PRESSED_GAP)
         rows = ahead.nonzero()[0]
         if not len(rows):
             return None

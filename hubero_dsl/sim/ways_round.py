@@ -69,7 +69,7 @@ class Walkers(Protocol):
 
     def in_sight(self, a: tuple[float, float], b: tuple[float, float]) -> bool: ...
 
-    def hold_short(self, index: int) -> None: ...
+    def hold_short(self, index: int, stalled: BoolArray | None = None) -> None: ...
 
     def at_rest_beside(self, rows: IntArray, gap: float) -> BoolArray: ...
 
@@ -110,6 +110,8 @@ class WaysRound:
         rows = humans.moving.nonzero()[0]
         stalled = rows[moved - engine.anchor_tick[rows] >= engine.ticks(STALLED)]
         stalled = stalled[np.isfinite(humans.goal[stalled]).all(axis=1)]
+        halted = np.zeros(humans.count, dtype=bool)   # who count as standing (`standing_at`)
+        halted[stalled] = True
         # beyond the goal's ring only one with someone at rest beside it can be queued (in a
         # jam far from every goal, that leaves nobody to look at one by one)
         far = physics.lengths(humans.goal[stalled] - humans.position[stalled]) \
@@ -118,7 +120,7 @@ class WaysRound:
             far[far] = ~engine.at_rest_beside(stalled[far], physics.QUEUE_GAP)
             stalled = stalled[~far]
         for index in stalled.tolist():
-            engine.hold_short(index)
+            engine.hold_short(index, halted)
 
     def _stalled_alone_by_walls(self, rows: IntArray) -> IntArray:
         """The walkers among `rows` who have made no progress for `STALLED` s within the

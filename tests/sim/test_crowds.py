@@ -209,6 +209,24 @@ def test_a_crowd_sent_to_one_point_gathers_round_it_and_the_step_ends() -> None:
     assert all(math.dist(sim.human(name).position, (15.0, 7.0)) < 4.0 for name in ends)
 
 
+@pytest.mark.parametrize(("goal", "seed"), [
+    ((15.0, 16.0), 2), ((15.0, 16.0), 5),   # the middle of the hall: rings 0.5-0.8 m apart
+    ((15.0, 12.0), 1), ((15.0, 12.0), 7),   # past the hall's opening: two pushing for the point
+])
+def test_a_crowd_of_slow_walkers_gathers_at_a_point_with_nobody_given_up(
+        goal: tuple[float, float], seed: int) -> None:
+    # slow walkers stand farther apart than the fast (their personal spaces push harder than
+    # their goals pull), and two who reach the point together push each other off it: members
+    # were given up as stuck, and the run failed, in 5 of 12 seeds and in 11 of 12
+    text = (f'scenario "gather"\nmap "{STATION}"\nseed {seed}\n'
+            "crowd waiting 10 in rect((10.5, 14.5), (19.5, 19.5)) { speed 0.8 m/s }\n"
+            f"activity {{ waiting move_to {goal} }}\n")
+    result = run_program(Simulation(compile_source(text, "t.hub")))
+    assert result.state.name == "COMPLETED", result.reason
+    ends = [e for e in result.events if e.status.is_final]
+    assert len(ends) == 10 and {e.status for e in ends} == {TaskStatus.SUCCEEDED}
+
+
 def test_one_sent_on_its_own_reaches_a_point_only_within_its_tolerance(room_map: Path) -> None:
     # sent alone to a point someone talks on: it stops short, and `reaches` stays exact
     program = compile_source(_text(room_map, """
