@@ -3,9 +3,10 @@
 
 One `testsuite` per scenario file, one `testcase` per run (its variant, or "as written"): a run
 whose expectations failed, or that did not complete, is a `failure`; a file that cannot be
-read or does not compile, and a run that ended in an error (a controller or planner plugin
-that raised) are an `error`. Times are wall-clock seconds, as test reports keep them. Written
-by the standard library's ElementTree, whole or not at all.
+read or does not compile, or whose parameters a controller handed over does not take, and a
+run that ended in an error (a controller or planner plugin that raised) are an `error`. Times
+are wall-clock seconds, as test reports keep them. Written by the standard library's
+ElementTree, whole or not at all.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ BEGINNING = b"<?xml version='1.0' encoding='utf-8'?>\n<testsuites"
 
 # The cases of a file that never ran: no variant can be so named (not an identifier)
 UNREADABLE, UNCOMPILED = "(cannot be read)", "(does not compile)"
+UNFITTING = "(does not fit the controller)"  # a class handed over refuses its parameters
 
 
 @dataclass(frozen=True)
@@ -37,7 +39,7 @@ class TestOutcome:
     __test__ = False  # a report's case, not a test for pytest to collect
 
     file: str
-    case: str                 # the variant, "as written", UNREADABLE or UNCOMPILED
+    case: str                 # the variant, "as written", UNREADABLE, UNCOMPILED or UNFITTING
     verdict: CaseResult
     message: str              # one line: how the run ended, or the error
     details: tuple[str, ...] = field(default_factory=tuple)  # the failing expectations

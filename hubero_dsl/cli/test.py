@@ -4,7 +4,8 @@ Every variant of every file runs (or the one named with --variant); the exit sta
 every run completed and every expectation held, 1 otherwise, 2 for bad input. A file that does
 not compile, or a run that ends in an error (a controller or planner plugin that raised), is
 an ERROR line counted as failed, and the other files and runs go on. `--controller
-ROBOT=...` hands the class to that robot in every file that has one. `--junit-xml
+ROBOT=...` hands the class to that robot in every file that has one; a file whose parameters
+for the robot the class does not take is an ERROR line too. `--junit-xml
 REPORT.xml` also writes the verdicts as a JUnit XML report (one test case a run), which CI
 systems show beside their own tests.
 """
@@ -16,7 +17,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from hubero_dsl.cli.junit import UNCOMPILED, UNREADABLE, TestOutcome
+from hubero_dsl.cli.junit import UNCOMPILED, UNFITTING, UNREADABLE, TestOutcome
 from hubero_dsl.cli.outputs import named_file
 from hubero_dsl.cli.run import (
     add_run_options,
@@ -66,9 +67,16 @@ def run(args: argparse.Namespace) -> int:
     unused = sorted(set(controllers) - robots)
     if unused:
         raise InputError(f"--controller: no robot named '{unused[0]}' in any of the files")
+    fitting = []
     for file, program, variants in planned:
         mine = {name: cls for name, cls in controllers.items()
                 if name in {robot.name for robot in program.robots}}
+        refused = _refused_by_controllers(file, program, mine, console)
+        if refused is None:
+            fitting.append((file, program, variants, mine))
+        else:
+            outcomes.append(refused)
+    for file, program, variants, mine in fitting:
         for variant in variants:
             outcomes.append(_run(file, program, variant, args, mine, console))
     failures = sum(o.verdict != "pass" for o in outcomes)
@@ -106,6 +114,25 @@ def _compiled(files: list[str], console: Console) -> tuple[list[tuple[str, Progr
                 tuple(f"{d.span or file}: {d.severity}[{d.code}]: {d.message}"
                       for d in found if d.is_error)))
     return programs, outcomes
+
+
+def _refused_by_controllers(file: str, program: Program, controllers: dict[str, type],
+                            console: Console) -> TestOutcome | None:
+    """An ERROR outcome for a file whose parameters for a robot the class handed to it does
+    not take (said, with where), as for a file that does not compile; None when they fit."""
+    from rich.markup import escape
+
+    from hubero_dsl.cli.diagnostic_formats import report_error
+    from hubero_dsl.errors import InputError
+    from hubero_dsl.sim.simulation import check_handed_controllers
+
+    try:
+        check_handed_controllers(program, controllers)
+    except InputError as exc:
+        report_error(exc)
+        console.print(f"[red]ERROR[/] {escape(file)}: {escape(exc.message)}")
+        return TestOutcome(file, UNFITTING, "error", str(exc))
+    return None
 
 
 def _run(file: str, program: Program, variant: str | None, args: argparse.Namespace,

@@ -26,7 +26,14 @@ from pydantic import ValidationError
 
 from hubero_dsl.errors import OUTSIDE_STOPS, InputError, SimulationError, failure_of
 from hubero_dsl.model.params import HUMAN_PARAMS, REACTIONS, SEED_DIGITS, ParamKind
-from hubero_dsl.model.program import Distribution, ParamValue, Pose, Program, unknown_variants
+from hubero_dsl.model.program import (
+    Distribution,
+    ParamValue,
+    Pose,
+    Program,
+    RobotSpec,
+    unknown_variants,
+)
 from hubero_dsl.planners.base import GlobalPlanner, LocalPlanner, PlannerParams
 from hubero_dsl.planners.guard import PlannerError, built, guarded_global, guarded_local
 from hubero_dsl.planners.registry import global_planner, local_planner
@@ -43,7 +50,7 @@ from hubero_dsl.world.scatter import crowd_places
 from hubero_dsl.world.shapes import Shape, ShapeArrays
 
 if TYPE_CHECKING:
-    from hubero_dsl.controllers.base import RobotController
+    from hubero_dsl.controllers.base import ControllerParams, RobotController
     from hubero_dsl.diagnostics import Span
     from hubero_dsl.model.tasks import Task
 
@@ -346,7 +353,6 @@ def build_controllers(program: Program, given: Mapping[str, type | RobotControll
                       ) -> dict[str, RobotController]:
     """Each robot's controller: the caller's (a class is built with the robot and default
     parameters), else the registered one its declaration names, with its parameters."""
-    from hubero_dsl.controllers.base import ControllerParams, params_of
     from hubero_dsl.controllers.registry import controller_class
 
     unknown = sorted(set(given) - {spec.name for spec in program.robots})
@@ -364,17 +370,7 @@ def build_controllers(program: Program, given: Mapping[str, type | RobotControll
             built[spec.name] = chosen
             continue
         cls = chosen or controller_class(spec.controller)
-        params_model = params_of(cls)
-        # a class handed over takes the scenario's parameters when it declares its own
-        # (validated by them); one that declares none is built with none
-        values = (spec.controller_params
-                  if chosen is None or params_model is not ControllerParams else {})
-        try:
-            params = params_model.model_validate(dict(values))
-        except ValidationError as exc:  # the class handed over does not fit the file: input
-            raise InputError(f"robot '{spec.name}': controller {cls.__name__} "
-                             f"{_refused_params(exc, spec.controller, cls.__name__)}",
-                             span=spec.span) from None
+        params = _controller_params(spec, cls, handed=chosen is not None)
         try:
             built[spec.name] = cls(body, params)
         except OUTSIDE_STOPS:
@@ -383,6 +379,33 @@ def build_controllers(program: Program, given: Mapping[str, type | RobotControll
             raise SimulationError(f"robot '{spec.name}': controller {cls.__name__} cannot be "
                                   f"built: {failure_of(exc)}") from None
     return built
+
+
+def check_handed_controllers(program: Program,
+                             given: Mapping[str, type | RobotController]) -> None:
+    """Refuse (InputError, at the robot's statement) a class handed over for a robot that does
+    not take the scenario's parameters for it, as a run would, without building anything."""
+    for spec in program.robots:
+        chosen = given.get(spec.name)
+        if isinstance(chosen, type):
+            _controller_params(spec, chosen, handed=True)
+
+
+def _controller_params(spec: RobotSpec, cls: type, *, handed: bool) -> ControllerParams:
+    """The parameters `cls` is built with for `spec`: a class handed over takes the scenario's
+    when it declares a model of its own (validated by it); one that declares none, none."""
+    from hubero_dsl.controllers.base import ControllerParams, params_of
+
+    params_model = params_of(cls)
+    values = (spec.controller_params
+              if not handed or params_model is not ControllerParams else {})
+    try:
+        params: ControllerParams = params_model.model_validate(dict(values))
+    except ValidationError as exc:  # the class handed over does not fit the file: input
+        raise InputError(f"robot '{spec.name}': controller {cls.__name__} "
+                         f"{_refused_params(exc, spec.controller, cls.__name__)}",
+                         span=spec.span) from None
+    return params
 
 
 def _refused_params(error: ValidationError, written_as: str, cls: str) -> str:

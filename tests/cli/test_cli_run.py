@@ -11,6 +11,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import junitparser
+import pytest
 
 from tests.cli.conftest import REPO_ROOT, Outcome
 
@@ -145,6 +146,40 @@ def test_hubero_test_reports_a_file_that_does_not_compile_and_runs_the_others(
     missing = cli("test", str(tmp_path / "missing.hub"), LIVING_ROOM)
     assert missing.status == 2 and "2 passed, 1 failed" in missing.out
     assert f"ERROR {tmp_path / 'missing.hub'}: cannot be read" in missing.out
+
+
+def test_hubero_test_reports_a_file_its_handed_controller_refuses_and_runs_the_others(
+        cli: Callable[..., Outcome], tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # the cart's file sets `navigator.safety_margin`, which the class handed over does not
+    # declare: the whole command stopped (exit 2), before the other files, with no report
+    (tmp_path / "go_straight.py").write_text(
+        "from pydantic import Field\n"
+        "from hubero_dsl.controllers.base import ControllerParams\n"
+        "class Params(ControllerParams):\n    gain: float = Field(default=1.0, gt=0)\n"
+        "class GoStraight:\n    Params = Params\n"
+        "    def __init__(self, body, params):\n        self.gain = params.gain\n"
+        "    def command(self, observation):\n        return (0.0, 0.0)\n", encoding="utf-8")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    guests = str(REPO_ROOT / "scenarios" / "robot_among_guests.hub")
+    report = tmp_path / "report.xml"
+    outcome = cli("test", guests, LIVING_ROOM, "--controller", "cart=go_straight:GoStraight",
+                  "--junit-xml", str(report))
+    assert outcome.status == 1
+    refusal = ("robot 'cart': controller GoStraight does not take the scenario's "
+               "`navigator.safety_margin` (declare safety_margin in GoStraight.Params, or "
+               "leave it out)")
+    assert f"ERROR {guests}: {refusal}\n" in outcome.out
+    assert "robot_among_guests.hub:17:1" in outcome.err  # the robot's statement
+    assert outcome.out.rstrip().endswith("2 passed, 1 failed")
+    read = junitparser.JUnitXml.fromfile(str(report))
+    assert (read.tests, read.failures, read.errors) == (3, 0, 1)
+    cases = {(suite.name, case.name): case for suite in read for case in suite}
+    assert set(cases) == {(guests, "(does not fit the controller)"), (LIVING_ROOM, "circle"),
+                          (LIVING_ROOM, "ellipse")}
+    (error,) = cases[guests, "(does not fit the controller)"].result
+    assert isinstance(error, junitparser.Error)
+    assert error.text == f"{guests}:17:1: {refusal}"
+    sys.modules.pop("go_straight", None)
 
 
 def test_hubero_test_judges_every_variant(cli: Callable[..., Outcome], tmp_path: Path) -> None:
