@@ -339,10 +339,12 @@ def _metric_row(metric: MetricDelta) -> tuple[str, str, str, str]:
 
 
 def _closest(human: HumanDiff) -> tuple[float | int | None, float | int | None]:
-    """The closest approach to anyone, in A and in B."""
+    """The closest approach to anyone, in A and in B (a human's to each other one, a robot's
+    to any person)."""
     from hubero_dsl.analysis.diff import aggregate
 
-    rows = [m for m in human.metrics if m.name.startswith("min_distance.")]
+    rows = [m for m in human.metrics
+            if m.name == "min_distance" or m.name.startswith("min_distance.")]
     return aggregate([m.a for m in rows], "min"), aggregate([m.b for m in rows], "min")
 
 
@@ -354,12 +356,18 @@ def _number(value: object, signed: bool = False) -> str:
         return "0"
     if isinstance(value, int):
         return f"{value:+d}" if signed else str(value)
-    return f"{value:+.3f}" if signed else f"{value:.3f}"
+    # a robot touching someone is a gap of a hair below zero: 0.000, not -0.000
+    return f"{value:+.3f}" if signed else f"{round(value, 3) + 0.0:.3f}"
 
 
-def _change(human: HumanDiff, name: str) -> str:
+def _change(human: HumanDiff, name: str, count: bool = False) -> str:
     metric = human.metric(name)
-    return _number(metric.delta, signed=True) if metric is not None else ""
+    if metric is None:
+        return ""
+    delta = metric.delta
+    if count and isinstance(delta, float) and delta.is_integer():
+        delta = int(delta)  # a robot's counts are numbers as its metrics have them: floats
+    return _number(delta, signed=True)
 
 
 _SWEEP_COLUMNS = ("variant", "seed", "human", "Δ path\nm", "Δ duration\ns",
@@ -394,8 +402,8 @@ def _print_sweep(sweep: SweepDiff, humans: set[str], console: Console) -> None:
         for name, cells in _sweep_rows(comparison.diff, humans):
             table.add_row(variant, str(comparison.seed), escape(name), *cells)
     console.print(table)
-    console.print(f"apart at: the first instant a human is more than {sweep.epsilon:g} m from "
-                  f"where it was at that time in the baseline run")
+    console.print(f"apart at: the first instant a human or robot is more than "
+                  f"{sweep.epsilon:g} m from where it was at that time in the baseline run")
 
 
 def _variant_changes(sweep: SweepDiff) -> dict[str, str]:
@@ -415,8 +423,9 @@ def _variant_changes(sweep: SweepDiff) -> dict[str, str]:
 
 
 def _sweep_rows(diff: RunDiff, humans: set[str]) -> list[tuple[str, list[str]]]:
-    """A run's rows of the sweep's table: the humans asked for (`humans`; none: all of them),
-    else the named humans one by one and each crowd or flow in one row."""
+    """A run's rows of the sweep's table: the humans asked for (`humans`), else the named
+    humans one by one, each crowd or flow in one row, and each robot (its path, closest
+    approach to a person and collisions with people; no duration or intrusion time)."""
     from hubero_dsl.analysis.diff import set_diffs
 
     if humans:
@@ -424,7 +433,8 @@ def _sweep_rows(diff: RunDiff, humans: set[str]) -> list[tuple[str, list[str]]]:
     sets = set_diffs(diff)
     members = {m for name in sets for m in diff.sets[name][1]}
     return [*((n, _sweep_cells(h)) for n, h in sorted(diff.humans.items()) if n not in members),
-            *((f"{crowd.kind} {name}", _sweep_set_cells(crowd)) for name, crowd in sets.items())]
+            *((f"{crowd.kind} {name}", _sweep_set_cells(crowd)) for name, crowd in sets.items()),
+            *((f"robot {name}", _sweep_cells(robot)) for name, robot in diff.robots.items())]
 
 
 def _sweep_set_cells(crowd: SetDiff) -> list[str]:
@@ -445,5 +455,6 @@ def _sweep_cells(human: HumanDiff) -> list[str]:
     apart = "never" if human.diverged_at is None else f"{human.diverged_at:.2f}"
     return [_change(human, "path_length"), _change(human, "duration"),
             _number(base), _number(run),
-            _change(human, "personal_space_intrusion_time"), _change(human, "collisions"),
+            _change(human, "personal_space_intrusion_time"),
+            _change(human, "collisions", count=True),
             _number(human.frechet), _number(human.hausdorff), apart]

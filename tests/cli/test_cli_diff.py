@@ -270,6 +270,40 @@ def test_a_sweeps_human_is_checked_as_a_pairs_is(cli: Cli, logs: dict[str, Path]
     assert rows == [["far", "1", "b"]]
 
 
+PATROL = f"""\
+scenario "patrol"
+map "{MAP}"
+seed 2
+time_limit 8 s
+human a at (1, 1) heading 0 deg
+robot r at (1, 2.5) heading 0 deg {{ radius 0.3 m; speed 0.5 m/s; path (1, 2.5) -> (3.5, 2.5) }}
+sweep speed in [1.0 m/s, 1.4 m/s]
+activity {{ a move_to (4, 1) }}
+"""
+
+
+def test_a_sweep_against_its_baseline_has_a_row_for_each_robot_as_two_logs_have_a_table(
+        cli: Cli, tmp_path: Path) -> None:
+    # the sweep's table listed its humans only, while two logs' diff shows each robot
+    (tmp_path / "patrol.hub").write_text(PATROL, encoding="utf-8")
+    out = tmp_path / "sw"
+    assert cli("sweep", str(tmp_path / "patrol.hub"), "--out-dir", str(out), "--seeds", "1..2",
+               "--executor", "serial", "-q").status == 0
+    outcome = cli("diff", str(out), "--baseline", "speed=1.0 m/s")
+    assert outcome.status == 0, outcome.err
+    rows = [line.split() for line in outcome.out.splitlines() if line.startswith(" speed=1.4")]
+    assert [row[2:4] for row in rows] == [["1", "a"], ["1", "robot"], ["2", "a"], ["2", "robot"]]
+    # path, closest in the baseline and in the run, collisions, Fréchet, Hausdorff, apart at:
+    # no duration nor intrusion time, which are the humans'
+    robot = rows[1][5:]
+    assert len(robot) == 7 and robot[6] == "never"
+    pair = cli("diff", str(out / "runs" / "speed=1.0m_s" / "seed-1.mcap"),
+               str(out / "runs" / "speed=1.4m_s" / "seed-1.mcap")).out.split("robot r")[1]
+    assert re.search(rf"│ path length +│ .* │ +{re.escape(robot[0])} m │", pair)
+    assert re.search(rf"│ min distance +│ +{robot[1]} m │ +{robot[2]} m │", pair)
+    assert re.search(rf"│ path Fréchet distance .* {robot[4]} m │", pair)
+
+
 def test_counts_show_as_whole_numbers_and_shape_intrusions_as_shares() -> None:
     from hubero_dsl.cli.diff import _delta, _unit, _value
 
