@@ -11,9 +11,10 @@ between the two paths, the largest distance between the two at the same instant,
 instant they are more than --epsilon apart, and the parameters that differ. A crowd or flow is
 one table of its members' metrics summed up (--members, or --human NAME, lists its members one
 by one: a flow's who came in either run), and a human's closest approach to its members is one
-row. Exit 0 when the comparison was made (runs of different scenario texts or maps with the
-same humans are compared, with a note), 2 for unreadable logs, runs whose humans differ or a
-missing baseline.
+row. Then each robot: its path, and its social-navigation metrics. --human shows only the
+humans and robots it names. Exit 0 when the comparison was made (runs of different scenario
+texts or maps with the same humans are compared, with a note), 2 for unreadable logs, runs
+whose humans differ or a missing baseline.
 """
 
 from __future__ import annotations
@@ -52,8 +53,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     parser.add_argument("--epsilon", metavar="M", type=float, default=0.1,
                         help="paths further apart than this have diverged (default 0.1 m)")
     parser.add_argument("--human", metavar="NAME", action="append",
-                        help="show only this human, or the members of this crowd, flow or "
-                        "group (repeat for more)")
+                        help="show only this human or robot, or the members of this crowd, "
+                        "flow or group (repeat for more)")
     parser.add_argument("--members", action="store_true",
                         help="list every member of a crowd or flow, not one table per crowd "
                         "or flow")
@@ -92,7 +93,8 @@ def _pair(args: argparse.Namespace) -> int:
 
         refuse_run_inputs(args.plot, a, b)
     diff = diff_runs(a, b, epsilon=args.epsilon)
-    humans = _chosen(_expanded(args.human, a.metadata.members), sorted(diff.humans), diff.sets)
+    humans, robots = _chosen(_expanded(args.human, a.metadata.members), sorted(diff.humans),
+                             diff.sets, sorted(diff.robots))
     if args.plot is not None:
         from hubero_dsl.analysis.plot import plot_overlay
 
@@ -100,6 +102,7 @@ def _pair(args: argparse.Namespace) -> int:
     if args.json:
         data = diff.to_dict()
         data["humans"] = {n: h for n, h in data["humans"].items() if n in humans}
+        data["robots"] = {n: r for n, r in data["robots"].items() if n in robots}
         print(json.dumps(data, indent=2))
         return 0
     # with neither --human nor --members a crowd's or flow's members are its table
@@ -108,7 +111,7 @@ def _pair(args: argparse.Namespace) -> int:
     absent = never_came(diff)
     listed = [h for h in humans if a.metadata.set_of(h) not in sets and h not in absent]
     named_absent = [h for h in args.human or () if h in absent]
-    _print_pair(diff, listed, list(sets.values()), a.metadata.set_of, _console(),
+    _print_pair(diff, listed, list(sets.values()), robots, a.metadata.set_of, _console(),
                 named_absent)
     return 0
 
@@ -120,22 +123,25 @@ def _expanded(wanted: list[str] | None, members: Callable[[str], tuple[str, ...]
 
 
 def _chosen(wanted: list[str] | None, known: list[str],
-            sets: Mapping[str, tuple[str, tuple[str, ...]]]) -> list[str]:
-    """The humans `wanted` names (all when none), checked against those the runs have;
-    `sets` are the runs' crowds, flows and groups: kind and members by name."""
+            sets: Mapping[str, tuple[str, tuple[str, ...]]], robots: list[str]
+            ) -> tuple[list[str], list[str]]:
+    """The humans and the robots `wanted` names (all when none), checked against those the
+    runs have (`known`, `robots`); `sets` are the runs' crowds, flows and groups: kind and
+    members by name."""
     from hubero_dsl.errors import InputError
 
     if not wanted:
-        return known
-    unknown = sorted(set(wanted) - set(known))
+        return known, robots
+    unknown = sorted(set(wanted) - set(known) - set(robots))
     if unknown:
         # a crowd's or flow's members go by its name; a group's have names of their own
         members = {member for kind, held in sets.values() if kind != "group" for member in held}
         listed = [*(name for name in known if name not in members),
                   *(f"{kind} {name}" for name, (kind, _) in sorted(sets.items()))]
-        raise InputError(f"no human {', '.join(unknown)} in these runs "
-                         f"(humans: {', '.join(listed)})")
-    return sorted(set(wanted))
+        also = f"; robots: {', '.join(robots)}" if robots else ""
+        raise InputError(f"no human{' or robot' * bool(robots)} {', '.join(unknown)} in these "
+                         f"runs (humans: {', '.join(listed)}{also})")
+    return sorted(set(wanted) & set(known)), [name for name in robots if name in wanted]
 
 
 def _sweep(args: argparse.Namespace) -> int:
@@ -159,15 +165,17 @@ def _sweep(args: argparse.Namespace) -> int:
 
 
 def _sweep_humans(wanted: list[str] | None, sweep: SweepDiff) -> set[str]:
-    """The humans --human names in a sweep's runs, a crowd's, flow's or group's name standing
-    for its members; InputError for a name no compared run has."""
+    """The humans and robots --human names in a sweep's runs, a crowd's, flow's or group's
+    name standing for its members; InputError for a name no compared run has."""
     diffs = [c.diff for c in sweep.comparisons if c.diff is not None]
     if not wanted or not diffs:
         return set(wanted or ())
     sets = {name: kind_members for diff in diffs for name, kind_members in diff.sets.items()}
     known = sorted({human for diff in diffs for human in diff.humans})
-    return set(_chosen(_expanded(wanted, lambda name: sets.get(name, ("", (name,)))[1]), known,
-                       sets))
+    robots = sorted({robot for diff in diffs for robot in diff.robots})
+    humans, chosen_robots = _chosen(
+        _expanded(wanted, lambda name: sets.get(name, ("", (name,)))[1]), known, sets, robots)
+    return {*humans, *chosen_robots}
 
 
 # ---- rendering ----------------------------------------------------------------------------
@@ -227,7 +235,7 @@ def _side(label: str, side: Any) -> str:
     return escape(printable(f"{label}: {side.path}  {side.title}{variant}, seed {side.seed}"))
 
 
-def _print_pair(diff: RunDiff, humans: list[str], sets: list[SetDiff],
+def _print_pair(diff: RunDiff, humans: list[str], sets: list[SetDiff], robots: list[str],
                 set_of: Callable[[str], str | None], console: Console,
                 came_in_neither: list[str] | None = None) -> None:
     from rich.markup import escape
@@ -249,8 +257,8 @@ def _print_pair(diff: RunDiff, humans: list[str], sets: list[SetDiff],
                                    absent_from=absent.get(name)))
     for crowd in sets:
         console.print(_set_table(crowd, diff.epsilon))
-    for robot in diff.robots.values():
-        console.print(_human_table(robot, diff.epsilon, set_of, "robot "))
+    for name in robots:
+        console.print(_human_table(diff.robots[name], diff.epsilon, set_of, "robot "))
 
 
 def _metric_table(title: str) -> Any:
@@ -423,13 +431,15 @@ def _variant_changes(sweep: SweepDiff) -> dict[str, str]:
 
 
 def _sweep_rows(diff: RunDiff, humans: set[str]) -> list[tuple[str, list[str]]]:
-    """A run's rows of the sweep's table: the humans asked for (`humans`), else the named
-    humans one by one, each crowd or flow in one row, and each robot (its path, closest
+    """A run's rows of the sweep's table: the humans and robots asked for (`humans`), else the
+    named humans one by one, each crowd or flow in one row, and each robot (its path, closest
     approach to a person and collisions with people; no duration or intrusion time)."""
     from hubero_dsl.analysis.diff import set_diffs
 
     if humans:
-        return [(n, _sweep_cells(h)) for n, h in sorted(diff.humans.items()) if n in humans]
+        return [*((n, _sweep_cells(h)) for n, h in sorted(diff.humans.items()) if n in humans),
+                *((f"robot {n}", _sweep_cells(r)) for n, r in diff.robots.items()
+                  if n in humans)]
     sets = set_diffs(diff)
     members = {m for name in sets for m in diff.sets[name][1]}
     return [*((n, _sweep_cells(h)) for n, h in sorted(diff.humans.items()) if n not in members),

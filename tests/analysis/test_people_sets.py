@@ -104,8 +104,10 @@ def test_diff_takes_a_crowds_name(lounge: Path, capsys: pytest.CaptureFixture[st
     assert sorted(shown) == sorted(f"visitors_{i}" for i in range(1, 9))
     capsys.readouterr()
     assert main(["diff", str(lounge), str(lounge), "--human", "nobody"]) == 2
-    # the names --human takes: the named humans, and each crowd and group, not its members
-    assert "(humans: dad, kid, mum, group family, crowd visitors)" in capsys.readouterr().err
+    # the names --human takes: the named humans, each crowd and group (not its members), and
+    # the robots
+    assert ("(humans: dad, kid, mum, group family, crowd visitors; robots: cart)"
+            in capsys.readouterr().err)
 
 
 def test_diff_compares_robots(lounge: Path, tmp_path: Path) -> None:

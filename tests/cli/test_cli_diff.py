@@ -304,6 +304,32 @@ def test_a_sweep_against_its_baseline_has_a_row_for_each_robot_as_two_logs_have_
     assert re.search(rf"│ path Fréchet distance .* {robot[4]} m │", pair)
 
 
+def test_human_selects_a_robot_too_in_two_logs_and_in_a_sweep(cli: Cli,
+                                                              tmp_path: Path) -> None:
+    # a robot's name was refused: "no human r in these runs", though its table is shown
+    (tmp_path / "patrol.hub").write_text(PATROL, encoding="utf-8")
+    out = tmp_path / "sw"
+    assert cli("sweep", str(tmp_path / "patrol.hub"), "--out-dir", str(out), "--seeds", "1",
+               "--executor", "serial", "-q").status == 0
+    logs = [str(out / "runs" / f"speed={speed}m_s" / "seed-1.mcap") for speed in ("1.0", "1.4")]
+    robot = cli("diff", *logs, "--human", "r")
+    assert robot.status == 0, robot.err
+    titles = [line for line in robot.out.splitlines() if line[:1].isalpha()]
+    assert titles[2:] == ["robot r"]  # after the lines naming A and B: the robot alone
+    both = cli("diff", *logs, "--human", "r", "--human", "a")
+    assert [line for line in both.out.splitlines() if line[:1].isalpha()][2:] == [
+        "a  speed 1 → 1.4", "robot r"]
+    data = json.loads(cli("diff", *logs, "--human", "r", "--json").out)
+    assert (list(data["humans"]), list(data["robots"])) == ([], ["r"])
+    unknown = cli("diff", *logs, "--human", "zed")
+    assert unknown.status == 2
+    assert "no human or robot zed in these runs (humans: a; robots: r)" in unknown.err
+    swept = cli("diff", str(out), "--baseline", "speed=1.0 m/s", "--human", "r")
+    assert swept.status == 0, swept.err
+    rows = [line.split()[2:5] for line in swept.out.splitlines() if line.startswith(" speed")]
+    assert rows == [["1", "robot", "r"]]
+
+
 def test_counts_show_as_whole_numbers_and_shape_intrusions_as_shares() -> None:
     from hubero_dsl.cli.diff import _delta, _unit, _value
 
