@@ -126,7 +126,7 @@ def diff_runs(a: LoggedRun, b: LoggedRun, *, epsilon: float = DEFAULT_EPSILON,
     metrics_a = metrics_a or compute_metrics(a)
     metrics_b = metrics_b or compute_metrics(b)
     humans = {}
-    for name in sorted(a.humans):
+    for name in a.humans:  # in the run's order, as its log and `hubero run` list them
         frechet, hausdorff = path_distances(a.humans[name].position, b.humans[name].position)
         separation, diverged = divergence(a.humans[name], b.humans[name], epsilon)
         humans[name] = HumanDiff(
@@ -145,11 +145,12 @@ def diff_runs(a: LoggedRun, b: LoggedRun, *, epsilon: float = DEFAULT_EPSILON,
 
 def _one_sided(human: HumanDiff, absent: str) -> HumanDiff:
     """A flow's member who came in one run only: the run it did not come in (`absent`, "A"
-    or "B") has nothing of it to compare, not the zeros of someone who stood still."""
+    or "B") has nothing of it to compare, not the zeros of someone who stood still, nor the
+    parameters drawn for someone who never walked there."""
     metrics = tuple(MetricDelta(m.name, None if absent == "A" else m.a,
                                 None if absent == "B" else m.b, None) for m in human.metrics)
     return replace(human, metrics=metrics, frechet=None, hausdorff=None, max_separation=None,
-                   diverged_at=None)
+                   diverged_at=None, parameters={})
 
 
 def _robot_diffs(a: LoggedRun, b: LoggedRun, epsilon: float) -> dict[str, HumanDiff]:

@@ -93,8 +93,13 @@ def _pair(args: argparse.Namespace) -> int:
 
         refuse_run_inputs(args.plot, a, b)
     diff = diff_runs(a, b, epsilon=args.epsilon)
-    humans, robots = _chosen(_expanded(args.human, a.metadata.members), sorted(diff.humans),
+    humans, robots = _chosen(_expanded(args.human, a.metadata.members), list(diff.humans),
                              diff.sets, sorted(diff.robots))
+    # a flow's members who came in neither run have nothing to compare: its name stands for
+    # those who came in either; named one by one, a line says so
+    absent = never_came(diff)
+    if args.human:
+        humans = [h for h in humans if h not in absent or h in args.human]
     if args.plot is not None:
         from hubero_dsl.analysis.plot import plot_overlay
 
@@ -107,8 +112,6 @@ def _pair(args: argparse.Namespace) -> int:
         return 0
     # with neither --human nor --members a crowd's or flow's members are its table
     sets = {} if args.human or args.members else set_diffs(diff)
-    # a flow's members who came in neither run have no table; named one by one, a line says so
-    absent = never_came(diff)
     listed = [h for h in humans if a.metadata.set_of(h) not in sets and h not in absent]
     named_absent = [h for h in args.human or () if h in absent]
     _print_pair(diff, listed, list(sets.values()), robots, a.metadata.set_of, _console(),
@@ -126,8 +129,8 @@ def _chosen(wanted: list[str] | None, known: list[str],
             sets: Mapping[str, tuple[str, tuple[str, ...]]], robots: list[str]
             ) -> tuple[list[str], list[str]]:
     """The humans and the robots `wanted` names (all when none), checked against those the
-    runs have (`known`, `robots`); `sets` are the runs' crowds, flows and groups: kind and
-    members by name."""
+    runs have (`known`, `robots`), in their order; `sets` are the runs' crowds, flows and
+    groups: kind and members by name."""
     from hubero_dsl.errors import InputError
 
     if not wanted:
@@ -136,12 +139,13 @@ def _chosen(wanted: list[str] | None, known: list[str],
     if unknown:
         # a crowd's or flow's members go by its name; a group's have names of their own
         members = {member for kind, held in sets.values() if kind != "group" for member in held}
-        listed = [*(name for name in known if name not in members),
+        listed = [*(name for name in sorted(known) if name not in members),
                   *(f"{kind} {name}" for name, (kind, _) in sorted(sets.items()))]
         also = f"; robots: {', '.join(robots)}" if robots else ""
         raise InputError(f"no human{' or robot' * bool(robots)} {', '.join(unknown)} in these "
                          f"runs (humans: {', '.join(listed)}{also})")
-    return sorted(set(wanted) & set(known)), [name for name in robots if name in wanted]
+    return ([name for name in known if name in wanted],
+            [name for name in robots if name in wanted])
 
 
 def _sweep(args: argparse.Namespace) -> int:
@@ -171,7 +175,7 @@ def _sweep_humans(wanted: list[str] | None, sweep: SweepDiff) -> set[str]:
     if not wanted or not diffs:
         return set(wanted or ())
     sets = {name: kind_members for diff in diffs for name, kind_members in diff.sets.items()}
-    known = sorted({human for diff in diffs for human in diff.humans})
+    known = list({human: None for diff in diffs for human in diff.humans})
     robots = sorted({robot for diff in diffs for robot in diff.robots})
     humans, chosen_robots = _chosen(
         _expanded(wanted, lambda name: sets.get(name, ("", (name,)))[1]), known, sets, robots)
@@ -437,12 +441,12 @@ def _sweep_rows(diff: RunDiff, humans: set[str]) -> list[tuple[str, list[str]]]:
     from hubero_dsl.analysis.diff import set_diffs
 
     if humans:
-        return [*((n, _sweep_cells(h)) for n, h in sorted(diff.humans.items()) if n in humans),
+        return [*((n, _sweep_cells(h)) for n, h in diff.humans.items() if n in humans),
                 *((f"robot {n}", _sweep_cells(r)) for n, r in diff.robots.items()
                   if n in humans)]
     sets = set_diffs(diff)
     members = {m for name in sets for m in diff.sets[name][1]}
-    return [*((n, _sweep_cells(h)) for n, h in sorted(diff.humans.items()) if n not in members),
+    return [*((n, _sweep_cells(h)) for n, h in diff.humans.items() if n not in members),
             *((f"{crowd.kind} {name}", _sweep_set_cells(crowd)) for name, crowd in sets.items()),
             *((f"robot {name}", _sweep_cells(robot)) for name, robot in diff.robots.items())]
 

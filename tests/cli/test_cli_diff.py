@@ -330,6 +330,47 @@ def test_human_selects_a_robot_too_in_two_logs_and_in_a_sweep(cli: Cli,
     assert rows == [["1", "robot", "r"]]
 
 
+@pytest.fixture(scope="module")
+def station(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """The station's runs of seeds 3 and 4: some of the alighting flow's people came in the
+    first only, most in neither."""
+    folder = tmp_path_factory.mktemp("station")
+    program = compile_file(REPO_ROOT / "scenarios" / "station.hub")
+    for seed in (3, 4):
+        run_one(program, None, seed, folder / f"seed-{seed}.mcap", 10.0, quiet=True)
+    return folder / "seed-3.mcap", folder / "seed-4.mcap"
+
+
+def test_a_flows_members_are_listed_in_the_runs_order_each_who_came_in_one_run_said_so(
+        cli: Cli, station: tuple[Path, Path]) -> None:
+    # they were sorted as text (alighting_1, alighting_10, ...), and someone who came in A only
+    # had a line `alighting_34  speed 1.45852 → 1.17774  (did not come in B)`: a speed in B
+    from hubero_dsl.log.reader import load_run
+
+    runs = [load_run(path) for path in station]
+    members = runs[0].metadata.members("alighting")
+    came = [{m for m in members if len(run.humans[m].time)} for run in runs]
+    only_a, only_b = came[0] - came[1], came[1] - came[0]
+    assert only_a or only_b
+    expected = [m for m in members if m in came[0] | came[1]]  # numbered as they came
+    outcome = cli("diff", *map(str, station), "--human", "alighting")
+    assert outcome.status == 0, outcome.err
+    titles = [line for line in outcome.out.splitlines() if line.startswith("alighting_")]
+    assert [title.split()[0] for title in titles] == expected
+    for title in titles:
+        name = title.split()[0]
+        if name in only_a | only_b:
+            assert title == f"{name}  (did not come in {'B' if name in only_a else 'A'})"
+        else:
+            assert title.startswith(f"{name}  speed ") and "did not come" not in title
+    data = json.loads(cli("diff", *map(str, station), "--human", "alighting", "--json").out)
+    assert set(data["humans"]) == set(expected)
+    assert all(data["humans"][name]["parameters"] == {} for name in only_a | only_b)
+    listed = cli("diff", *map(str, station), "--members").out.splitlines()
+    names = [line.split()[0] for line in listed if line[:1].isalpha()][2:]
+    assert names[:len(expected) + 1] == ["guard", *expected]  # as `hubero run --members`
+
+
 def test_counts_show_as_whole_numbers_and_shape_intrusions_as_shares() -> None:
     from hubero_dsl.cli.diff import _delta, _unit, _value
 
