@@ -7,6 +7,7 @@ check) -> 1. Anything else escaping the library is a bug.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Sequence
 
 from hubero_dsl.diagnostics import Diagnostic, Span
@@ -86,15 +87,78 @@ class Stopped(BaseException):
 OUTSIDE_STOPS = (KeyboardInterrupt, Stopped)
 
 
+SHOWN = 80  # characters of what user code returned, in a message
+_LONG_NUMBER = 20  # digits: a longer whole number is told by its length
+
+
 def shown(value: object) -> str:
-    """What user code returned, as its repr cut short; a placeholder when even that fails."""
+    """What user code returned, as its repr cut short: a whole number of more than 20 digits
+    told by its length, a tuple's or list's items as far as SHOWN characters go, and a longer
+    text cut between words, its brackets and quotes closed after the `…`; a placeholder when
+    even that fails."""
     try:
-        text = repr(value)
-        if type(value).__module__ == "numpy":  # an array's repr, on one line
-            text = " ".join(text.split())
-        return f"{text:.80}"
+        return _cut(_text(value, SHOWN), SHOWN)
     except Exception:  # user code again
         return f"a {type(value).__name__}"
+
+
+def _text(value: object, room: int) -> str:
+    """`value`'s repr (on one line), but as `shown` tells long whole numbers, and a tuple's or
+    list's items only until they pass `room` characters."""
+    if isinstance(value, int) and not isinstance(value, bool):
+        try:
+            digits = str(len(str(abs(value))))
+        except ValueError:  # past what Python writes out: sys.get_int_max_str_digits()
+            digits = f"more than {sys.get_int_max_str_digits()}"
+        if not digits.isdigit() or int(digits) > _LONG_NUMBER:
+            sign = "a negative" if value < 0 else "a"
+            return f"{sign} whole number of {digits} digits"
+    if isinstance(value, tuple | list) and type(value) in (tuple, list):  # not a namedtuple
+        items: list[str] = []
+        length = 2
+        for item in value:
+            if length > room:
+                items.append("…")
+                break
+            items.append(_text(item, room - length))
+            length += len(items[-1]) + 2
+        lone = "," if type(value) is tuple and len(items) == 1 and items != ["…"] else ""
+        inner = ", ".join(items) + lone
+        return f"({inner})" if type(value) is tuple else f"[{inner}]"
+    text = repr(value)
+    return " ".join(text.split()) if type(value).__module__ == "numpy" else text
+
+
+_CLOSING = {"(": ")", "[": "]", "{": "}"}
+
+
+def _cut(text: str, limit: int) -> str:
+    """`text` when it is at most `limit` characters; else its beginning, cut between words
+    where it can be, then `…` and whatever brackets and quote it had left open, closed."""
+    if len(text) <= limit:
+        return text
+    kept = text[:limit - 1]
+    space = kept.rfind(" ")
+    if space > limit // 2:  # not in the middle of a number or a word
+        kept = kept[:space].rstrip(",")
+    opened: list[str] = []
+    quote = ""
+    escaped = False
+    for character in kept:
+        if quote:
+            if escaped:
+                escaped = False
+            elif character == "\\":
+                escaped = True
+            elif character == quote:
+                quote = ""
+        elif character in "'\"":
+            quote = character
+        elif character in _CLOSING:
+            opened.append(_CLOSING[character])
+        elif opened and character == opened[-1]:
+            opened.pop()
+    return kept + "…" + quote + "".join(reversed(opened))
 
 
 def failure_of(exc: BaseException) -> str:

@@ -182,6 +182,22 @@ def test_hubero_test_reports_a_file_its_handed_controller_refuses_and_runs_the_o
     sys.modules.pop("go_straight", None)
 
 
+def test_a_controllers_answer_of_a_number_too_long_to_show_is_told_by_its_length(
+        cli: Callable[..., Outcome], tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # the message was cut off in the middle of the number: `returned (1000...000, not a`
+    (tmp_path / "huge_answer.py").write_text(
+        "class Huge:\n    def __init__(self, body, params):\n        pass\n"
+        "    def command(self, observation):\n        return (10 ** 400, 0)\n",
+        encoding="utf-8")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    outcome = cli("run", str(REPO_ROOT / "scenarios" / "robot_among_guests.hub"), "--no-log",
+                  "--controller", "cart=huge_answer:Huge")
+    assert outcome.status == 1
+    assert ("robot 'cart' at t = 0 s: its controller Huge returned (a whole number of 401 "
+            "digits, 0), not a velocity (two finite numbers)") in outcome.err
+    sys.modules.pop("huge_answer", None)
+
+
 def test_hubero_test_judges_every_variant(cli: Callable[..., Outcome], tmp_path: Path) -> None:
     outcome = cli("test", LIVING_ROOM)
     assert outcome.status == 0

@@ -100,6 +100,11 @@ class _Unreadable:
     ({0: 0.1, 1: 0.0}, r"returned \{0: 0.1, 1: 0.0\}, not a velocity"),   # its keys: no velocity
     ((True, False), r"returned \(True, False\), not a velocity"),
     (iter([0.1, 0.0]), "not a velocity"),
+    # shortened, not cut off in the middle of a number with its parenthesis left open
+    ((10 ** 400, 0), r"returned \(a whole number of 401 digits, 0\), not a velocity"),
+    ((-10 ** 5000, 0), r"returned \(a negative whole number of more than \d+ digits, 0\), not"),
+    ([0.123456789] * 40, r"returned \[0.123456789, (0.123456789, ){4}0.123456789…\], not a"),
+    ((("x" * 100,), 0), r"returned \(\('x{70,}…'\)\), not a velocity"),
 ])
 def test_whatever_a_controller_answers_or_raises_is_its_error(
         scenario: ScenarioFactory, answer: object, message: str) -> None:
