@@ -139,6 +139,10 @@ class ValueReader:
             self.report("E204", f"{what} needs a unit: {describe(dimension)}", value.span,
                         _unit_hint(value, dimension))
             return None
+        if isinstance(value, ast.Distribution):  # its values may be of the dimension: not it
+            self.report("E201", f"{what} is one {dimension.value}, not a distribution",
+                        value.span, _one_value_hint(value))
+            return None
         self.report("E201", f"{what} takes {describe(dimension)}", value.span)
         return None
 
@@ -304,6 +308,15 @@ class ValueReader:
                         f"write {value.kind}({example})")
             ok = False
         return found if ok else None
+
+
+def _one_value_hint(value: ast.Distribution) -> str:
+    """What to write instead of a distribution where one value goes: its first value."""
+    first = value.first
+    written = (first.text if isinstance(first, ast.Number) else
+               f"{first.magnitude:g} {first.unit}" if isinstance(first, ast.Quantity) else "")
+    drawn = "only people's parameters are drawn from normal(...) or uniform(...)"
+    return f"{drawn}; write one value, like `{written}`" if written else drawn
 
 
 def _unit_hint(value: ast.Number, dimension: Dimension) -> str:

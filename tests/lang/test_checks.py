@@ -772,6 +772,17 @@ def test_a_value_out_of_range_is_shown_in_the_unit_it_was_written_in(check: Chec
     assert diagnostic.message == "a flow's rate is 1001 /s; the most it may be is 1000 /s"
 
 
+def test_a_flows_rate_is_one_rate_not_a_distribution(check: Check) -> None:
+    # its values are rates: "a flow's rate takes a rate (/s, /min, /h)" told nothing
+    (diagnostic,) = check("flow f from rect((1, 1), (3, 3)) to (5, 5) rate normal(10 /min, "
+                          "2 /min) for 2 s\n").diagnostics
+    assert (diagnostic.code, diagnostic.message) == (
+        "E201", "a flow's rate is one rate, not a distribution")
+    assert diagnostic.hint == ("only people's parameters are drawn from normal(...) or "
+                               "uniform(...); write one value, like `10 /min`")
+    assert diagnostic.span is not None and diagnostic.span.column == 49
+
+
 def test_a_metrics_expectation_with_a_mode_says_it_takes_none(check: Check) -> None:
     result = check("activity { actor1 stand for 1 s }\n"
                    "expect min_distance(actor1) >= 0.2 m always\n")
