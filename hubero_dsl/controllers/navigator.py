@@ -7,9 +7,10 @@ gap), and it slows down, then stops, rather than come closer to anyone than `saf
 predicting both bodies' motion at constant velocity over `horizon` seconds. When someone walks
 at it even as it stands, it steps aside or backs away (at `escape_speed`, clear of walls) rather
 than wait to be walked into. Kept waiting for `detour_after` seconds, it plans round the people
-standing still near it, as if they were obstacles, until its goal changes. It re-plans when its
-goal moves or every `replan_period`. A unicycle robot turns towards the wanted direction and
-drives forward only as far as it faces it (it backs up to step out of someone's way).
+and robots standing still near it, as if they were obstacles, until its goal changes. It
+re-plans when its goal moves or every `replan_period`. A unicycle robot turns towards the
+wanted direction and drives forward only as far as it faces it (it backs up to step out of
+someone's way).
 
 It is a baseline to compare a robot's own navigation against, not a tuned planner: it stops
 for people who cross its way, and waits there until they have passed or it can go round.
@@ -161,10 +162,10 @@ class Navigator:
 
     def _detour(self, observation: Observation, goal: tuple[float, float]
                 ) -> np.ndarray | None:
-        """A plan round the people standing (nearly) still near it, as if they were obstacles
-        of their size plus the safety margin; None when there are none or no such plan (it then
-        takes the map's plan and waits)."""
-        still = [p for p in observation.people
+        """A plan round the people and robots standing (nearly) still near it, as if they were
+        obstacles of their size plus the safety margin; None when there are none or no such
+        plan (it then takes the map's plan and waits)."""
+        still = [p for p in observation.people + observation.robots
                  if math.hypot(*p.velocity) < STILL_SPEED
                  and p.gap(observation.position, self.body.radius) < DETOUR_RANGE]
         if not still:

@@ -70,6 +70,22 @@ def test_it_goes_round_someone_standing_in_its_way(scenario: ScenarioFactory) ->
     assert min(gaps) >= 0.3 - 0.05   # round him at its safety margin
 
 
+def test_it_goes_round_a_robot_standing_in_its_way(scenario: ScenarioFactory) -> None:
+    # an external robot left at rest is an obstacle like a person standing: it waited there
+    # until it was given up as stuck
+    program = scenario("""
+    robot cart at (1, 4) heading 0 deg { controller navigator; speed 0.8 m/s }
+    robot parked at (4, 4) { controller external }
+    activity { cart move_to (8, 4) within 40 s }
+    """)
+    sim = Simulation(program)
+    gaps: list[float] = []
+    result = run_program(sim, [lambda s: gaps.append(
+        math.dist(s.robot("cart").position, s.robot("parked").position) - 0.3 - 0.3)])
+    assert result.succeeded, result.reason
+    assert min(gaps) >= 0.3 - 0.05   # round it at its safety margin
+
+
 def test_it_keeps_off_the_walls_of_a_corridor(scenario: ScenarioFactory, tmp_path: Path) -> None:
     from hubero_dsl.world.mapfile import save_map
     from tests.sim.conftest import room_grid
