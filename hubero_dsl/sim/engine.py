@@ -41,6 +41,7 @@ if TYPE_CHECKING:
 
 NEVER = np.iinfo(np.int64).max
 LOOKAHEAD = 0.6         # m: a waypoint this close counts as passed
+SQUEEZE = 0.2           # of its social push a walker keeps, squeezing past people standing
 GROUP_PULL = 3.0        # 1/s: m/s towards the group's centre per metre too far from it
 # Members walking on their group's task keep abreast (`Engine._walk_abreast`)
 ABREAST_LANE = 0.6      # m across the group's way at least: a companion in the next lane
@@ -113,6 +114,7 @@ class Engine:
         self.wake_tick = np.full(count, NEVER, dtype=np.int64)
         self.anchor = humans.position.copy()
         self.anchor_tick = np.zeros(count, dtype=np.int64)
+        self.squeeze_until = np.zeros(count, dtype=np.int64)  # `squeeze_round_standing`
         self.events: list[TaskEvent] = []
         self.listeners: list[Callable[[TaskEvent], None]] = []
         self._goal_cells: dict[tuple[int, bytes], IntArray] = {}
@@ -231,6 +233,36 @@ class Engine:
         if not np.isfinite(goal).all():
             return None
         return self.plan_path(index, (float(goal[0]), float(goal[1])))
+
+    def squeeze_round_standing(self, index: int, reach: float, seconds: float) -> bool:
+        """Walker `index`, hemmed in by bodies standing still (within `reach` m of its own,
+        surface to surface), gets a new path to its goal round them, as if they were walls,
+        and for `seconds` keeps SQUEEZE of its social push from others: with all of it, the
+        personal spaces of a group that stopped round it to talk held it where it stood, a
+        way between them or not. False, and nothing changed, when nobody stands so near or
+        no such way leads to its goal."""
+        from hubero_dsl.planners.navfn import NavfnParams, NavfnPlanner
+
+        h = self.humans
+        goal = h.goal[index]
+        if not np.isfinite(goal).all():
+            return False
+        _, position, radius, still = self._bodies_at_rest()
+        here = h.position[index]
+        near = still & (physics.lengths(position - here) - radius - h.radius[index] < reach)
+        near[index] = False
+        if not near.any():
+            return False
+        grid = self.grid.with_discs(position[near], radius[near])
+        try:
+            plan = NavfnPlanner(grid, NavfnParams()).plan(
+                (float(here[0]), float(here[1])), (float(goal[0]), float(goal[1])),
+                body_radius=float(h.radius[index]), comfort_radius=float(h.radius[index]))
+        except NoPath:
+            return False
+        self.paths.set_path(index, plan.waypoints)
+        self.squeeze_until[index] = self.tick + self.ticks(seconds)
+        return True
 
     def plan_path(self, index: int, goal: tuple[float, float],
               via: tuple[float, float] | None = None) -> str | None:
@@ -738,19 +770,23 @@ class Engine:
 
     def _drive(self, rows: IntArray) -> Drive:
         h = self.humans
+        avoidance = h.avoidance_strength
+        squeezing = self.squeeze_until > self.tick
+        if squeezing.any():
+            avoidance = np.where(squeezing, avoidance * SQUEEZE, avoidance)
         if len(rows) == h.count:  # everyone: the arrays themselves (planners never write them)
             return Drive(index=rows, target=self.paths.current_targets(rows),
                          desired_speed=h.desired_speed,
                          max_speed=np.maximum(h.max_speed, h.desired_speed),
                          relaxation_time=h.relaxation_time, goal_strength=h.goal_strength,
-                         avoidance_strength=h.avoidance_strength,
+                         avoidance_strength=avoidance,
                          obstacle_strength=h.obstacle_strength,
                          interaction_range=h.interaction_range, field_of_view=h.field_of_view)
         return Drive(index=rows, target=self.paths.current_targets(rows),
                      desired_speed=h.desired_speed[rows],
                      max_speed=np.maximum(h.max_speed[rows], h.desired_speed[rows]),
                      relaxation_time=h.relaxation_time[rows], goal_strength=h.goal_strength[rows],
-                     avoidance_strength=h.avoidance_strength[rows],
+                     avoidance_strength=avoidance[rows],
                      obstacle_strength=h.obstacle_strength[rows],
                      interaction_range=h.interaction_range[rows],
                      field_of_view=h.field_of_view[rows])

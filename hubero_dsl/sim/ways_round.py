@@ -17,6 +17,11 @@ way round at most every STALLED s:
   before it: about 0.6 m aside), then goes on to its goal. A group member leaves its group's
   formation until it has stepped aside: the group's pull would hold it where it was.
 
+A walker of any surroundings stalled for STALLED s within HEMMED m of someone standing still
+(a group that stopped round it to talk) squeezes past: it plans round the bodies standing
+within STANDING_REACH m, as round walls, and for STALLED s keeps `engine.SQUEEZE` of its social
+push, which otherwise holds it between their personal spaces.
+
 Before any of that, a walker of any surroundings stalled for STALLED s within CROWDED_GOAL of
 its goal while someone stands on it is told so (`Engine.hold_short`): a `move_to` queued
 there stops short, rather than wait out the stuck time that the jostling of a queue keeps
@@ -47,6 +52,8 @@ LOOK_AGAIN = 0.25   # s between looks
 REACH = 1.5         # m to the corner gone back to
 MAKE_WAY = 1.2      # m between two who hold each other up
 STEP_ASIDE = 1.2    # m to the point aside
+HEMMED = 0.5        # m (surface gap) to someone standing still, of a walker hemmed in by them
+STANDING_REACH = 3.0  # m (surface gap): the people standing still that a way round goes round
 
 
 class Walkers(Protocol):
@@ -73,6 +80,8 @@ class Walkers(Protocol):
 
     def at_rest_beside(self, rows: IntArray, gap: float) -> BoolArray: ...
 
+    def squeeze_round_standing(self, index: int, reach: float, seconds: float) -> bool: ...
+
 
 class WaysRound:
     """The ways round given to one engine's walkers."""
@@ -97,6 +106,21 @@ class WaysRound:
         self._plan_again(engine.paths.retreat(stalled, engine.humans.position,
                                               engine.grid.crosses_obstacle, REACH))
         self._make_way(stalled)
+        self._squeeze_past_standing(rows)
+
+    def _squeeze_past_standing(self, rows: IntArray) -> None:
+        """Walkers among `rows` stalled for STALLED s within HEMMED m of people standing still
+        (a group that stopped round them to talk) squeeze past them, at most every STALLED s:
+        a way round them, and less of the social push for STALLED s
+        (`Engine.squeeze_round_standing`)."""
+        engine = self.engine
+        stalled = rows[engine.tick - engine.anchor_tick[rows] >= engine.ticks(STALLED)]
+        stalled = stalled[engine.tick - self.rerouted_tick[stalled] >= engine.ticks(STALLED)]
+        if not stalled.size:
+            return
+        for index in stalled[engine.at_rest_beside(stalled, HEMMED)].tolist():
+            if engine.squeeze_round_standing(index, STANDING_REACH, STALLED):
+                self.rerouted_tick[index] = engine.tick
 
     def hold_at_goals(self) -> None:
         """At a tick's end, every LOOK_AGAIN s: walkers stalled for STALLED s near their goal

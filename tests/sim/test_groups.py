@@ -380,3 +380,18 @@ activity { friends move_to (12.0, 6.0) }
     drops = [before - after for was, now in itertools.pairwise(speeds[20:])
              for before, after in zip(was, now, strict=True)]
     assert max(drops) / sim.dt < 3.0  # m/s^2: 1.5 m/s over 0.54 s is 2.8
+
+
+@pytest.mark.parametrize("ring", [0.75, 0.85])
+def test_a_walker_a_group_stopped_round_to_talk_squeezes_out(room_map: Path, ring: float
+                                                             ) -> None:
+    # four talking round a walker, their personal spaces meeting in front of it: it was held
+    # there until given up as stuck (0.75 m) or for 22 s (0.85 m), with room between them
+    talkers = [(5.0 + ring * math.cos(k * math.pi / 2), 4.0 + ring * math.sin(k * math.pi / 2))
+               for k in range(4)]
+    people = "".join(f"human t{k} at ({x:.3f}, {y:.3f})\n" for k, (x, y) in enumerate(talkers))
+    _, result = _run(room_map, "human w at (5, 4)\n" + people
+                     + "group talkers of (t0, t1, t2, t3)\n"
+                     "activity { talkers talk to w for 60 s }\nactivity { w move_to (9, 4) }\n")
+    (walk,) = [e for e in result.events if e.human == "w" and e.status.is_final]
+    assert walk.status is TaskStatus.SUCCEEDED and walk.time < 10.0, (walk.time, walk.reason)
