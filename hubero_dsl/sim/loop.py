@@ -8,6 +8,7 @@ called after every tick with the simulation, so everything they record is at han
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -98,23 +99,32 @@ MAX_RECORDED_HUMANS = 2000  # beyond, robots' metrics come from the log (hubero_
 
 
 def summarise(sim: Simulation) -> list[HumanSummary]:
-    """Per human: tasks finished, the last status, metres walked, time spent on tasks (a task
-    still on when the run ended up to its end)."""
+    """Per human: tasks finished of those given, the last status, metres walked, time spent on
+    tasks (a task still on when the run ended up to its end). A task the activities had
+    reached when the run stopped, but which never started, counts as given and is PENDING."""
     engine = sim.engine
     currents = [h.status.value if h is not None else None for h in engine.handle]
     return _summaries(sim.events, engine.humans.names, currents, engine.humans.path_length,
-                      sim.time)
+                      sim.time, _reached(sim))
 
 
 def summarise_robots(sim: Simulation) -> list[HumanSummary]:
     """Per robot, the same as for humans."""
     robots = sim.engine.robots
     currents = [t.handle.status.value if t is not None else None for t in robots.tasks]
-    return _summaries(sim.events, robots.names, currents, robots.path_length, sim.time)
+    return _summaries(sim.events, robots.names, currents, robots.path_length, sim.time,
+                      _reached(sim))
+
+
+def _reached(sim: Simulation) -> Counter[str]:
+    """Per actor, the tasks reached but never started (none while the run goes on)."""
+    scheduler = sim.scheduler
+    return Counter(scheduler.reached() if scheduler is not None else ())
 
 
 def _summaries(events: list[TaskEvent], names: list[str], currents: list[str | None],
-               path_length: npt.NDArray[np.float64], now: float) -> list[HumanSummary]:
+               path_length: npt.NDArray[np.float64], now: float,
+               reached: Counter[str]) -> list[HumanSummary]:
     summaries = []
     events_of: dict[str, list[TaskEvent]] = {}  # one pass over the events, not one per actor
     for event in events:
@@ -126,8 +136,9 @@ def _summaries(events: list[TaskEvent], names: list[str], currents: list[str | N
         busy = sum(e.time - starts.get(e.task_id, e.time) for e in finals)
         ended = {e.task_id for e in finals}  # a task still on at the end counts up to it
         busy += sum(now - start for task, start in starts.items() if task not in ended)
-        total = len(starts)
+        total = len(starts) + reached[name]
         done = sum(1 for e in finals if e.status is not TaskStatus.ABORTED)
-        last = currents[index] or (finals[-1].status.value if finals else "-")
+        last = TaskStatus.PENDING.value if reached[name] else \
+            currents[index] or (finals[-1].status.value if finals else "-")
         summaries.append(HumanSummary(name, done, total, last, float(path_length[index]), busy))
     return summaries

@@ -122,6 +122,53 @@ class Scheduler:
         return data["kind"] is NodeKind.ACTION and data["forever"] and data["until"] is None \
             and token.entered and not token.done
 
+    def reached(self) -> list[str]:
+        """The actors (by name) of the tasks the activities had reached and not started, one
+        name per task. A run stopped by a failure stops in the middle of a moment: tokens are
+        left short of the actions they reach at that moment (at the start of an activity, at a
+        fork, past a task that ended then), whose tasks never start."""
+        actors: list[str] = []
+        arrivals, rounds = dict(self.arrivals), dict(self.rounds)
+        once: set[str] = set()  # race joins passed, repeats looped (a loop reaching no task)
+        walk = [(t.node, t.done) for t in self.tokens if t.done or not t.entered]
+        while walk:
+            node, passed = walk.pop()
+            data = self.graph.nodes[node]
+            kind: NodeKind = data["kind"]
+            if not passed:
+                if kind is NodeKind.ACTION:
+                    actors.append(data["human"])
+                    continue
+                if kind in (NodeKind.WAIT, NodeKind.ACCEPT, NodeKind.FINAL):
+                    continue
+                if kind is NodeKind.JOIN:
+                    arrivals[node] = arrivals.get(node, 0) + 1
+                    if arrivals[node] < self.graph.in_degree(node):
+                        continue
+                if kind is NodeKind.RACE_JOIN:
+                    if node in once:
+                        continue
+                    once.add(node)
+            walk.extend((n, False) for n in reversed(self._passed_on(node, kind, rounds, once)))
+        return actors
+
+    def _passed_on(self, node: str, kind: NodeKind, rounds: dict[str, int],
+                   once: set[str]) -> list[str]:
+        """Where a token leaving `node` goes next, the repeats' rounds counted in `rounds`."""
+        if kind in (NodeKind.FORK, NodeKind.RACE_FORK):
+            return successors_in_order(self.graph, node)
+        if kind is NodeKind.REPEAT_START:
+            rounds[node] = rounds.get(node, 0) + 1
+        if kind is NodeKind.REPEAT_END:
+            start = self.graph.nodes[node]["start"]
+            if rounds.get(start, 0) < self.graph.nodes[node]["count"]:
+                if start in once:
+                    return []
+                once.add(start)
+                return [start]
+        following = exit_successor(self.graph, node)
+        return [] if following is None else [following]
+
     # ---- one token -----------------------------------------------------------------------
 
     def _advance(self, token: Token) -> bool:

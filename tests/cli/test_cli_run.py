@@ -340,3 +340,32 @@ def test_a_robot_nobody_came_near_shows_no_distance(cli: Callable[..., Outcome],
     metrics = outcome.out.split("robots among people")[1]
     row = next(line for line in metrics.splitlines() if line.strip("│ ").startswith("r "))
     assert "inf" not in row and row.split("│")[2].strip() == "-"
+
+
+def test_tasks_a_failure_stopped_before_they_started_are_counted_and_pending(
+        cli: Callable[..., Outcome], tmp_path: Path) -> None:
+    path = tmp_path / "stopped.hub"
+    path.write_text(
+        f'scenario "t"\nmap "{REPO_ROOT / "maps" / "station.yaml"}"\n'
+        "area hall rect((2.0, 2.0), (12.0, 12.0))\n"
+        "human h at (5.0, 5.0)\nhuman g at (6.0, 5.0)\nhuman k at (7.0, 5.0)\n"
+        "human m at (8.0, 5.0)\ncrowd c 2 in hall\n"
+        "activity one { h move_to (3.0, 18.0) }\n"  # behind the walls: aborted at t = 0
+        "activity two { g stand for 3 s }\n"
+        "activity three { c stand for 3 s }\n"
+        "activity four { parallel {\n k stand for 3 s\n m stand for 3 s\n } }\n",
+        encoding="utf-8")
+
+    def rows(outcome: Outcome) -> dict[str, list[str]]:
+        cells = [[c.strip() for c in line.split("│")[1:-1]] for line in outcome.out.splitlines()
+                 if line.startswith("│")]
+        return {row[0]: row[1:] for row in cells}
+
+    grouped = cli("run", str(path), "--no-log")
+    assert grouped.status == 1 and "failed at t = 0.00 s" in grouped.out
+    humans = rows(grouped)
+    assert humans["h"][:2] == ["0/1", "ABORTED"] and humans["g"][:2] == ["0/1", "ACTIVE"]
+    assert humans["k"][:2] == humans["m"][:2] == ["0/1", "PENDING"]
+    assert humans["c (crowd)"][:3] == ["2", "0/2", "2 PENDING"]
+    members = rows(cli("run", str(path), "--no-log", "--members"))
+    assert members["c_1"][:2] == members["c_2"][:2] == ["0/1", "PENDING"]

@@ -210,3 +210,17 @@ def test_a_within_shorter_than_the_step_gives_the_task_a_step(scenario: Scenario
     result = run(scenario, "activity { alice stand for 3 s within 0.01 s }")
     (ended,) = [e for e in result.events if e.status.is_final]
     assert ended.status is TaskStatus.ABORTED and ended.time == pytest.approx(0.05)
+
+
+def test_tasks_reached_when_a_failure_stops_the_run_count_as_pending(
+        scenario: ScenarioFactory) -> None:
+    # at t = 1 s alice's walk is aborted, bob's first stand ends and his repeat begins
+    result = run(scenario, """activity { alice move_to (8, 2) within 1 s }
+    activity {
+        bob stand for 1 s
+        repeat 2 { bob stand for 1 s }
+    }""")
+    assert result.state is RunState.FAILED and result.time == pytest.approx(1.0)
+    bob = next(summary for summary in result.humans if summary.name == "bob")
+    assert (bob.tasks_done, bob.tasks_total, bob.last_status) == (1, 2, "PENDING")
+    assert started(result, "bob", "stand") == [0.0]
