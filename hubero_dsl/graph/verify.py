@@ -117,10 +117,10 @@ def _in_crowds_words(found: list[Diagnostic], activities: Sequence[m.Activity]
     Names are replaced where the words quote them (after a backtick), never in the prose
     around them."""
     told = list(found)
+    crowds = _crowds(activities)
     # the smallest set first: a group of some of a crowd's members is named by the group
-    for crowd, (members, spans) in sorted(_crowds(activities).items(),
-                                          key=lambda c: len(c[1][0])):
-        told = _folded(told, crowd, members, spans)
+    for crowd, (members, spans) in sorted(crowds.items(), key=lambda c: len(c[1][0])):
+        told = _folded(told, crowd, members, spans, crowds)
     return told
 
 
@@ -139,23 +139,32 @@ def _crowds(activities: Sequence[m.Activity]
 
 
 def _folded(found: list[Diagnostic], crowd: str, members: frozenset[str],
-            spans: frozenset[Span]) -> list[Diagnostic]:
+            spans: frozenset[Span], crowds: dict[str, tuple[frozenset[str], frozenset[Span]]]
+            ) -> list[Diagnostic]:
     """`found` with each finding at one of the crowd's tasks (`spans`) that is the same of
-    several members, or of its only one, but for their names, told once, of the crowd, where
-    the first of them was. A finding at a member's own step is never folded."""
-    alike: dict[Diagnostic, list[tuple[int, set[str]]]] = {}
+    every member, or of its only one, but for their names, told once, of the crowd, where the
+    first of them was. The same finding of some members only is told of the crowd or group
+    given a task that has just these members (a group of the crowd's members commanded by
+    another activity), else of each member. A finding at a member's own step is never
+    folded."""
+    alike: dict[Diagnostic, list[tuple[int, Diagnostic, set[str]]]] = {}
     for index, diagnostic in enumerate(found):
         named = _quoted_names(diagnostic) & members
         if named and diagnostic.span in spans:
             alike.setdefault(_speaking_of(diagnostic, crowd, members), []).append(
-                (index, named))
+                (index, diagnostic, named))
     once: dict[int, Diagnostic] = {}
     dropped: set[int] = set()
     for told, where in alike.items():
-        named = set().union(*(named for _, named in where))
-        if named == members or len(named) > 1:  # not one member on a step of its own
-            once[where[0][0]] = told
-            dropped.update(index for index, _ in where[1:])
+        named = set().union(*(named for _, _, named in where))
+        if named != members:  # some members only: told of the set of just them, if any
+            some = next((name for name, (others, _) in crowds.items() if others == named),
+                        None)
+            if some is None or len(named) == 1:
+                continue  # each member told by its name
+            told = _speaking_of(where[0][1], some, frozenset(named))
+        once[where[0][0]] = told
+        dropped.update(index for index, _, _ in where[1:])
     return [once.get(i, d) for i, d in enumerate(found) if i not in dropped]
 
 

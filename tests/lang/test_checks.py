@@ -178,6 +178,22 @@ def test_a_group_of_some_of_a_crowds_members_is_named_by_the_group(check: Check)
     assert clash.message == "`pair` is commanded by two steps that can run at the same time"
 
 
+def test_some_of_a_crowds_members_commanded_by_another_activity_are_named_not_the_crowd(
+        check: Check) -> None:
+    # the crowd's task clashed with the group's only: it read "`c` is commanded by two ..."
+    text = ("crowd c 4 in rect((2, 1), (3, 2))\n{}\n"
+            "activity one {{ pals move_around in rect((2, 1), (3, 2)) for 10 s }}\n"
+            "activity two {{ c move_to (2.5, 1.5) }}")
+    (clash,) = check(text.format("group pals of (c_1, c_2)")).errors
+    assert clash.message == ("`pals` is commanded by two activities, activity `one` and "
+                             "activity `two`, which run at the same time")
+    assert (clash.span.line, clash.span.column) == (8, 16)
+    assert clash.related[0].message == "activity `one` commands `pals` here"
+    mixed = check(text.format("group pals of (c_1, c_2, actor1)")).errors  # not all of c
+    assert [(d.message.split(" ")[0], d.span.line) for d in mixed] == [("`c_1`", 8),
+                                                                       ("`c_2`", 8)]
+
+
 def test_a_slip_of_a_crowds_name_suggests_the_crowd(check: Check) -> None:
     (error,) = check("crowd shoppers 3 in rect((2, 1), (3, 2))\n"
                      "activity { shopers stand for 1 s }").errors
