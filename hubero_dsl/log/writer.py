@@ -235,7 +235,7 @@ class RunLog:
             metadata=metadata, attachments=attachments,
             grid=s.dumps(s.grid_message(program.grid)).encode(),
             start_message=(f"run of '{program.title}' started: {variant}, seed {sim.seed}, "
-                           f"{humans.count} humans, {robots.count} robots"))
+                           f"{_people(program, humans.count)}, {robots.count} robots"))
 
     def _discard(self) -> None:
         """Stop the writer and drop the temporary file (after a failure or an interruption)."""
@@ -243,6 +243,17 @@ class RunLog:
             self._sink.abort()
             self._unfinished.detach()
         self._closed = True
+
+
+def _people(program: Program, count: int) -> str:
+    """The humans at the start, and how many more the flows may bring: a flow's people are
+    rows of the run from the start, as many as it may bring, and most never come."""
+    brought = sum(len(flow.members) for flow in program.flows)
+    if not brought:
+        return f"{count} humans"
+    *others, last = [flow.name for flow in program.flows]
+    flows = f"flows {', '.join(others)} and {last}" if others else f"flow {last}"
+    return f"{count - brought} humans and up to {brought} more from {flows}"
 
 
 def _crowds(sim: Simulation) -> list[tuple[str, list[int]]]:

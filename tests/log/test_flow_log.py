@@ -14,6 +14,7 @@ import pytest
 from mcap.reader import make_reader
 
 from hubero_dsl.log.reader import load_run
+from hubero_dsl.model.program import flow_bound
 from hubero_dsl.pipeline import compile_file
 from hubero_dsl.sim.status import TaskStatus
 from hubero_dsl.simulate import simulate
@@ -105,6 +106,18 @@ def test_the_tracks_read_back_follow_each_member(
         assert np.linalg.norm(track.position[-1] - (9.0, 4.0)) < 1.0  # they left at the target
     never = set(run.metadata.members("f")) - set(present)
     assert all(len(run.humans[name].time) == 0 for name in never)
+
+
+def test_the_start_message_counts_the_people_a_flow_may_bring_apart(
+        flow_log: tuple[Path, dict[str, tuple[int, int]]]) -> None:
+    # it said "32 humans": the host and every row the flow may fill, most never filled
+    log, present = flow_log
+    bound = len(load_run(log).metadata.members("f"))
+    assert len(present) < bound == flow_bound(1.0, 8.0)
+    start = next(json.loads(data)["message"] for topic, _, data in _messages(log)
+                 if topic == "/log")
+    assert start == (f"run of 'flow log' started: no variant, seed 2, 1 humans and up to "
+                     f"{bound} more from flow f, 0 robots")
 
 
 @pytest.mark.skipif(shutil.which("pymcap-cli") is None and not (
