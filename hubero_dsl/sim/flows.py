@@ -126,8 +126,12 @@ class Flows:
         return rows, where, state.may_bring_more(self.engine.tick)
 
     def keeps_alive(self) -> bool:
-        """Whether a flow with a duration or `until` is still spawning or has people here."""
-        return any(s.spec.keeps_alive and (s.spawning or s.walking) for s in self.states)
+        """Whether a flow with a duration or `until` has not stopped (its time is not over,
+        its `until` has not held, or an arrival is waiting) or has people here. Its time is
+        over at its duration's end, whenever the last arrival drawn for the run came."""
+        tick = self.engine.tick
+        return any(s.spec.keeps_alive and (s.may_bring_more(tick) or s.walking)
+                   for s in self.states)
 
     def _see_off(self, state: FlowState) -> None:
         if not state.ended:

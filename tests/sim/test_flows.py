@@ -160,6 +160,22 @@ def test_all_never_holds_while_people_may_still_come(room_map: Path) -> None:
              "any f reaches (9.0, 4.0) eventually": True}
 
 
+def test_a_flow_for_a_time_keeps_the_run_until_that_time_is_over(room_map: Path) -> None:
+    # seed 3 draws two arrivals before 30 s, the second gone by 20.35 s: the run completed
+    # then, while someone might still have come, and `all f reach` failed for it
+    program = compile_source(_text(room_map, """
+    time_limit 1 min
+    flow f from rect((0.5, 0.5), (2.5, 7.5)) to (9.0, 4.0) rate 6 /min for 30 s
+    expect all f reach (9.0, 4.0) eventually
+    """, seed=3), "t.hub")
+    result = run_program(Simulation(program))
+    departures = [e.time for e in result.events if e.status.is_final]
+    assert len(departures) == 2 and max(departures) < 25.0
+    assert result.state.value == "completed" and result.time == pytest.approx(30.0)
+    (reached,) = result.expectations
+    assert reached.held and reached.decided_at == pytest.approx(30.0)
+
+
 def test_a_walker_who_stopped_short_did_not_reach(room_map: Path) -> None:
     # someone stands on the target: the walkers stop short of it and leave where they stood
     result = run_program(Simulation(compile_source(_text(room_map, """
