@@ -4,6 +4,8 @@ rad, rad/s, /s."""
 from __future__ import annotations
 
 import math
+import numbers
+from decimal import Decimal
 from enum import StrEnum
 
 
@@ -81,3 +83,16 @@ def describe(dimension: Dimension) -> str:
         return "a plain number"
     article = "an" if dimension.value[0] in "aeiou" else "a"
     return f"{article} {dimension.value} ({', '.join(units_of(dimension))})"
+
+
+def real_number(value: object) -> float | None:
+    """`value` as a float when Python code gave a real number: any `numbers.Real` (an int, a
+    float, a Fraction, numpy's numbers) or a Decimal. None for anything else (a bool, a
+    complex, a string) and for a number no float holds (a whole number or a fraction beyond
+    1.8e308, a signalling NaN); a NaN or an infinity stays one, for the caller to refuse."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real | Decimal):
+        return None
+    try:
+        return float(value)
+    except (OverflowError, ValueError):
+        return None

@@ -27,7 +27,7 @@ from shapely.geometry import Polygon
 
 from hubero_dsl.errors import SimulationError
 from hubero_dsl.model.tasks import TASKS, Target, TargetRule, Task, TaskKind, ValueKind
-from hubero_dsl.model.units import LARGEST, Dimension
+from hubero_dsl.model.units import LARGEST, Dimension, real_number
 from hubero_dsl.sim.behaviours import BEHAVIOURS, Behaviour
 from hubero_dsl.sim.status import Posture, TaskHandle
 
@@ -66,8 +66,11 @@ class _Actor:
         arguments = {name: self._argument(kind, name, value)
                      for name, value in task.arguments.items()}
         resolved = replace(task, kind=kind.name, target=target, arguments=arguments)
-        handle = TaskHandle(next(self._ids), self.name, kind.name,
-                            kind.describe(task.target, task.arguments), task.span)
+        # named as given (a place by its name), numbers as read (a Fraction as a float)
+        described = kind.describe(
+            _as_given(task.target, target),
+            {n: _as_given(task.arguments[n], value) for n, value in arguments.items()})
+        handle = TaskHandle(next(self._ids), self.name, kind.name, described, task.span)
         handle._cancel = self._engine.cancel
         self._start(resolved, handle)
         return handle
@@ -122,7 +125,7 @@ class _Actor:
             return int(value)
         dimension = spec.value.dimension
         assert dimension is not None  # what is left is a time, a length, a speed or an angle
-        number, largest = _real(value), LARGEST[dimension]
+        number, largest = real_number(value), LARGEST[dimension]
         if number is None or not math.isfinite(number) or abs(number) > largest:
             raise SimulationError(f"{kind.name}: {name} must be a finite number of at most "
                                   f"{largest:g} {SI_UNIT[dimension]}, not {value!r:.60}")
@@ -303,18 +306,16 @@ class RobotHandle(_Actor):
         self._engine.command_robot(self._index, task, handle)
 
 
-def _real(value: object) -> float | None:
-    """`value` as a float when it is a real number (not a bool, a string or a complex)."""
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        return None
-    return float(value)
+def _as_given(given: Any, read: Any) -> Any:
+    """A name as it was given (a place's, not its point), anything else as it was read."""
+    return given if isinstance(given, str) else read
 
 
 def _point(value: object) -> tuple[float, float] | None:
     """`value` as a point: two real numbers, finite and within the language's lengths."""
     if not isinstance(value, tuple | list | np.ndarray) or len(value) != 2:
         return None
-    x, y = (_real(v) for v in value)
+    x, y = (real_number(v) for v in value)
     largest = LARGEST[Dimension.LENGTH]
     if x is None or y is None or not all(math.isfinite(v) and abs(v) <= largest
                                          for v in (x, y)):
@@ -324,7 +325,7 @@ def _point(value: object) -> tuple[float, float] | None:
 
 def _pair(actor: str, what: str, first: object, second: object) -> tuple[float, float]:
     """Two finite real numbers (a velocity, a command), or SimulationError naming `actor`."""
-    a, b = _real(first), _real(second)
+    a, b = real_number(first), real_number(second)
     if a is None or b is None or not (math.isfinite(a) and math.isfinite(b)):
         raise SimulationError(f"{actor}: {what} must be two finite numbers, got "
                               f"({first!r:.30}, {second!r:.30})")

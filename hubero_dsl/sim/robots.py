@@ -17,16 +17,16 @@ from __future__ import annotations
 
 import itertools
 import math
-import numbers
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, TypeGuard
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from hubero_dsl.controllers.base import Neighbour, Observation, RobotBody, RobotController
 from hubero_dsl.errors import OUTSIDE_STOPS, SimulationError, failure_of, shown
 from hubero_dsl.model.tasks import Target, Task
+from hubero_dsl.model.units import real_number
 from hubero_dsl.sim import physics
 from hubero_dsl.sim.arrays import BoolArray, FloatArray, HumanArrays, IntArray
 from hubero_dsl.sim.status import TaskHandle, TaskStatus, stuck_reason
@@ -453,18 +453,13 @@ def _velocity_command(command: Any, robot: str, controller: str,
     try:
         first, second = command if isinstance(command, Sequence | np.ndarray) \
             and not isinstance(command, str | bytes) else (None, None)
-        if _a_number(first) and _a_number(second):
-            vx, vy = float(first), float(second)
-            if math.isfinite(vx) and math.isfinite(vy):
-                return (vx, vy)
+        vx, vy = real_number(first), real_number(second)
+        if vx is not None and vy is not None and math.isfinite(vx) and math.isfinite(vy):
+            return (vx, vy)
     except Exception:  # whatever reading the answer raises, the answer is not a velocity
         pass
     raise ControllerError(f"robot '{robot}' at t = {time:g} s: its controller {controller} "
                           f"returned {shown(command)}, not a velocity (two finite numbers)")
-
-
-def _a_number(value: object) -> TypeGuard[numbers.Real]:
-    return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
 
 
 def robot_body(spec: RobotSpec, grid: OccupancyGrid, dt: float) -> RobotBody:

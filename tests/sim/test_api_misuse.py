@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from decimal import Decimal
+from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
@@ -46,6 +48,10 @@ MISUSES: dict[str, tuple[Callable[[HumanHandle], object], str]] = {
                            "shapely Polygon"),
     "times of 2.5": (lambda a: a.move_around(times=2.5), "whole number"),
     "a velocity in words": (lambda a: a.set_velocity("1", 0), "two finite numbers"),
+    "a velocity of truth values": (lambda a: a.set_velocity(True, 0), "two finite numbers"),
+    "a Decimal NaN": (lambda a: a.set_velocity(Decimal("NaN"), 0), "two finite numbers"),
+    "a Fraction beyond a float": (lambda a: a.stand(duration=Fraction(10 ** 400)),
+                                  "at most 1e\\+06 s"),
     "a place to follow": (lambda a: a.follow("sofa"), "needs a human or robot, not a place"),
     "talking to oneself": (lambda a: a.talk(to="actor1"), "actor1 cannot talk to itself"),
 }
@@ -57,6 +63,17 @@ def test_a_misused_call_is_refused_in_words_when_made(
     with pytest.raises(SimulationError, match=said):
         misuse(sim.human("actor1"))
     sim.step()  # nothing was half given: the world goes on
+
+
+def test_numbers_of_any_real_type_are_taken_as_a_file_takes_numbers(sim: Simulation) -> None:
+    # a Fraction or a Decimal was refused as no finite number
+    actor = sim.human("actor1")
+    walk = actor.move_to((Fraction(11, 2), Decimal("2.4")), speed=Decimal("0.8"))
+    assert walk.status.value == "ACTIVE" and walk.description == "move_to (5.5, 2.4)"
+    stand = actor.stand(duration=Fraction(3, 2), facing="sofa")
+    assert stand.status.value == "ACTIVE" and stand.description == "stand facing sofa"
+    actor.set_velocity(Decimal("0.1"), Fraction(1, 3))
+    sim.step()
 
 
 def test_a_removed_human_takes_no_more_tasks_and_a_typo_is_no_removal(sim: Simulation) -> None:

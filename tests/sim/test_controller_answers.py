@@ -6,6 +6,8 @@ from __future__ import annotations
 import asyncio
 import math
 import sys
+from decimal import Decimal
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -115,12 +117,32 @@ def test_whatever_a_controller_answers_or_raises_is_its_error(
         sim.step()
 
 
-def test_numbers_of_any_real_type_are_a_velocity(scenario: ScenarioFactory) -> None:
-    controller = type("Answering", (Answering,), {"ANSWER": np.array([0.5, 0], np.float32)})
+@pytest.mark.parametrize("answer", [
+    np.array([0.5, 0.25], np.float32), (np.int8(1) / 2, np.float16(0.25)),
+    (Fraction(1, 2), Decimal("0.25")), [Decimal("0.5"), Fraction(1, 4)]],
+    ids=["float32 array", "numpy scalars", "Fraction, Decimal", "Decimal, Fraction list"])
+def test_numbers_of_any_real_type_are_a_velocity(scenario: ScenarioFactory,
+                                                 answer: object) -> None:
+    # a Decimal is no numbers.Real, and a pair with one was refused: exit 1 from `hubero run`
+    controller = type("Answering", (Answering,), {"ANSWER": answer})
     sim = Simulation(scenario("robot r at (2, 4) { controller external }\n"), activities=False,
                      controllers={"r": controller})
     sim.step()
-    assert sim.robot("r").velocity[0] > 0.0
+    assert sim.robot("r").velocity == pytest.approx((0.5, 0.25))
+
+
+@pytest.mark.parametrize("answer", [
+    (Decimal("NaN"), 0), (Decimal("sNaN"), 0), (0, Decimal("-Infinity")),
+    (Decimal("1e400"), 0), (Fraction(10 ** 400, 3), 0), (np.True_, 0), (0.1, np.complex64(1))],
+    ids=["NaN", "signalling NaN", "infinity", "beyond a float", "a fraction beyond a float",
+         "numpy's True", "numpy's complex"])
+def test_a_real_number_that_is_not_finite_or_no_real_number_is_no_velocity(
+        scenario: ScenarioFactory, answer: object) -> None:
+    controller = type("Answering", (Answering,), {"ANSWER": answer})
+    sim = Simulation(scenario("robot r at (2, 4) { controller external }\n"), activities=False,
+                     controllers={"r": controller})
+    with pytest.raises(ControllerError, match=r"robot 'r' at t = 0 s: .*, not a velocity"):
+        sim.step()
 
 
 @pytest.mark.parametrize("kinematics", ["holonomic", "unicycle"])
