@@ -280,8 +280,12 @@ class RobotHandle(_Actor):
         return self.do("follow", target, distance=distance, duration=duration, span=span)
 
     def set_velocity(self, vx: float, vy: float) -> None:
-        """Drive the robot at (vx, vy) m/s from now on, whatever its controller says (its
-        limits and the walls still apply); `release()` hands it back to its controller."""
+        """Move the robot at (vx, vy) m/s in the map frame from now on, whatever its
+        controller says and whatever its kinematics: an override (teleoperation, tests). A
+        unicycle moves as given too, sideways if need be, and faces where it goes, as a
+        holonomic robot does; its speed and acceleration limits and the walls still apply, its
+        turn rate does not. `drive()` commands the robot within its kinematics instead;
+        `release()` hands it back to its controller."""
         self._engine.robots.set_velocity(self.name, _pair(self.name, "a velocity", vx, vy))
 
     def drive(self, first: float, second: float) -> None:

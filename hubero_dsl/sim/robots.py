@@ -3,9 +3,10 @@
 Every tick each robot's controller is asked for a velocity command given what its sensors
 report (`hubero_dsl.controllers.base.Observation`); the command is shaped by the robot's
 kinematics and limits (speed, acceleration, turn rate) and the robot moves, never through a
-wall. A velocity set through the API overrides the controller until it is cleared; a command
-given through the API (`drive`, as the Gym environment does each step) takes the controller's
-place and goes through the kinematics like the controller's answer would.
+wall. A velocity set through the API overrides the controller and the kinematics until it is
+cleared (a unicycle moves sideways at it too, facing where it goes); a command given through
+the API (`drive`, as the Gym environment does each step) takes the controller's place and goes
+through the kinematics like the controller's answer would.
 
 Robots take tasks from activities like humans (`move_to`, `stand`, `follow`): a task sets the
 goal the controller is given and ends as a human's would (arrived, time up, stuck, the target
@@ -112,7 +113,8 @@ class Robots:
         return float(self.radius[self.names.index(name)]) if name in self.names else 0.0
 
     def set_velocity(self, name: str, velocity: tuple[float, float] | None) -> None:
-        """Drive the robot at `velocity` from now on (None: back to its controller)."""
+        """Move the robot at `velocity` from now on, whatever its kinematics, facing where it
+        goes (None: back to its controller)."""
         _override(self.commanded, self.names.index(name), velocity)
 
     def drive(self, name: str, command: tuple[float, float] | None) -> None:
@@ -142,9 +144,12 @@ class Robots:
         return wanted
 
     def _face(self, velocity: Sequence[Sequence[float]]) -> None:
-        """A holonomic robot faces where it goes (numpy's arctan2 on floats: the values its
+        """A holonomic robot faces where it goes, and so does any robot moved by a velocity set
+        through the API, which takes no heading (numpy's arctan2 on floats: the values its
         arrays would give)."""
-        for i in self._holonomic:
+        facing = sorted({*self._holonomic, *self.commanded}) if self.commanded \
+            else self._holonomic
+        for i in facing:
             vx, vy = velocity[i]
             if math.hypot(vx, vy) > 1e-6:
                 self.heading[i] = np.arctan2(vy, vx)

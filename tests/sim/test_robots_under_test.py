@@ -166,6 +166,30 @@ def test_a_driven_robot_moves_as_its_controller_would_and_release_hands_it_back(
         driven.robot("r").drive(math.nan, 0.0)
 
 
+def test_a_velocity_set_moves_a_unicycle_as_given_facing_where_it_goes(
+        scenario: ScenarioFactory) -> None:
+    # it moved sideways at the velocity, its heading left at 0: a pose no unicycle can have
+    def moved(kinematics: str) -> Simulation:
+        sim = Simulation(scenario(f"""robot r at (5, 4) heading 0 deg {{
+            controller external; kinematics {kinematics}; max_angular_speed 0.1
+        }}\n"""), activities=False)
+        sim.robot("r").set_velocity(0.0, 0.5)  # north, square to its heading
+        for _ in range(10):
+            sim.step()
+        return sim
+
+    sim = moved("unicycle")
+    unicycle, holonomic = sim.robot("r"), moved("holonomic").robot("r")
+    assert unicycle.position == holonomic.position == pytest.approx((5.0, 4.25))
+    assert unicycle.heading == holonomic.heading == pytest.approx(math.pi / 2)
+    assert unicycle.velocity == holonomic.velocity
+    unicycle.release()
+    unicycle.drive(0.5, 0.0)  # within its kinematics again: on along the heading it took
+    sim.step()
+    assert unicycle.position == pytest.approx((5.0, 4.25 + 0.5 * sim.dt))
+    assert unicycle.heading == pytest.approx(math.pi / 2)
+
+
 def test_a_robot_stuck_at_a_goal_someone_stands_on_says_who(
         scenario: ScenarioFactory) -> None:
     program = scenario("""
