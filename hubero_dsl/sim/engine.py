@@ -42,6 +42,7 @@ if TYPE_CHECKING:
 NEVER = np.iinfo(np.int64).max
 LOOKAHEAD = 0.6         # m: a waypoint this close counts as passed
 SQUEEZE = 0.2           # of its social push a walker keeps, squeezing past people standing
+SQUEEZE_CLEAR = 2.0     # m from a robot on the move within which it keeps all of it
 GROUP_PULL = 3.0        # 1/s: m/s towards the group's centre per metre too far from it
 # Members walking on their group's task keep abreast (`Engine._walk_abreast`)
 ABREAST_LANE = 0.6      # m across the group's way at least: a companion in the next lane
@@ -382,11 +383,15 @@ class Engine:
             names += r.names
             position = np.concatenate([position, r.position])
             radius = np.concatenate([radius, r.radius])
-            settled = [task is None or task.task.kind not in MOVING_ROBOT_TASKS
-                       for task in r.tasks]
-            still = np.concatenate([still, (physics.lengths(r.velocity) < physics.STILL)
-                                    & np.asarray(settled, dtype=bool)])
+            still = np.concatenate([still, self._robots_at_rest()])
         return names, position, radius, still
+
+    def _robots_at_rest(self) -> BoolArray:
+        """Which robots stand still: at rest and not on their way somewhere (one that waits
+        or yields to pass is on its way)."""
+        r = self.robots
+        settled = [task is None or task.task.kind not in MOVING_ROBOT_TASKS for task in r.tasks]
+        return (physics.lengths(r.velocity) < physics.STILL) & np.asarray(settled, dtype=bool)
 
     def arrived_together(self, index: int, goal: tuple[float, float]) -> None:
         """Human `index`, sent to `goal` with its crowd or group, stopped where the others let
@@ -768,11 +773,26 @@ class Engine:
         return reactions.adjust(velocity, self.humans, r.position, r.velocity, r.radius,
                                 self.tick)
 
+    def _squeezing(self) -> BoolArray | None:
+        """The walkers squeezing past people standing (`squeeze_round_standing`) with no
+        robot on the move within SQUEEZE_CLEAR m of them: the push they keep less of is
+        everyone's, and a robot is no one to squeeze past. None: nobody."""
+        squeezing = self.squeeze_until > self.tick
+        if not squeezing.any():
+            return None
+        moving = self.robots.position[~self._robots_at_rest()] if self.robots.count else None
+        if moving is not None and len(moving):
+            rows = squeezing.nonzero()[0]
+            near = cKDTree(moving).query_ball_point(self.humans.position[rows], SQUEEZE_CLEAR,
+                                                    return_length=True)
+            squeezing[rows] = near == 0
+        return squeezing if squeezing.any() else None
+
     def _drive(self, rows: IntArray) -> Drive:
         h = self.humans
         avoidance = h.avoidance_strength
-        squeezing = self.squeeze_until > self.tick
-        if squeezing.any():
+        squeezing = self._squeezing()
+        if squeezing is not None:
             avoidance = np.where(squeezing, avoidance * SQUEEZE, avoidance)
         if len(rows) == h.count:  # everyone: the arrays themselves (planners never write them)
             return Drive(index=rows, target=self.paths.current_targets(rows),

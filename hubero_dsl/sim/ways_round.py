@@ -20,7 +20,8 @@ way round at most every STALLED s:
 A walker of any surroundings stalled for STALLED s within HEMMED m of someone standing still
 (a group that stopped round it to talk) squeezes past: it plans round the bodies standing
 within STANDING_REACH m, as round walls, and for STALLED s keeps `engine.SQUEEZE` of its social
-push, which otherwise holds it between their personal spaces.
+push, which otherwise holds it between their personal spaces (all of it near a robot on the
+move: `Engine._squeezing`).
 
 Before any of that, a walker of any surroundings stalled for STALLED s within CROWDED_GOAL of
 its goal while someone stands on it is told so (`Engine.hold_short`): a `move_to` queued
