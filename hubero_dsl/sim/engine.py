@@ -116,6 +116,7 @@ class Engine:
         self.anchor = humans.position.copy()
         self.anchor_tick = np.zeros(count, dtype=np.int64)
         self.squeeze_until = np.zeros(count, dtype=np.int64)  # `squeeze_round_standing`
+        self._squeezes_end = 0  # the tick the last squeeze under way ends
         self.events: list[TaskEvent] = []
         self.listeners: list[Callable[[TaskEvent], None]] = []
         self._goal_cells: dict[tuple[int, bytes], IntArray] = {}
@@ -263,6 +264,7 @@ class Engine:
             return False
         self.paths.set_path(index, plan.waypoints)
         self.squeeze_until[index] = self.tick + self.ticks(seconds)
+        self._squeezes_end = max(self._squeezes_end, int(self.squeeze_until[index]))
         return True
 
     def plan_path(self, index: int, goal: tuple[float, float],
@@ -777,9 +779,9 @@ class Engine:
         """The walkers squeezing past people standing (`squeeze_round_standing`) with no
         robot on the move within SQUEEZE_CLEAR m of them: the push they keep less of is
         everyone's, and a robot is no one to squeeze past. None: nobody."""
-        squeezing = self.squeeze_until > self.tick
-        if not squeezing.any():
+        if self.tick >= self._squeezes_end:  # nobody: no arrays looked at, tick after tick
             return None
+        squeezing = self.squeeze_until > self.tick
         moving = self.robots.position[~self._robots_at_rest()] if self.robots.count else None
         if moving is not None and len(moving):
             rows = squeezing.nonzero()[0]

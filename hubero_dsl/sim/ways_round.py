@@ -97,25 +97,27 @@ class WaysRound:
         self._stepping_aside: dict[int, int] = {}
 
     def look(self, rows: IntArray) -> None:
-        """Every LOOK_AGAIN s: the walkers among `rows` held up near walls get a way round."""
+        """Every LOOK_AGAIN s: the walkers among `rows` held up near walls get a way round,
+        and those hemmed in by people standing squeeze past them."""
         engine = self.engine
         if engine.tick % max(1, engine.ticks(LOOK_AGAIN)):
             return
         self._rejoin_groups()
-        stalled = self._stalled_alone_by_walls(rows)
-        stalled = stalled[engine.tick - self.rerouted_tick[stalled] >= engine.ticks(STALLED)]
-        self._plan_again(engine.paths.retreat(stalled, engine.humans.position,
-                                              engine.grid.crosses_obstacle, REACH))
-        self._make_way(stalled)
-        self._squeeze_past_standing(rows)
-
-    def _squeeze_past_standing(self, rows: IntArray) -> None:
-        """Walkers among `rows` stalled for STALLED s within HEMMED m of people standing still
-        (a group that stopped round them to talk) squeeze past them, at most every STALLED s:
-        a way round them, and less of the social push for STALLED s
-        (`Engine.squeeze_round_standing`)."""
-        engine = self.engine
         stalled = rows[engine.tick - engine.anchor_tick[rows] >= engine.ticks(STALLED)]
+        if not stalled.size:
+            return
+        by_walls = self._alone_by_walls(stalled)
+        by_walls = by_walls[engine.tick - self.rerouted_tick[by_walls] >= engine.ticks(STALLED)]
+        self._plan_again(engine.paths.retreat(by_walls, engine.humans.position,
+                                              engine.grid.crosses_obstacle, REACH))
+        self._make_way(by_walls)
+        self._squeeze_past_standing(stalled)
+
+    def _squeeze_past_standing(self, stalled: IntArray) -> None:
+        """Stalled walkers (`stalled`) within HEMMED m of people standing still (a group that
+        stopped round them to talk) squeeze past them, at most every STALLED s: a way round
+        them, and less of the social push for STALLED s (`Engine.squeeze_round_standing`)."""
+        engine = self.engine
         stalled = stalled[engine.tick - self.rerouted_tick[stalled] >= engine.ticks(STALLED)]
         if not stalled.size:
             return
@@ -147,11 +149,10 @@ class WaysRound:
         for index in stalled.tolist():
             engine.hold_short(index, halted)
 
-    def _stalled_alone_by_walls(self, rows: IntArray) -> IntArray:
-        """The walkers among `rows` who have made no progress for `STALLED` s within the
-        look-ahead of a wall (more, to within a cell), not in a crowd."""
+    def _alone_by_walls(self, stalled: IntArray) -> IntArray:
+        """The stalled walkers (`stalled`) within the look-ahead of a wall (more, to within a
+        cell), not in a crowd."""
         engine, humans = self.engine, self.engine.humans
-        stalled = rows[engine.tick - engine.anchor_tick[rows] >= engine.ticks(STALLED)]
         stalled = stalled[~engine.grid.surely_clear(humans.position[stalled],
                                                     humans.radius[stalled] + self.lookahead)]
         if not stalled.size:
