@@ -144,8 +144,8 @@ def _chosen(wanted: list[str] | None, known: list[str],
         also = f"; robots: {', '.join(robots)}" if robots else ""
         raise InputError(f"no human{' or robot' * bool(robots)} {', '.join(unknown)} in these "
                          f"runs (humans: {', '.join(listed)}{also})")
-    return ([name for name in known if name in wanted],
-            [name for name in robots if name in wanted])
+    named = set(wanted)
+    return [name for name in known if name in named], [name for name in robots if name in named]
 
 
 def _sweep(args: argparse.Namespace) -> int:

@@ -42,7 +42,7 @@ if TYPE_CHECKING:
 NEVER = np.iinfo(np.int64).max
 LOOKAHEAD = 0.6         # m: a waypoint this close counts as passed
 SQUEEZE = 0.2           # of its social push a walker keeps, squeezing past people standing
-SQUEEZE_CLEAR = 2.0     # m from a robot on the move within which it keeps all of it
+SQUEEZE_CLEAR = 2.0     # m from a robot (centre to centre) within which it keeps all of it
 GROUP_PULL = 3.0        # 1/s: m/s towards the group's centre per metre too far from it
 # Members walking on their group's task keep abreast (`Engine._walk_abreast`)
 ABREAST_LANE = 0.6      # m across the group's way at least: a companion in the next lane
@@ -218,6 +218,7 @@ class Engine:
                 self.finish(index, TaskStatus.ABORTED, reason)
             return reason
         humans.moving[index] = True
+        self.squeeze_until[index] = 0  # a new walk is not squeezing past anyone yet
         humans.with_group[index] = with_group
         humans.teleop[index] = False
         humans.desired_speed[index] = speed
@@ -285,12 +286,14 @@ class Engine:
 
     def hold_short(self, index: int, stalled: BoolArray | None = None) -> None:
         """Walker `index`, stalled near its goal: its task is told when someone stands there
-        (`stalled`: the walkers who have made no progress either, who count as standing)."""
+        (`stalled`: the walkers who have made no progress either; those of them sent to the
+        same point, within SAME_GOAL, count as standing)."""
         behaviour = self.behaviour[index]
         if behaviour is None:
             return
-        if stalled is not None and stalled[index]:  # not in its own way
-            stalled = stalled.copy()
+        if stalled is not None:  # those sent to its own point, not itself
+            h = self.humans
+            stalled = stalled & (physics.lengths(h.goal - h.goal[index]) <= physics.SAME_GOAL)
             stalled[index] = False
         if blocker := self.standing_at_goal(index, stalled):
             behaviour.on_held_at_goal(self, blocker)
@@ -777,16 +780,16 @@ class Engine:
 
     def _squeezing(self) -> BoolArray | None:
         """The walkers squeezing past people standing (`squeeze_round_standing`) with no
-        robot on the move within SQUEEZE_CLEAR m of them: the push they keep less of is
-        everyone's, and a robot is no one to squeeze past. None: nobody."""
+        robot within SQUEEZE_CLEAR m of them, centre to centre: the push they keep less of is
+        everyone's, and a robot, at rest or on the move, is no one to squeeze past. None:
+        nobody."""
         if self.tick >= self._squeezes_end:  # nobody: no arrays looked at, tick after tick
             return None
         squeezing = self.squeeze_until > self.tick
-        moving = self.robots.position[~self._robots_at_rest()] if self.robots.count else None
-        if moving is not None and len(moving):
+        if self.robots.count:
             rows = squeezing.nonzero()[0]
-            near = cKDTree(moving).query_ball_point(self.humans.position[rows], SQUEEZE_CLEAR,
-                                                    return_length=True)
+            near = cKDTree(self.robots.position).query_ball_point(
+                self.humans.position[rows], SQUEEZE_CLEAR, return_length=True)
             squeezing[rows] = near == 0
         return squeezing if squeezing.any() else None
 

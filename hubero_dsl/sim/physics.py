@@ -39,6 +39,7 @@ FEW_BODIES = 8           # up to this many, wall and overlap tests run in floats
 CROWDED_GOAL = 1.5       # m from a goal within which a stuck walker looks for who stands there
 QUEUE_GAP = 1.0          # m between bodies at most, of people queued one behind another
 PRESSED_GAP = 0.5        # m between bodies at most, of one kept off a goal by another
+SAME_GOAL = 0.5          # m between two walkers' goals at most, of two sent to one point
 
 
 class BodySeparation:

@@ -20,13 +20,13 @@ way round at most every STALLED s:
 A walker of any surroundings stalled for STALLED s within HEMMED m of someone standing still
 (a group that stopped round it to talk) squeezes past: it plans round the bodies standing
 within STANDING_REACH m, as round walls, and for STALLED s keeps `engine.SQUEEZE` of its social
-push, which otherwise holds it between their personal spaces (all of it near a robot on the
-move: `Engine._squeezing`).
+push, which otherwise holds it between their personal spaces (all of it near a robot:
+`Engine._squeezing`).
 
-Before any of that, a walker of any surroundings stalled for STALLED s within CROWDED_GOAL of
-its goal while someone stands on it is told so (`Engine.hold_short`): a `move_to` queued
-there stops short, rather than wait out the stuck time that the jostling of a queue keeps
-resetting.
+At the end of every tick that begins a look, a walker of any surroundings stalled for STALLED
+s within CROWDED_GOAL of its goal while someone stands on it (or another stalled walker sent
+to the same point stands nearer it) is told so (`Engine.hold_short`): a `move_to` queued there
+stops short, rather than wait out the stuck time that the jostling of a queue keeps resetting.
 
 Progress is still measured from where each walker was (`Engine.anchor`): one who cannot get on
 is given up as stuck all the same.
@@ -122,8 +122,9 @@ class WaysRound:
         if not stalled.size:
             return
         for index in stalled[engine.at_rest_beside(stalled, HEMMED)].tolist():
-            if engine.squeeze_round_standing(index, STANDING_REACH, STALLED):
-                self.rerouted_tick[index] = engine.tick
+            # tried, with a way or not, not again for STALLED s: a way is planned afresh
+            engine.squeeze_round_standing(index, STANDING_REACH, STALLED)
+            self.rerouted_tick[index] = engine.tick
 
     def hold_at_goals(self) -> None:
         """At a tick's end, every LOOK_AGAIN s: walkers stalled for STALLED s near their goal

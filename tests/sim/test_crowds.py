@@ -14,6 +14,8 @@ from hubero_dsl.pipeline import check_source, compile_source
 from hubero_dsl.sim.loop import run_program
 from hubero_dsl.sim.simulation import Simulation
 from hubero_dsl.sim.status import TaskStatus
+from hubero_dsl.world.mapfile import save_map
+from tests.sim.conftest import room_grid
 
 HEADER = 'scenario "crowd"\nmap "{map}"\n'
 
@@ -225,6 +227,24 @@ def test_a_crowd_of_slow_walkers_gathers_at_a_point_with_nobody_given_up(
     assert result.state.name == "COMPLETED", result.reason
     ends = [e for e in result.events if e.status.is_final]
     assert len(ends) == 10 and {e.status for e in ends} == {TaskStatus.SUCCEEDED}
+
+
+@pytest.mark.parametrize("goal", [5.5, 6.0])
+def test_one_passing_the_other_way_takes_nobodys_goal(tmp_path: Path, goal: float) -> None:
+    # face to face in a corridor 0.8 m wide, both stalled: the one walking the other way is no
+    # one standing on the goal, as one sent to the same point would be
+    corridor = tmp_path / "corridor.yaml"
+    save_map(room_grid(walls=((2.5, 0.0, 7.5, 3.6), (2.5, 4.4, 7.5, 8.0))), corridor)
+    program = compile_source(_text(corridor, f"""
+    time_limit 40 s
+    on_failure continue
+    human a at (1.5, 4)
+    human b at (8.5, 4)
+    activity {{ a move_to ({goal}, 4) }}
+    activity {{ b move_to (1.0, 4) }}
+    """), "t.hub")
+    result = run_program(Simulation(program))
+    assert not any(e.reason.startswith("stopped short") for e in result.events)
 
 
 def test_one_sent_on_its_own_reaches_a_point_only_within_its_tolerance(room_map: Path) -> None:

@@ -480,11 +480,13 @@ def test_tasks_for_a_robot_that_names_no_controller_are_warned_about(
         assert found[0].span is not None and found[0].span.line == 4
 
 
-@pytest.mark.parametrize(("robot_at", "kept"), [((6.5, 4.0), 1.0), ((9.0, 7.0), 0.2)])
-def test_a_walker_squeezing_past_people_keeps_its_whole_push_near_a_robot_on_the_move(
-        scenario: ScenarioFactory, robot_at: tuple[float, float], kept: float) -> None:
+@pytest.mark.parametrize(("robot_at", "moving", "kept"), [
+    ((6.5, 4.0), True, 1.0), ((5.0, 5.5), False, 1.0), ((9.0, 7.0), True, 0.2)])
+def test_a_walker_squeezing_past_people_keeps_its_whole_push_near_a_robot(
+        scenario: ScenarioFactory, robot_at: tuple[float, float], moving: bool, kept: float
+        ) -> None:
     # squeezing past people standing, a walker keeps a fifth of its push from everyone: near a
-    # robot on the move, all of it, so that it never squeezes into the robot
+    # robot, on the move or at rest, all of it, so that it never squeezes into the robot
     program = scenario(f"""
     human w at (5, 4)
     human t at (5.7, 4)
@@ -493,7 +495,7 @@ def test_a_walker_squeezing_past_people_keeps_its_whole_push_near_a_robot_on_the
     sim = Simulation(program, activities=False)
     sim.human("t").stand(duration=60.0)
     sim.human("w").move_to((9.0, 4.0))
-    sim.robot("r").set_velocity(0.0, 0.5)
+    sim.robot("r").set_velocity(0.0, 0.5 if moving else 0.0)
     sim.step()
     engine = sim.engine
     assert engine.squeeze_round_standing(0, 3.0, 3.0)
