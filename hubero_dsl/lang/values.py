@@ -140,7 +140,7 @@ class ValueReader:
                         _unit_hint(value, dimension))
             return None
         if isinstance(value, ast.Distribution):  # its values may be of the dimension: not it
-            self.report("E201", f"{what} is one {dimension.value}, not a distribution",
+            self.report("E201", f"{what} takes one {dimension.value}, not a distribution",
                         value.span, _one_value_hint(value))
             return None
         self.report("E201", f"{what} takes {describe(dimension)}", value.span)

@@ -793,7 +793,7 @@ def test_a_flows_rate_is_one_rate_not_a_distribution(check: Check) -> None:
     (diagnostic,) = check("flow f from rect((1, 1), (3, 3)) to (5, 5) rate normal(10 /min, "
                           "2 /min) for 2 s\n").diagnostics
     assert (diagnostic.code, diagnostic.message) == (
-        "E201", "a flow's rate is one rate, not a distribution")
+        "E201", "a flow's rate takes one rate, not a distribution")
     assert diagnostic.hint == ("only people's parameters are drawn from normal(...) or "
                                "uniform(...); write one value, like `10 /min`")
     assert diagnostic.span is not None and diagnostic.span.column == 49
