@@ -129,9 +129,10 @@ def _refused_by_controllers(file: str, program: Program, controllers: dict[str, 
     try:
         check_handed_controllers(program, controllers)
     except InputError as exc:
-        report_error(exc)
-        console.print(f"[red]ERROR[/] {escape(file)}: {escape(exc.message)}")
-        return TestOutcome(file, UNFITTING, "error", str(exc))
+        report_error(exc)  # the refusal, with where, as a file that does not compile's
+        said = "does not fit the controller"
+        console.print(f"[red]ERROR[/] {escape(file)}: {said}")
+        return TestOutcome(file, UNFITTING, "error", f"{said}: {exc}", (str(exc),))
     return None
 
 
