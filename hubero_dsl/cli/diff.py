@@ -416,6 +416,8 @@ def _print_sweep(sweep: SweepDiff, humans: set[str], console: Console) -> None:
     console.print(table)
     console.print(f"apart at: the first instant a human or robot is more than "
                   f"{sweep.epsilon:g} m from where it was at that time in the baseline run")
+    console.print("closest: a human's centre-to-centre distance to anyone, a robot's surface "
+                  "gap to a person (as the two logs' tables give them)")
 
 
 def _variant_changes(sweep: SweepDiff) -> dict[str, str]:
