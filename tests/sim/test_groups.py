@@ -395,3 +395,22 @@ def test_a_walker_a_group_stopped_round_to_talk_squeezes_out(room_map: Path, rin
                      "activity { talkers talk to w for 60 s }\nactivity { w move_to (9, 4) }\n")
     (walk,) = [e for e in result.events if e.human == "w" and e.status.is_final]
     assert walk.status is TaskStatus.SUCCEEDED and walk.time < 10.0, (walk.time, walk.reason)
+
+
+def test_a_squeeze_lasts_its_time_and_a_new_walk_starts_without_one(room_map: Path) -> None:
+    sim = Simulation(compile_source(_text(room_map, "human w at (5, 4)\nhuman t at (5.7, 4)\n"),
+                                    "t.hub"), activities=False)
+    sim.human("t").stand(duration=60.0)
+    sim.human("w").move_to((9.0, 4.0))
+    sim.step()
+    engine = sim.engine
+
+    def push_kept() -> float:
+        return float(engine._drive(np.array([0])).avoidance_strength[0])
+
+    assert engine.squeeze_round_standing(0, 3.0, 3.0) and push_kept() == pytest.approx(0.2)
+    engine.tick += engine.ticks(3.0)
+    assert push_kept() == 1.0
+    assert engine.squeeze_round_standing(0, 3.0, 3.0) and push_kept() == pytest.approx(0.2)
+    sim.human("w").move_to((9.0, 2.0))  # another walk: it squeezes past nobody yet
+    assert push_kept() == 1.0
