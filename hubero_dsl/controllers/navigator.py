@@ -26,7 +26,7 @@ from pydantic import Field
 
 from hubero_dsl.controllers.base import ControllerParams, Observation, RobotBody
 from hubero_dsl.planners.base import NoPath
-from hubero_dsl.planners.navfn import NavfnParams, NavfnPlanner
+from hubero_dsl.planners.navfn import NavfnParams, NavfnPlanner, plan_round_discs
 
 _ESCAPE_ANGLES = np.linspace(0.0, 2.0 * math.pi, 16, endpoint=False)
 ESCAPE_DIRECTIONS = np.column_stack([np.cos(_ESCAPE_ANGLES), np.sin(_ESCAPE_ANGLES)])
@@ -170,14 +170,10 @@ class Navigator:
                  and p.gap(observation.position, self.body.radius) < DETOUR_RANGE]
         if not still:
             return None
-        grid = self.body.grid.with_discs([p.position for p in still],
-                                         [p.radius + self.params.safety_margin for p in still])
-        try:
-            return NavfnPlanner(grid, NavfnParams()).plan(
-                observation.position, goal, body_radius=self.body.radius,
-                comfort_radius=self.body.radius + self.params.comfort).waypoints
-        except NoPath:
-            return None
+        return plan_round_discs(
+            self.body.grid, [p.position for p in still],
+            [p.radius + self.params.safety_margin for p in still], observation.position, goal,
+            body_radius=self.body.radius, comfort_radius=self.body.radius + self.params.comfort)
 
     def _along_plan(self, here: np.ndarray, observation: Observation) -> np.ndarray:
         """The velocity along the plan: towards the next waypoint not yet passed, slowing down

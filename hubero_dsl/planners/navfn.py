@@ -40,6 +40,8 @@ from hubero_dsl.planners.costfield import (
 )
 
 if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
     from hubero_dsl.world.grid import OccupancyGrid
 
 Point = tuple[float, float]
@@ -278,6 +280,19 @@ def _farthest_shortcut(points: FloatArray, to_go: FloatArray, cost: FloatArray,
         beyond = candidates[candidates > best]
         limit = int(beyond[0]) - 1 if beyond.size else best
     return best
+
+
+def plan_round_discs(grid: OccupancyGrid, centres: ArrayLike, radii: ArrayLike, start: Point,
+                     goal: Point, *, body_radius: float, comfort_radius: float
+                     ) -> FloatArray | None:
+    """The waypoints of a plan from `start` to `goal` round discs (people or robots standing
+    in the way, as obstacles) on the map, by a planner of their own; None when there is none.
+    The map's own planners and their fields are left as they are."""
+    try:
+        return NavfnPlanner(grid.with_discs(centres, radii), NavfnParams()).plan(
+            start, goal, body_radius=body_radius, comfort_radius=comfort_radius).waypoints
+    except NoPath:
+        return None
 
 
 def reference_plan_length(grid: OccupancyGrid, start: Point, goal: Point,

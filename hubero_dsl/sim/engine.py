@@ -244,7 +244,7 @@ class Engine:
         personal spaces of a group that stopped round it to talk held it where it stood, a
         way between them or not. False, and nothing changed, when nobody stands so near or
         no such way leads to its goal."""
-        from hubero_dsl.planners.navfn import NavfnParams, NavfnPlanner
+        from hubero_dsl.planners.navfn import plan_round_discs
 
         h = self.humans
         goal = h.goal[index]
@@ -256,14 +256,13 @@ class Engine:
         near[index] = False
         if not near.any():
             return False
-        grid = self.grid.with_discs(position[near], radius[near])
-        try:
-            plan = NavfnPlanner(grid, NavfnParams()).plan(
-                (float(here[0]), float(here[1])), (float(goal[0]), float(goal[1])),
-                body_radius=float(h.radius[index]), comfort_radius=float(h.radius[index]))
-        except NoPath:
+        waypoints = plan_round_discs(
+            self.grid, position[near], radius[near], (float(here[0]), float(here[1])),
+            (float(goal[0]), float(goal[1])), body_radius=float(h.radius[index]),
+            comfort_radius=float(h.radius[index]))
+        if waypoints is None:
             return False
-        self.paths.set_path(index, plan.waypoints)
+        self.paths.set_path(index, waypoints)
         self.squeeze_until[index] = self.tick + self.ticks(seconds)
         self._squeezes_end = max(self._squeezes_end, int(self.squeeze_until[index]))
         return True
