@@ -96,3 +96,12 @@ def real_number(value: object) -> float | None:
         return float(value)
     except (OverflowError, ValueError):
         return None
+
+
+def finite_pair(first: object, second: object) -> tuple[float, float] | None:
+    """Two finite real numbers (`real_number`, neither a NaN nor an infinity) as floats: a
+    velocity, a command, a point; None for anything else."""
+    a, b = real_number(first), real_number(second)
+    if a is None or b is None or not (math.isfinite(a) and math.isfinite(b)):
+        return None
+    return (a, b)

@@ -27,7 +27,7 @@ from shapely.geometry import Polygon
 
 from hubero_dsl.errors import SimulationError
 from hubero_dsl.model.tasks import TASKS, Target, TargetRule, Task, TaskKind, ValueKind
-from hubero_dsl.model.units import LARGEST, Dimension, real_number
+from hubero_dsl.model.units import LARGEST, Dimension, finite_pair, real_number
 from hubero_dsl.sim.behaviours import BEHAVIOURS, Behaviour
 from hubero_dsl.sim.status import Posture, TaskHandle
 
@@ -319,18 +319,17 @@ def _point(value: object) -> tuple[float, float] | None:
     """`value` as a point: two real numbers, finite and within the language's lengths."""
     if not isinstance(value, tuple | list | np.ndarray) or len(value) != 2:
         return None
-    x, y = (real_number(v) for v in value)
+    point = finite_pair(*value)
     largest = LARGEST[Dimension.LENGTH]
-    if x is None or y is None or not all(math.isfinite(v) and abs(v) <= largest
-                                         for v in (x, y)):
+    if point is None or not all(abs(v) <= largest for v in point):
         return None
-    return (x, y)
+    return point
 
 
 def _pair(actor: str, what: str, first: object, second: object) -> tuple[float, float]:
     """Two finite real numbers (a velocity, a command), or SimulationError naming `actor`."""
-    a, b = real_number(first), real_number(second)
-    if a is None or b is None or not (math.isfinite(a) and math.isfinite(b)):
+    pair = finite_pair(first, second)
+    if pair is None:
         raise SimulationError(f"{actor}: {what} must be two finite numbers, got "
                               f"({first!r:.30}, {second!r:.30})")
-    return (a, b)
+    return pair

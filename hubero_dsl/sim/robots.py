@@ -27,7 +27,7 @@ import numpy as np
 from hubero_dsl.controllers.base import Neighbour, Observation, RobotBody, RobotController
 from hubero_dsl.errors import OUTSIDE_STOPS, SimulationError, failure_of, shown
 from hubero_dsl.model.tasks import Target, Task
-from hubero_dsl.model.units import real_number
+from hubero_dsl.model.units import finite_pair
 from hubero_dsl.sim import physics
 from hubero_dsl.sim.arrays import BoolArray, FloatArray, HumanArrays, IntArray
 from hubero_dsl.sim.status import TaskHandle, TaskStatus, stuck_reason
@@ -458,9 +458,9 @@ def _velocity_command(command: Any, robot: str, controller: str,
     try:
         first, second = command if isinstance(command, Sequence | np.ndarray) \
             and not isinstance(command, str | bytes) else (None, None)
-        vx, vy = real_number(first), real_number(second)
-        if vx is not None and vy is not None and math.isfinite(vx) and math.isfinite(vy):
-            return (vx, vy)
+        velocity = finite_pair(first, second)
+        if velocity is not None:
+            return velocity
     except Exception:  # whatever reading the answer raises, the answer is not a velocity
         pass
     raise ControllerError(f"robot '{robot}' at t = {time:g} s: its controller {controller} "
