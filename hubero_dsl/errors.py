@@ -106,13 +106,10 @@ def _text(value: object, room: int) -> str:
     """`value`'s repr (on one line), but as `shown` tells long whole numbers, and a tuple's or
     list's items only until they pass `room` characters."""
     if isinstance(value, int) and not isinstance(value, bool):
-        try:
-            digits = str(len(str(abs(value))))
-        except ValueError:  # past what Python writes out: sys.get_int_max_str_digits()
-            digits = f"more than {sys.get_int_max_str_digits()}"
-        if not digits.isdigit() or int(digits) > _LONG_NUMBER:
-            sign = "a negative" if value < 0 else "a"
-            return f"{sign} whole number of {digits} digits"
+        digits = _digits(value)
+        if digits is None or digits > _LONG_NUMBER:
+            counted = f"more than {sys.get_int_max_str_digits()}" if digits is None else digits
+            return f"{'a negative' if value < 0 else 'a'} whole number of {counted} digits"
     if isinstance(value, tuple | list) and type(value) in (tuple, list):  # not a namedtuple
         items: list[str] = []
         length = 2
@@ -127,6 +124,15 @@ def _text(value: object, room: int) -> str:
         return f"({inner})" if type(value) is tuple else f"[{inner}]"
     text = repr(value)
     return " ".join(text.split()) if type(value).__module__ == "numpy" else text
+
+
+def _digits(value: int) -> int | None:
+    """How many digits a whole number has; None past what Python writes out
+    (`sys.get_int_max_str_digits()`)."""
+    try:
+        return len(str(abs(value)))
+    except ValueError:
+        return None
 
 
 _CLOSING = {"(": ")", "[": "]", "{": "}"}
